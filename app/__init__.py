@@ -1,0 +1,1 @@
+"""The app: GL context, passes, techniques, capture, window and benchmark."""

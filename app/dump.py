@@ -1,0 +1,45 @@
+"""The dump of the contract (DESIGN "Contract: capture and dump"): per pixel, row 0 = top,
+image float32 (H,W,3), depth float32, evaluated / contrib_count / contrib_hash uint32, and
+meta, a JSON string."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+FIELDS = ("image", "depth", "evaluated", "contrib_count", "contrib_hash")
+
+
+def write_dump(path, result) -> None:
+    arrays = {
+        "image": result.image.astype(np.float32),
+        "depth": result.depth.astype(np.float32),
+        "evaluated": result.evaluated.astype(np.uint32),
+        "contrib_count": result.contrib_count.astype(np.uint32),
+        "contrib_hash": result.contrib_hash.astype(np.uint32),
+    }
+    np.savez_compressed(path, **arrays, meta=np.array(json.dumps(result.meta, sort_keys=True)))
+
+
+def read_dump(path) -> dict:
+    with np.load(path, allow_pickle=False) as d:
+        out = {k: d[k] for k in FIELDS}
+        out["meta"] = json.loads(str(d["meta"]))
+    return out
+
+
+def mix(x: np.ndarray) -> np.ndarray:
+    """The contract's hash of a light id (uint32 arithmetic, wrapping)."""
+    x = np.asarray(x, np.uint32).copy()
+    x ^= x >> np.uint32(16)
+    x *= np.uint32(0x7FEB352D)
+    x ^= x >> np.uint32(15)
+    x *= np.uint32(0x846CA68B)
+    x ^= x >> np.uint32(16)
+    return x
+
+
+def exactness(result, reference) -> tuple[int, int]:
+    """(pixels whose count differs, pixels whose hash differs) between two frames."""
+    return (int((result.contrib_count != reference.contrib_count).sum()),
+            int((result.contrib_hash != reference.contrib_hash).sum()))

@@ -1,0 +1,63 @@
+"""Simulate only the effects a scene calls for.
+
+The feature set of a frame is the set of light types its visible lights contain.  It
+generates `features.glsl`, the only light-type code the shading passes compile: a scene
+without spot lights compiles no cone test, a scene of spots only tests no type.  The
+same set goes into the dump's meta.
+
+Also generates `generated.glsl`: the GPU structs (from cpu_prep.layouts) and the storage
+buffer binding points (BINDINGS, the one table the renderer binds by).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from cpu_prep import layouts
+
+BINDINGS = {
+    "lights": 0, "out_color": 1, "out_stats": 2, "wave_stats": 3, "ranges": 4,
+    "entries": 5, "nodes": 6, "dup_lights": 7, "bounds": 8, "counter": 9,
+}
+
+LIGHT_TYPES = ("point", "spot")   # index = type id of LIGHT_DTYPE
+
+
+def generated_glsl() -> str:
+    binds = "\n".join(f"#define B_{k.upper()} {v}" for k, v in BINDINGS.items())
+    return layouts.glsl_declarations() + binds + "\n"
+
+
+def feature_set(light_types: np.ndarray) -> tuple[str, ...]:
+    """Light type names present (type-id order); a frame with no lights gets ('point',),
+    whose code is never reached, so that the program still compiles."""
+    present = sorted(set(np.unique(light_types).tolist()))
+    names = tuple(LIGHT_TYPES[t] for t in present if t < len(LIGHT_TYPES))
+    return names or ("point",)
+
+
+def features_glsl(features: tuple[str, ...]) -> str:
+    spot, point = "spot" in features, "point" in features
+    out = ['#include "light_window.glsl"']
+    if spot:
+        out.append('#include "light_spot.glsl"')
+    # light_affects: inside the sphere, and for spots inside the cone.
+    out.append("bool light_affects(GpuLight L, vec3 d, float d2) {")
+    out.append("    if (!(d2 < L.pos_radius.w * L.pos_radius.w)) return false;")
+    if spot and point:
+        out.append("    if (L.id_type.y == 1u) return spot_cone_contains(L, d, d2);")
+    elif spot:
+        out.append("    return spot_cone_contains(L, d, d2);")
+    out.append("    return true;\n}")
+    out.append("vec3 light_radiance(GpuLight L, vec3 d, float d2, vec3 N) {")
+    if spot and point:
+        out.append("    float f = L.id_type.y == 1u ? spot_falloff(L, d, d2) : 1.0;")
+        out.append("    return lambert(L, d, d2, N) * f;\n}")
+    elif spot:
+        out.append("    return lambert(L, d, d2, N) * spot_falloff(L, d, d2);\n}")
+    else:
+        out.append("    return lambert(L, d, d2, N);\n}")
+    return "\n".join(out) + "\n"
+
+
+def virtual_files(features: tuple[str, ...]) -> dict[str, str]:
+    return {"generated.glsl": generated_glsl(), "features.glsl": features_glsl(features)}

@@ -1,0 +1,121 @@
+"""Shader loader and program cache.
+
+- `#include "name"` is resolved from glsl/ (or from generated virtual files), depth-limited,
+  and wrapped in `#line` directives so compile errors name the right file and line.
+- Defines are injected right after `#version` from a dict.  A shader declares the names it
+  accepts with a `// define: NAME ...` comment; an undeclared name is an error.
+- Programs are cached by (source name, defines, generated files): changing a define
+  recompiles, changing a uniform or buffer does not.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+import re
+
+import moderngl
+
+from .errors import UserError
+
+GLSL_DIR = Path(__file__).resolve().parent.parent / "glsl"
+MAX_INCLUDE_DEPTH = 16
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
+_DECLARE = re.compile(r"^\s*//\s*define:\s*(.+)$")
+_ERROR_LOC = re.compile(r"\b(\d+):(\d+)\((\d+)\)|\b(\d+)\((\d+)\)")
+
+
+class ShaderError(UserError):
+    pass
+
+
+class Source:
+    """One preprocessed shader: text, file table for #line numbers, declared defines."""
+
+    def __init__(self, name: str, virtual: dict[str, str] | None = None):
+        self.virtual = dict(virtual or {})
+        self.files: list[str] = []
+        self.declared: set[str] = set()
+        self.body = self._expand(name, 0, [])
+
+    def _read(self, name: str) -> str:
+        if name in self.virtual:
+            return self.virtual[name]
+        path = GLSL_DIR / name
+        if not path.is_file():
+            raise ShaderError(f"shader include not found: {name}")
+        return path.read_text()
+
+    def _expand(self, name: str, depth: int, stack: list[str]) -> list[str]:
+        if depth > MAX_INCLUDE_DEPTH:
+            raise ShaderError(f"#include nested deeper than {MAX_INCLUDE_DEPTH}: {' -> '.join(stack + [name])}")
+        if name in stack:
+            raise ShaderError(f"#include cycle: {' -> '.join(stack + [name])}")
+        if name in self.files and depth > 0:
+            return []  # include once
+        self.files.append(name)
+        fid = self.files.index(name)
+        out = [] if depth == 0 else [f"#line 1 {fid}"]
+        for no, line in enumerate(self._read(name).splitlines(), 1):
+            m = _INCLUDE.match(line)
+            if m:
+                out += self._expand(m.group(1), depth + 1, stack + [name])
+                out.append(f"#line {no + 1} {fid}")
+                continue
+            d = _DECLARE.match(line)
+            if d:
+                self.declared.update(d.group(1).split())
+            out.append(line)
+        return out
+
+    def text(self, defines: dict[str, object], extensions: tuple[str, ...] = ()) -> str:
+        unknown = sorted(set(defines) - self.declared)
+        if unknown:
+            raise ShaderError(f"{self.files[0]}: unknown define(s) {', '.join(unknown)} "
+                              f"(declared: {', '.join(sorted(self.declared)) or 'none'})")
+        if not self.body or not self.body[0].startswith("#version"):
+            raise ShaderError(f"{self.files[0]}: first line must be #version")
+        head = [self.body[0]] + [f"#extension {e} : require" for e in extensions]
+        head += [f"#define {k} {_define_value(v)}" for k, v in sorted(defines.items())]
+        return "\n".join(head + ["#line 2 0"] + self.body[1:]) + "\n"
+
+    def explain(self, log: str) -> str:
+        """Rewrite 'file-number:line' locations in a driver log to 'file:line'."""
+        def sub(m):
+            fid, line = (m.group(1), m.group(2)) if m.group(1) else (m.group(4), m.group(5))
+            fid = int(fid)
+            return f"{self.files[fid] if fid < len(self.files) else fid}:{line}"
+        return _ERROR_LOC.sub(sub, log)
+
+
+def _define_value(v) -> str:
+    if isinstance(v, bool):
+        return "1" if v else "0"
+    return str(v)
+
+
+class ProgramCache:
+    def __init__(self, ctx: moderngl.Context):
+        self.ctx = ctx
+        self._programs: dict = {}
+        self.sources: dict = {}   # key -> final text, for inspection and tests
+
+    def compute(self, name: str, defines: dict | None = None, virtual: dict | None = None,
+                extensions: tuple[str, ...] = ()) -> moderngl.ComputeShader:
+        defines = dict(defines or {})
+        key = (name, tuple(sorted(defines.items())), tuple(sorted((virtual or {}).items())), extensions)
+        if key not in self._programs:
+            src = Source(name, virtual)
+            text = src.text(defines, extensions)
+            try:
+                self._programs[key] = self.ctx.compute_shader(text)
+            except Exception as exc:
+                first = next((l for l in src.explain(str(exc)).splitlines() if "error" in l.lower()),
+                             str(exc).splitlines()[0] if str(exc) else "compile failed")
+                raise ShaderError(f"{name}: {first.strip()}") from None
+            self.sources[key] = text
+        return self._programs[key]
+
+    def text_of(self, program) -> str:
+        for key, prog in self._programs.items():
+            if prog is program:
+                return self.sources[key]
+        raise KeyError("program not from this cache")

@@ -1,0 +1,109 @@
+"""GPU struct layouts: one numpy dtype per struct, and the GLSL text generated from it.
+
+The dtype is the single source of truth.  `glsl_struct()` writes the GLSL declaration, and
+`std430_offsets()` computes where std430 would place each member, so a test can hold the
+two to each other (and a GL test round-trips a buffer through a shader).
+
+    lights (GpuLight, 64 B, visible lights sorted by depth)  <- light index lists (uint)
+    bounds (vec4, 16 B per light: culling sphere, view space, margins included)
+    tree nodes (TreeNode, 16 B)  -> firstLightIndex into the index list
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import limits
+
+# numpy field type -> (GLSL type, std430 base alignment, size)
+_GLSL_TYPES = {
+    (np.dtype(np.float32), ()): ("float", 4, 4),
+    (np.dtype(np.uint32), ()): ("uint", 4, 4),
+    (np.dtype(np.int32), ()): ("int", 4, 4),
+    (np.dtype(np.float32), (2,)): ("vec2", 8, 8),
+    (np.dtype(np.uint32), (2,)): ("uvec2", 8, 8),
+    (np.dtype(np.float32), (4,)): ("vec4", 16, 16),
+    (np.dtype(np.uint32), (4,)): ("uvec4", 16, 16),
+}
+
+# One visible light, as the shading loop reads it (view space).
+GPU_LIGHT = np.dtype([
+    ("pos_radius", np.float32, 4),       # xyz view-space position, w influence radius
+    ("color_cos_inner", np.float32, 4),  # rgb color * intensity, w cos(inner angle)
+    ("dir_cos_outer", np.float32, 4),    # xyz view-space unit direction, w cos(outer angle)
+    ("id_type", np.uint32, 4),           # x light id (scene order), y type, zw unused
+])
+assert GPU_LIGHT.itemsize == 64
+
+# Culling bound of one light: bounding sphere of its volume (spot: of the cone), view space,
+# radius already grown by limits.RADIUS_REL_MARGIN.
+GPU_BOUND = np.dtype([("center_radius", np.float32, 4)])
+assert GPU_BOUND.itemsize == 16
+
+# Light tree node, tree paper listing 1.  `bits` = isLeaf:1 | lightCount:16 | skipCount:15,
+# isLeaf in bit 0 as in the listing's C bit fields (pack_node_bits / unpack_node_bits).
+TREE_NODE = np.dtype([
+    ("min_depth", np.float32),
+    ("max_depth", np.float32),
+    ("first_light", np.uint32),
+    ("bits", np.uint32),
+])
+assert TREE_NODE.itemsize == 16
+
+# Per-cell (or per-tile) header: where the cell's nodes / list entries start, and how many.
+CELL_RANGE = np.dtype([("offset_count", np.uint32, 2)])
+assert CELL_RANGE.itemsize == 8
+
+STRUCTS = {"GpuLight": GPU_LIGHT, "GpuBound": GPU_BOUND, "TreeNode": TREE_NODE,
+           "CellRange": CELL_RANGE}
+
+
+def _member(dtype: np.dtype, name: str):
+    base, _ = dtype.fields[name]
+    key = (base.base, base.shape)
+    if key not in _GLSL_TYPES:
+        raise TypeError(f"field {name}: no GLSL type for {base}")
+    return _GLSL_TYPES[key]
+
+
+def glsl_struct(name: str, dtype: np.dtype) -> str:
+    lines = [f"struct {name} {{"]
+    lines += [f"    {_member(dtype, f)[0]} {f};" for f in dtype.names]
+    return "\n".join(lines + ["};"])
+
+
+def std430_offsets(dtype: np.dtype) -> tuple[dict[str, int], int]:
+    """Offsets std430 gives each member of the GLSL struct generated from `dtype`, and the
+    struct's array stride (size rounded up to its largest member alignment)."""
+    offsets, pos, struct_align = {}, 0, 4
+    for f in dtype.names:
+        _, align, size = _member(dtype, f)
+        pos = -(-pos // align) * align
+        offsets[f] = pos
+        pos += size
+        struct_align = max(struct_align, align)
+    return offsets, -(-pos // struct_align) * struct_align
+
+
+def glsl_declarations() -> str:
+    """All structs plus the limits the shaders need, as one GLSL text."""
+    out = [glsl_struct(n, d) for n, d in STRUCTS.items()]
+    out += [f"#define NODE_COUNT_BITS {limits.NODE_COUNT_BITS}u",
+            f"#define NODE_SKIP_BITS {limits.NODE_SKIP_BITS}u"]
+    return "\n".join(out) + "\n"
+
+
+# ---- tree node bits, written once ----
+
+def pack_node_bits(is_leaf, count, skip) -> np.ndarray:
+    """isLeaf in bit 0, lightCount in bits 1-16, skipCount in bits 17-31 (listing 1)."""
+    is_leaf, count, skip = (np.asarray(a, np.int64) for a in (is_leaf, count, skip))
+    if count.size and (count.min() < 0 or count.max() > limits.NODE_MAX_LIGHTS):
+        raise limits.LimitError(f"tree node light count {count.max()} exceeds 16 bits")
+    if skip.size and (skip.min() < 0 or skip.max() > limits.NODE_MAX_SKIP):
+        raise limits.LimitError(f"tree node skip count {skip.max()} exceeds 15 bits")
+    return ((is_leaf & 1) | (count << 1) | (skip << (1 + limits.NODE_COUNT_BITS))).astype(np.uint32)
+
+
+def unpack_node_bits(bits):
+    bits = np.asarray(bits, np.uint32).astype(np.int64)
+    return (bits & 1).astype(bool), (bits >> 1) & limits.NODE_MAX_LIGHTS, bits >> (1 + limits.NODE_COUNT_BITS)

@@ -1,0 +1,45 @@
+"""Every bit width, cap and float margin of the culling structures, with its reason.
+
+One module so that the GLSL defines (app.shaders emits them) and the CPU packers read the
+same numbers.  Exceeding a bit width raises LimitError or takes a documented fallback;
+nothing is ever wrapped.
+"""
+
+
+class LimitError(ValueError):
+    """A structure would exceed a bit width or a buffer limit."""
+
+
+# Light tree node (O'Donnell & Chajdas, listing 1): isLeaf:1 | lightCount:16 | skipCount:15.
+NODE_COUNT_BITS = 16
+NODE_SKIP_BITS = 15
+NODE_MAX_LIGHTS = (1 << NODE_COUNT_BITS) - 1     # 65,535 lights in one leaf
+NODE_MAX_SKIP = (1 << NODE_SKIP_BITS) - 1        # 32,767 nodes in one subtree
+
+# Shading workgroup: the emulated 64-lane wave is one 8x8 workgroup (DESIGN "Subgroup-style").
+WAVE_SIZE = 64
+WAVE_DIM = 8
+
+# Largest storage block a buffer may be (GL_MAX_SHADER_STORAGE_BLOCK_SIZE on llvmpipe: 128 MiB;
+# the app also checks the context's own value before allocating).
+MAX_STORAGE_BYTES = 128 << 20
+
+# ---- Float margins: CPU bounds are conservative with respect to the float32 GPU test. ----
+# The GPU decides "affects" as dot(P-L, P-L) < r*r in float32.  P-L is correctly rounded per
+# component and the dot product adds at most ~5 ulp, so the GPU can accept a point whose true
+# distance is up to r * (1 + 3e-7).  CPU bounds use r * (1 + RADIUS_REL_MARGIN): 30x that.
+RADIUS_REL_MARGIN = 1e-5
+# Pixel positions are interpolated by the rasterizer; a view position stored for a pixel
+# projects to within a small fraction of a pixel of its centre.  Screen rectangles grow by this.
+PIXEL_MARGIN = 1.0
+# Depth-slice boundaries: the GPU computes log(depth) in float32 (error ~1e-6 in slice units);
+# the CPU widens a light's depth range by this relative amount before slicing (~2.5e-4 slices).
+SLICE_DEPTH_REL_MARGIN = 1e-4
+
+# Paper defaults (tree paper 4 and the first author's testbed): 48-pixel tiles, 16 depth
+# slices, a near slice ending at 5 m, ~6 lights per leaf, at most 64 leaves (127 nodes).
+DEFAULT_TILE = 48
+DEFAULT_SLICES = 16
+DEFAULT_NEAR_SLICE_DEPTH = 5.0
+DEFAULT_LIGHTS_PER_LEAF = 6
+DEFAULT_MAX_LEAVES = 64

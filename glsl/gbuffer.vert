@@ -1,0 +1,17 @@
+#version 430
+uniform mat4 u_view_from_world;
+uniform mat4 u_clip_from_view;
+in vec3 in_position;
+in vec3 in_normal;
+in vec3 in_albedo;
+out vec3 v_view;
+out vec3 v_normal;
+out vec3 v_albedo;
+
+void main() {
+    vec4 view = u_view_from_world * vec4(in_position, 1.0);
+    v_view = view.xyz;
+    v_normal = mat3(u_view_from_world) * in_normal;   // rigid view transform
+    v_albedo = in_albedo;
+    gl_Position = u_clip_from_view * view;
+}

@@ -1,0 +1,43 @@
+// Cells of the 2.5D grid (or 2D tiles when u_slices == 1) and their light lists.
+//   ranges[cell] = (first entry | first node, count)  ->  entries[] -> lights[]
+// define: LIGHTS_DUPLICATED
+
+layout(std430, binding = B_RANGES) readonly buffer Ranges { CellRange ranges[]; };
+layout(std430, binding = B_ENTRIES) readonly buffer Entries { uint entries[]; };
+#if LIGHTS_DUPLICATED
+// Paper figure 5's "duplicated" variant: lists hold copies of the light data.
+layout(std430, binding = B_DUP_LIGHTS) readonly buffer DupLights { GpuLight dup_lights[]; };
+#define LIST_LIGHT(k) dup_lights[k]
+#else
+#define LIST_LIGHT(k) lights[entries[k]]
+#endif
+
+uniform ivec2 u_tiles;        // tiles in x and y
+uniform int u_tile;           // tile size in pixels
+uniform int u_slices;
+uniform float u_slice_scale;  // listing 4, scale corrected: (S - 1) / (logMax - logMin)
+uniform float u_slice_bias;   // 1 - logMin * scale
+
+// Tree paper listing 4 (see cpu_prep.grid for the corrected scale).
+uint slice_of(float depth) {
+    float slice = max(log(depth) * u_slice_scale + u_slice_bias, 0.0);
+    return uint(min(int(slice), u_slices - 1));
+}
+
+uint cell_of(PixelState s) {
+    ivec2 t = s.pixel / u_tile;
+    uint sl = u_slices > 1 ? slice_of(s.depth) : 0u;
+    return (sl * uint(u_tiles.y) + uint(t.y)) * uint(u_tiles.x) + uint(t.x);
+}
+
+void evaluate_list(inout PixelState s, uint first, uint count) {
+    for (uint k = first; k < first + count; ++k) evaluate_light(s, LIST_LIGHT(k));
+}
+
+// Wave statistics: the longest lane's loop length (scalar iterations of the wave) and which
+// traversal case ran (bit 0 list, bit 1 tree; both = mixed), written by lane 0.
+void write_wave_stats(uint iterations, uint case_bits) {
+    uint longest = groupAllMax(iterations);
+    uint cases = groupAllBitOr(case_bits);
+    if (gl_LocalInvocationIndex == 0u) wave_stats[group_index()] = uvec4(longest, cases, 0u, 0u);
+}

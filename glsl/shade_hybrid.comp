@@ -1,0 +1,45 @@
+#version 430
+// hybrid (tree paper 3.3-3.4): each cell of the 2.5D grid holds a list (a one-node tree whose
+// root is a leaf) or a tree.  The wave picks one of three loops: a) every lane a list,
+// b) every lane a tree (from shared memory when the whole group shares one tree),
+// c) mixed: the general traversal, which handles both.
+#include "generated.glsl"
+#include "wave.glsl"
+#include "common.glsl"
+#include "lists.glsl"
+#include "tree.glsl"
+
+void main() {
+    PixelState s = load_pixel();
+    uint cell = s.shading ? cell_of(s) : 0u;
+    uvec2 r = s.shading ? ranges[cell].offset_count : uvec2(0u);
+    bool is_tree = s.shading && r.y > 1u;
+    bool is_list = s.shading && r.y == 1u;
+
+    // Shared-memory tree: decided with group-wide (emulated) votes, since it needs barriers.
+    uint lo = groupAllMin(is_tree ? cell : 0xFFFFFFFFu);
+    uint hi = groupAllMax(is_tree ? cell : 0u);
+    bool one_tree = groupActiveAllTrue(!s.shading || is_tree) && lo == hi
+                    && groupAllMax(r.y) <= uint(SHARED_TREE_NODES);
+    uint case_bits = (is_list ? 1u : 0u) | (is_tree ? 2u : 0u);
+
+    if (one_tree) {
+        uint base = groupAllMax(is_tree ? r.x : 0u);
+        load_shared_tree(base, groupAllMax(r.y));
+        if (s.shading) traverse_shared_tree(s, r.y);
+    } else if (waveActiveAllTrue(!is_tree)) {
+        // a) lists only: the root is the leaf, no depth test (paper 3.4)
+        if (is_list) {
+            TreeNode n = nodes[r.x];
+            evaluate_list(s, n.first_light, node_light_count(n.bits));
+        }
+    } else if (waveActiveAllTrue(is_tree || !s.shading)) {
+        // b) trees only
+        if (s.shading) traverse_tree(s, r.x, r.y);
+    } else {
+        // c) mixed
+        if (s.shading) traverse_tree(s, r.x, r.y);
+    }
+    store_pixel(s);
+    write_wave_stats(s.evaluated + s.nodes, case_bits);
+}

@@ -1,0 +1,20 @@
+#version 430
+// tiled: the pixel's tile list from the tile_cull pass; an overflowed tile (count
+// 0xFFFFFFFF) shades every visible light.
+#include "generated.glsl"
+#include "wave.glsl"
+#include "common.glsl"
+#include "lists.glsl"
+
+void main() {
+    PixelState s = load_pixel();
+    if (s.shading) {
+        uvec2 r = ranges[cell_of(s)].offset_count;
+        if (r.y == 0xFFFFFFFFu)
+            for (uint i = 0u; i < u_light_count; ++i) evaluate_light(s, lights[i]);
+        else
+            evaluate_list(s, r.x, r.y);
+    }
+    store_pixel(s);
+    write_wave_stats(s.evaluated, 1u);
+}

@@ -1,0 +1,17 @@
+#version 430
+// tree (O'Donnell & Chajdas): one light tree per 2D screen tile, listing 3 traversal.
+#include "generated.glsl"
+#include "wave.glsl"
+#include "common.glsl"
+#include "lists.glsl"
+#include "tree.glsl"
+
+void main() {
+    PixelState s = load_pixel();
+    if (s.shading) {
+        uvec2 r = ranges[cell_of(s)].offset_count;
+        traverse_tree(s, r.x, r.y);
+    }
+    store_pixel(s);
+    write_wave_stats(s.evaluated + s.nodes, 2u);
+}

@@ -1,0 +1,103 @@
+// Subgroup-style wave API (DESIGN "Subgroup-style emulation").
+//
+// group*: the portable emulation, one 64-lane wave = one 8x8 workgroup, through shared
+//   memory.  Every invocation of the group must call each function (they hold barriers), so
+//   loops that use them keep inactive lanes iterating with their work masked.  Their results
+//   are uniform over the workgroup, so they may guard further barriers.
+// wave*:  the same calls on the native subgroup (GL_ARB_shader_ballot + group_vote) when
+//   WAVE_NATIVE is 1, else the group* emulation.  Native results are uniform per subgroup
+//   only: never guard a barrier() with them.  Either way the image is the same: the API
+//   only steers which (equivalent) loop runs.
+// define: WAVE_NATIVE
+
+shared uint wave_scalar;
+shared uint wave_bits[2];
+
+uint groupAllMin(uint v) {
+    barrier();
+    if (gl_LocalInvocationIndex == 0u) wave_scalar = 0xFFFFFFFFu;
+    barrier();
+    atomicMin(wave_scalar, v);
+    barrier();
+    uint r = wave_scalar;
+    barrier();
+    return r;
+}
+
+uint groupAllMax(uint v) {
+    barrier();
+    if (gl_LocalInvocationIndex == 0u) wave_scalar = 0u;
+    barrier();
+    atomicMax(wave_scalar, v);
+    barrier();
+    uint r = wave_scalar;
+    barrier();
+    return r;
+}
+
+uint groupAllBitOr(uint v) {
+    barrier();
+    if (gl_LocalInvocationIndex == 0u) wave_scalar = 0u;
+    barrier();
+    atomicOr(wave_scalar, v);
+    barrier();
+    uint r = wave_scalar;
+    barrier();
+    return r;
+}
+
+uvec2 groupBallot(bool b) {
+    barrier();
+    if (gl_LocalInvocationIndex < 2u) wave_bits[gl_LocalInvocationIndex] = 0u;
+    barrier();
+    uint lane = gl_LocalInvocationIndex;
+    if (b) atomicOr(wave_bits[lane >> 5], 1u << (lane & 31u));
+    barrier();
+    uvec2 r = uvec2(wave_bits[0], wave_bits[1]);
+    barrier();
+    return r;
+}
+
+bool groupActiveAllTrue(bool b) { return groupAllMin(b ? 1u : 0u) == 1u; }
+bool groupActiveAnyTrue(bool b) { return groupAllMax(b ? 1u : 0u) == 1u; }
+
+uint groupReadFirstLane(uint v) {
+    barrier();
+    if (gl_LocalInvocationIndex == 0u) wave_scalar = v;
+    barrier();
+    uint r = wave_scalar;
+    barrier();
+    return r;
+}
+
+// Lanes below this one whose predicate is true.
+uint groupPrefixCountBits(bool b) {
+    uvec2 m = groupBallot(b);
+    uint lane = gl_LocalInvocationIndex;
+    uint lo = lane >= 32u ? bitCount(m.x) : bitCount(m.x & ((1u << lane) - 1u));
+    uint hi = lane > 32u ? bitCount(m.y & ((1u << (lane - 32u)) - 1u)) : 0u;
+    return lo + hi;
+}
+
+#if WAVE_NATIVE
+bool waveActiveAllTrue(bool b) { return allInvocationsARB(b); }
+bool waveActiveAnyTrue(bool b) { return anyInvocationARB(b); }
+uint waveReadFirstLane(uint v) { return readFirstInvocationARB(v); }
+uvec2 waveBallot(bool b) { return unpackUint2x32(ballotARB(b)); }
+uint waveAllMin(uint v) {
+    uint r = v;
+    uvec2 m = waveBallot(true);
+    for (uint w = 0u; w < 2u; ++w)
+        for (uint bits = m[w]; bits != 0u; bits &= bits - 1u)
+            r = min(r, readInvocationARB(v, w * 32u + uint(findLSB(bits))));
+    return r;
+}
+uint waveAllMax(uint v) { return ~waveAllMin(~v); }
+#else
+bool waveActiveAllTrue(bool b) { return groupActiveAllTrue(b); }
+bool waveActiveAnyTrue(bool b) { return groupActiveAnyTrue(b); }
+uint waveReadFirstLane(uint v) { return groupReadFirstLane(v); }
+uvec2 waveBallot(bool b) { return groupBallot(b); }
+uint waveAllMin(uint v) { return groupAllMin(v); }
+uint waveAllMax(uint v) { return groupAllMax(v); }
+#endif

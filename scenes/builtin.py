@@ -1,0 +1,319 @@
+"""Procedural builtin scenes.
+
+Each builder is `build(lights: int | None, seed: int, distribution: str | None) -> Scene`:
+`lights=None` is the scene's default count, `distribution` is "uniform" (positions uniform in
+the scene's box, tree paper "CTF-TitanPass") or "geometry" (near random triangles, tree paper
+"EpicCitadel"), None = the scene's default.  The geometry does not depend on the seed; the
+lights are drawn from np.random.default_rng(seed), so equal arguments give bit-identical scenes.
+Units are metres, +y is up.  Triangle counts stay in the low thousands (software rasterizer).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .geometry import box_mesh, max_depth_for, merge_meshes, ramp_mesh
+from .lights import on_geometry, sample_on_geometry, spot_lights, uniform_in_box
+from .loader import MAX_LIGHTS, SceneError
+from .model import Camera, Mesh, Scene, make_lights
+
+DISTRIBUTIONS = ("uniform", "geometry")
+RESOLUTION = (960, 540)
+
+
+def _check_args(name: str, lights, seed, distribution, default_lights: int, default_dist: str):
+    if lights is None:
+        lights = default_lights
+    if isinstance(lights, bool) or not isinstance(lights, (int, np.integer)):
+        raise SceneError(f"{name}: lights: must be an integer (got {lights!r})")
+    if not 0 <= int(lights) <= MAX_LIGHTS:
+        raise SceneError(f"{name}: lights: must be in 0..{MAX_LIGHTS} (got {lights})")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise SceneError(f"{name}: seed: must be a non-negative integer (got {seed!r})")
+    if distribution is None:
+        distribution = default_dist
+    if distribution not in DISTRIBUTIONS:
+        raise SceneError(f"{name}: distribution: must be one of {', '.join(DISTRIBUTIONS)} "
+                         f"(got {distribution!r})")
+    return int(lights), np.random.default_rng(int(seed)), distribution
+
+
+def _cams(keys, fov=60.0, near=0.1, far=1000.0) -> list[Camera]:
+    return [Camera(tuple(map(float, p)), tuple(map(float, t)), (0.0, 1.0, 0.0), fov, near, far)
+            for p, t in keys]
+
+
+def _aabb(meshes: list[Mesh]):
+    v = np.concatenate([m.vertices for m in meshes]).astype(np.float64)
+    return v.min(0), v.max(0)
+
+
+def _distribute(n, distribution, meshes, lo, hi, rng, radius_range) -> np.ndarray:
+    if distribution == "uniform":
+        return uniform_in_box(n, lo, hi, rng, radius_range)
+    return on_geometry(n, meshes, rng, radius_range)
+
+
+def _finish(name, cams, meshes, lights) -> Scene:
+    meshes = merge_meshes(meshes)
+    return Scene(name=name, resolution=RESOLUTION, camera=cams[0], meshes=meshes,
+                 lights=lights, path=cams[1:], max_depth=max_depth_for(cams, meshes))
+
+
+# ----------------------------------------------------------------------------------- city
+CITY_LENGTH = 1900.0        # the street runs from z=+40 to z=-CITY_LENGTH
+CITY_CROSS_STREETS = np.arange(-200.0, -CITY_LENGTH, -240.0)   # centre z of cross streets
+
+
+def _city_geometry() -> list[Mesh]:
+    g = np.random.default_rng(1001)           # fixed layout
+    palette = [(0.62, 0.60, 0.56), (0.55, 0.52, 0.50), (0.70, 0.66, 0.58),
+               (0.45, 0.47, 0.52), (0.75, 0.72, 0.68)]
+    meshes = [box_mesh((-160, -1, -CITY_LENGTH - 120), (160, 0, 60), (0.35, 0.35, 0.36),
+                       bottom=False)]
+    half_street = 12.0
+    for side in (-1.0, 1.0):
+        for row, (x0, depth, hmin, hmax) in enumerate(((half_street, (18, 32), 8, 70),
+                                                       (half_street + 40, (25, 45), 20, 140))):
+            z = 40.0
+            while z > -CITY_LENGTH:
+                width = g.uniform(18, 50)
+                z1 = z - width
+                # leave the cross streets open (20 m wide)
+                hit = np.abs(CITY_CROSS_STREETS - (z + z1) / 2) < width / 2 + 10
+                if not hit.any():
+                    d = g.uniform(*depth)
+                    h = np.exp(g.uniform(np.log(hmin), np.log(hmax)))
+                    if g.random() < 0.04:
+                        h *= 2.0                       # a few towers
+                    xa, xb = sorted((side * x0, side * (x0 + d)))
+                    meshes.append(box_mesh((xa, 0, z1), (xb, h, z), palette[g.integers(5)],
+                                           bottom=False))
+                z = z1 - g.uniform(2, 6)
+    # the citadel closing the street's far end
+    meshes.append(box_mesh((-60, 0, -CITY_LENGTH - 110), (60, 120, -CITY_LENGTH - 40),
+                           (0.66, 0.62, 0.55), bottom=False))
+    meshes.append(box_mesh((-15, 120, -CITY_LENGTH - 90), (15, 220, -CITY_LENGTH - 60),
+                           (0.66, 0.62, 0.55), bottom=False))
+    return meshes
+
+
+def build_city(lights: int | None = None, seed: int = 0, distribution: str | None = None) -> Scene:
+    """Street canyon reaching ~2 km (tree paper's EpicCitadel case): long view range."""
+    n, rng, dist = _check_args("city", lights, seed, distribution, 4096, "geometry")
+    meshes = _city_geometry()
+    cx = CITY_CROSS_STREETS[1]
+    cams = _cams([
+        ((0, 5, 30), (0, 12, -500)),                          # street level, long view
+        ((0, 60, 80), (0, 20, -1200)),                        # elevated, very long view
+        ((6, 2, -300), (13, 6, -312)),                        # close to a facade
+        ((-4, 3, cx), (200, 6, cx)),                          # down a cross street
+        ((0, 4, -900), (0, 10, -1900)),                       # mid street towards the citadel
+        ((0, 150, -CITY_LENGTH + 50), (0, 0, 0)),             # high, looking back, longest view
+        ((0, 3, -CITY_LENGTH + 40), (0, 40, -CITY_LENGTH - 40)),  # at the citadel's foot
+    ], near=0.5, far=3000.0)
+    lo, hi = _aabb(meshes)
+    lo[1] = 0.0
+    ls = _distribute(n, dist, meshes, lo, hi, rng, (0.5, 15.0))
+    return _finish("city", cams, meshes, ls)
+
+
+# ---------------------------------------------------------------------------------- arena
+def _arena_geometry() -> list[Mesh]:
+    g = np.random.default_rng(2002)
+    ground, stone, metal, crate = (0.42, 0.40, 0.36), (0.62, 0.58, 0.52), (0.5, 0.52, 0.56), (0.6, 0.45, 0.3)
+    m = [box_mesh((-100, -1, -100), (100, 0, 100), ground, bottom=False)]
+    # perimeter walls
+    m += [box_mesh((-102, 0, -102), (102, 12, -100), stone, bottom=False),
+          box_mesh((-102, 0, 100), (102, 12, 102), stone, bottom=False),
+          box_mesh((-102, 0, -100), (-100, 12, 100), stone, bottom=False),
+          box_mesh((100, 0, -100), (102, 12, 100), stone, bottom=False)]
+    # two bases (raised platforms with ramps) at the ends
+    for s in (-1, 1):
+        z0, z1 = sorted((s * 62, s * 92))
+        m.append(box_mesh((-18, 0, z0), (18, 8, z1), stone, bottom=False))
+        rz0, rz1 = sorted((s * 62, s * 40))
+        m.append(ramp_mesh((-5, 0, rz0), (5, 8, rz1), "+z" if s > 0 else "-z", stone))
+        sz0, sz1 = sorted((s * 78, s * 88))
+        m.append(box_mesh((-8, 8, sz0), (8, 13, sz1), metal, bottom=False))
+    # central platform with four ramps
+    m.append(box_mesh((-12, 0, -12), (12, 5, 12), stone, bottom=False))
+    m += [ramp_mesh((-4, 0, 12), (4, 5, 26), "-z", stone), ramp_mesh((-4, 0, -26), (4, 5, -12), "+z", stone),
+          ramp_mesh((12, 0, -4), (26, 5, 4), "-x", stone), ramp_mesh((-26, 0, -4), (-12, 5, 4), "+x", stone)]
+    # side towers with ramps and a bridge
+    for s in (-1, 1):
+        x0, x1 = sorted((s * 48, s * 66))
+        m.append(box_mesh((x0, 0, -10), (x1, 10, 10), stone, bottom=False))
+        m.append(ramp_mesh((x0, 0, 10), (x1, 10, 40), "-z", stone))
+        bx0, bx1 = sorted((s * 12, s * 48))
+        m.append(box_mesh((bx0, 4.5, -2), (bx1, 5, 2), metal))
+    # pillars
+    for x in (-80, -40, 40, 80):
+        for z in (-45, 0, 45):
+            m.append(box_mesh((x - 1, 0, z - 1), (x + 1, 14, z + 1), metal, bottom=False))
+    # cover crates, fixed random layout
+    for _ in range(24):
+        c = g.uniform(-90, 90, 2)
+        if abs(c[0]) < 30 and abs(c[1]) < 30:
+            c[0] += 35 * np.sign(c[0] if c[0] != 0 else 1)
+        sx, sz, h = g.uniform(2, 4), g.uniform(2, 4), g.uniform(1.5, 4)
+        m.append(box_mesh((c[0] - sx, 0, c[1] - sz), (c[0] + sx, h, c[1] + sz), crate, bottom=False))
+    return m
+
+
+def build_arena(lights: int | None = None, seed: int = 0, distribution: str | None = None) -> Scene:
+    """Mid-range level ~200 m across: platforms, ramps, pillars, open space (CTF-TitanPass)."""
+    n, rng, dist = _check_args("arena", lights, seed, distribution, 4096, "uniform")
+    meshes = _arena_geometry()
+    cams = _cams([
+        ((0, 18, 97), (0, 4, 0)),                 # above the south base, across the level
+        ((0, 10, -70), (70, 2, 90)),              # on the north base, long diagonal
+        ((-38, 2, -2), (-40, 6, 0)),              # close to a pillar (near view)
+        ((0, 7, 0), (60, 8, 0)),                  # on the central platform towards a tower
+        ((95, 25, 95), (-95, 0, -95)),            # corner, high, longest diagonal
+        ((0, 1.8, 35), (0, 5, 0)),                # at the foot of a ramp
+    ], near=0.25, far=600.0)
+    lo, hi = _aabb(meshes)
+    lo[1] = 0.0
+    ls = _distribute(n, dist, meshes, lo, hi, rng, (0.5, 12.0))
+    return _finish("arena", cams, meshes, ls)
+
+
+# --------------------------------------------------------------------------------- hangar
+HANGAR_LO = (-40.0, 0.0, -20.0)
+HANGAR_HI = (40.0, 20.0, 20.0)
+
+
+def _hangar_geometry() -> list[Mesh]:
+    g = np.random.default_rng(3003)
+    m = [box_mesh(HANGAR_LO, HANGAR_HI, (0.55, 0.55, 0.58), inward=True)]
+    for x in np.arange(-30.0, 31.0, 12.0):
+        for z in (-10.0, 10.0):
+            m.append(box_mesh((x - 0.6, 0, z - 0.6), (x + 0.6, 20, z + 0.6), (0.4, 0.42, 0.45),
+                              bottom=False))
+    # catwalk along the north wall
+    m.append(box_mesh((-40, 7.6, 15), (40, 8, 20), (0.45, 0.45, 0.48)))
+    # crates, some stacked
+    for _ in range(30):
+        x, z = g.uniform(-36, 36), g.uniform(-17, 13)
+        s = g.uniform(1.5, 3.0)
+        m.append(box_mesh((x - s / 2, 0, z - s / 2), (x + s / 2, s, z + s / 2), (0.6, 0.47, 0.3),
+                          bottom=False))
+        if g.random() < 0.35:
+            t = s * g.uniform(0.5, 0.9)
+            m.append(box_mesh((x - t / 2, s, z - t / 2), (x + t / 2, s + t, z + t / 2),
+                              (0.6, 0.47, 0.3), bottom=False))
+    return m
+
+
+def build_hangar(lights: int | None = None, seed: int = 0, distribution: str | None = None) -> Scene:
+    """Closed hall 80x20x40 m filled with many large overlapping lights (Drobot's fire case)."""
+    n, rng, dist = _check_args("hangar", lights, seed, distribution, 512, "uniform")
+    meshes = _hangar_geometry()
+    cams = _cams([
+        ((-37, 3, 0), (37, 5, 0)),                # along the hall
+        ((0, 8.8, 17.5), (5, 0, -10)),            # from the catwalk, looking down
+        ((-20, 1.5, -15), (-15, 1, -12)),         # close to the crates
+        ((38, 18, -18), (-38, 0, 18)),            # top corner, longest diagonal
+        ((10, 2, 0), (-37, 4, 0)),                # looking back
+    ], near=0.1, far=200.0)
+    ls = _distribute(n, dist, meshes, np.array(HANGAR_LO), np.array(HANGAR_HI), rng, (4.0, 25.0))
+    return _finish("hangar", cams, meshes, ls)
+
+
+# -------------------------------------------------------------------------------- gallery
+GALLERY_LO = (-30.0, 0.0, -12.0)
+GALLERY_HI = (30.0, 8.0, 12.0)
+GALLERY_POINTS = 6            # small point lights in the default scene
+
+
+def _gallery_geometry():
+    import trimesh
+    wall, stone, art = (0.82, 0.80, 0.76), (0.7, 0.68, 0.64), (0.85, 0.82, 0.78)
+    shell = [box_mesh(GALLERY_LO, GALLERY_HI, wall, inward=True)]
+    parts = []
+    for x in (-10.0, 10.0):                      # partitions with a 3 m x 4 m doorway
+        parts += [box_mesh((x - 0.2, 0, -12), (x + 0.2, 8, -1.5), wall, bottom=False),
+                  box_mesh((x - 0.2, 0, 1.5), (x + 0.2, 8, 12), wall, bottom=False),
+                  box_mesh((x - 0.2, 4, -1.5), (x + 0.2, 8, 1.5), wall)]
+    pedestals, sculptures, paintings = [], [], []
+    sphere = trimesh.creation.icosphere(subdivisions=1)
+    for room_x in (-20.0, 0.0, 20.0):
+        for dx, dz in ((-4, -5), (4, -5), (-4, 5), (4, 5)):
+            px, pz = room_x + dx, float(dz)
+            pedestals.append(box_mesh((px - 0.5, 0, pz - 0.5), (px + 0.5, 1.2, pz + 0.5), stone,
+                                      bottom=False))
+            r = 0.45
+            v = sphere.vertices * r + (px, 1.2 + r, pz)
+            sculptures.append(Mesh(v.astype(np.float32), sphere.faces.astype(np.int32), art))
+        # paintings on the long walls (thin boxes)
+        for z, s in ((-12.0, 1), (12.0, -1)):
+            for dx in (-5.0, 0.0, 5.0):
+                za, zb = sorted((z, z + s * 0.06))
+                paintings.append(box_mesh((room_x + dx - 1.2, 2.0, za), (room_x + dx + 1.2, 3.6, zb),
+                                          (0.5, 0.35, 0.25)))
+    return shell + parts, pedestals, sculptures, paintings
+
+
+def build_gallery(lights: int | None = None, seed: int = 0, distribution: str | None = None) -> Scene:
+    """Three rooms with pedestals, sculptures and paintings lit by large narrow spots
+    (Mikkelsen's case) plus a few small point lights.  `lights=N`: N lights in all, 6 of them
+    points (none when N < 12) and the rest spots; the default is 40 spots + 6 points."""
+    n, rng, dist = _check_args("gallery", lights, seed, distribution,
+                               40 + GALLERY_POINTS, "geometry")
+    rooms, pedestals, sculptures, paintings = _gallery_geometry()
+    meshes = rooms + pedestals + sculptures + paintings
+    n_point = GALLERY_POINTS if n >= 2 * GALLERY_POINTS else 0
+    n_spot = n - n_point
+    lo, hi = np.array(GALLERY_LO), np.array(GALLERY_HI)
+    ceiling = hi[1] - 0.4
+    if dist == "geometry":
+        # spots hang below the ceiling aimed at sculptures, paintings or the floor
+        cat = rng.choice(3, size=n_spot, p=[0.5, 0.35, 0.15])
+        targets = np.zeros((n_spot, 3))
+        pos = np.zeros((n_spot, 3))
+        for c, ms in enumerate((pedestals + sculptures, paintings, rooms[:1])):
+            k = int(np.count_nonzero(cat == c))
+            if k == 0:
+                continue
+            if c == 2:   # floor: uniform on the floor area
+                t = np.column_stack([rng.uniform(lo[0] + 1, hi[0] - 1, k), np.zeros(k),
+                                     rng.uniform(lo[2] + 1, hi[2] - 1, k)])
+                nrm = np.tile([0.0, 1.0, 0.0], (k, 1))
+            else:
+                t, nrm = sample_on_geometry(k, ms, rng, offset=0.0)
+            horiz = nrm * np.array([1.0, 0.0, 1.0])
+            p = t + horiz * rng.uniform(2.0, 4.0, (k, 1)) + rng.uniform(-2, 2, (k, 3)) * [1, 0, 1]
+            p[:, 1] = ceiling
+            targets[cat == c], pos[cat == c] = t, p
+        pos[:, 0] = np.clip(pos[:, 0], lo[0] + 0.5, hi[0] - 0.5)
+        pos[:, 2] = np.clip(pos[:, 2], lo[2] + 0.5, hi[2] - 0.5)
+        d = targets - pos
+        bad = np.linalg.norm(d, axis=1) < 1e-3
+        d[bad] = (0.0, -1.0, 0.0)
+    else:
+        pos = lo + rng.random((n_spot, 3)) * (hi - lo) * [1, 0, 1]
+        pos[:, 1] = rng.uniform(4.0, ceiling, n_spot)
+        # mostly down: tilt up to 45 degrees
+        tilt = np.radians(rng.uniform(0, 45, n_spot))
+        az = rng.uniform(0, 2 * np.pi, n_spot)
+        d = np.column_stack([np.sin(tilt) * np.cos(az), -np.cos(tilt), np.sin(tilt) * np.sin(az)])
+    spots = spot_lights(pos, d, rng, (10.0, 30.0), outer_deg_range=(10.0, 30.0),
+                        inner_ratio_range=(0.6, 0.9))
+    points = _distribute(n_point, dist, meshes, lo, hi, rng, (0.5, 3.0))
+    ls = np.concatenate([spots, points]) if n else make_lights(0)
+    cams = _cams([
+        ((-28, 1.7, 0), (28, 1.7, 0)),            # through both doorways, longest view
+        ((-18, 1.6, -2.5), (-16, 1.6, -5)),       # close to a sculpture
+        ((8, 5, 10), (-8, 1, -10)),               # corner of the middle room
+        ((3, 2.5, 0), (3, 2.8, -12)),             # at the paintings
+        ((28, 7, 11), (-28, 0, -11)),             # high corner, looking back through the rooms
+    ], near=0.1, far=100.0)
+    return _finish("gallery", cams, meshes, ls)
+
+
+BUILTIN_SCENES = {
+    "city": build_city,
+    "arena": build_arena,
+    "hangar": build_hangar,
+    "gallery": build_gallery,
+}

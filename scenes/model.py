@@ -1,0 +1,92 @@
+"""Scene model: geometry, lights, camera and a deterministic camera path.
+
+`scenes` produces scenes and nothing else: no OpenGL, no culling.
+
+Lights are one structured numpy array (LIGHT_DTYPE), one row per light; a light's
+id is its row index.  The light model (DESIGN.md "Light model"): a light affects
+a point only inside its finite volume, a sphere of `radius`, cut by the cone of
+`cos_outer` for spot lights.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+LIGHT_POINT = 0
+LIGHT_SPOT = 1
+LIGHT_TYPE_NAMES = {LIGHT_POINT: "point", LIGHT_SPOT: "spot"}
+
+LIGHT_DTYPE = np.dtype([
+    ("type", np.uint8),
+    ("position", np.float32, 3),
+    ("radius", np.float32),
+    ("color", np.float32, 3),
+    ("intensity", np.float32),
+    ("direction", np.float32, 3),   # unit vector, spot lights only
+    ("cos_inner", np.float32),
+    ("cos_outer", np.float32),
+])
+
+
+def make_lights(n: int) -> np.ndarray:
+    """An array of `n` lights with neutral defaults (white point lights)."""
+    lights = np.zeros(n, LIGHT_DTYPE)
+    lights["color"] = 1.0
+    lights["intensity"] = 1.0
+    lights["direction"] = (0.0, -1.0, 0.0)
+    lights["cos_inner"] = 1.0
+    lights["cos_outer"] = 1.0
+    return lights
+
+
+@dataclass(frozen=True)
+class Camera:
+    position: tuple[float, float, float]
+    target: tuple[float, float, float]
+    up: tuple[float, float, float] = (0.0, 1.0, 0.0)
+    fov_y_deg: float = 60.0
+    near: float = 0.1
+    far: float = 1000.0
+
+
+@dataclass
+class Mesh:
+    """World-space triangles with one albedo."""
+    vertices: np.ndarray          # (V, 3) float32
+    faces: np.ndarray             # (F, 3) int32
+    albedo: tuple[float, float, float] = (0.8, 0.8, 0.8)
+
+
+@dataclass
+class Scene:
+    name: str
+    resolution: tuple[int, int]   # (width, height)
+    camera: Camera
+    meshes: list[Mesh]
+    lights: np.ndarray            # LIGHT_DTYPE
+    # Key cameras of the fly-through; camera_at() interpolates between them.
+    path: list[Camera] = field(default_factory=list)
+    # Farthest view depth worth slicing (tree paper 4: "maximum depth from the scene extents").
+    max_depth: float | None = None
+
+    def camera_at(self, frame: int, frames: int = 64) -> Camera:
+        """Camera of frame `frame` of a `frames`-long loop over `path` (frame 0 = self.camera)."""
+        keys = [self.camera] + list(self.path)
+        if len(keys) == 1 or frames <= 1:
+            return self.camera
+        t = (frame % frames) / frames * len(keys)
+        i = int(t)
+        a, b, f = keys[i % len(keys)], keys[(i + 1) % len(keys)], t - i
+        lerp = lambda u, v: tuple(float(x + (y - x) * f) for x, y in zip(u, v))
+        return Camera(lerp(a.position, b.position), lerp(a.target, b.target), a.up,
+                      a.fov_y_deg, a.near, a.far)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """World AABB of the geometry."""
+        v = np.concatenate([m.vertices for m in self.meshes]) if self.meshes else np.zeros((1, 3))
+        return v.min(0), v.max(0)
+
+    def light_types(self) -> list[str]:
+        """Names of the light types present, in type-id order (drives shader specialisation)."""
+        return [LIGHT_TYPE_NAMES[t] for t in sorted(set(np.unique(self.lights["type"]).tolist()))]
