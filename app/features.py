@@ -42,7 +42,9 @@ def features_glsl(features: tuple[str, ...]) -> str:
         out.append('#include "light_spot.glsl"')
     # light_affects: inside the sphere, and for spots inside the cone.
     out.append("bool light_affects(GpuLight L, vec3 d, float d2) {")
+    out.append("#if !(defined(UNBOUNDED_FALLOFF) && UNBOUNDED_FALLOFF)")
     out.append("    if (!(d2 < L.pos_radius.w * L.pos_radius.w)) return false;")
+    out.append("#endif")
     if spot and point:
         out.append("    if (L.id_type.y == 1u) return spot_cone_contains(L, d, d2);")
     elif spot:

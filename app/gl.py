@@ -44,6 +44,12 @@ def context() -> moderngl.Context:
     return _CTX
 
 
+def use_context(ctx: moderngl.Context) -> None:
+    """Adopt a context made elsewhere (a window's) as the process's one context."""
+    global _CTX, _LIMITS
+    _CTX, _LIMITS = ctx, None
+
+
 _LIMITS: Limits | None = None
 
 

@@ -1,6 +1,12 @@
 // Finite-window attenuation (DESIGN "Light model"): (1 - (d/r)^4)^2 / (d^2 + 1), zero
 // outside the volume, so culling at the radius is exact.
+// With UNBOUNDED_FALLOFF (the benchmark's no-cutoff reference) the window is dropped and
+// every light reaches every point: 1 / (d^2 + 1).
+// define: UNBOUNDED_FALLOFF
 float window_attenuation(float d2, float r) {
+#if defined(UNBOUNDED_FALLOFF) && UNBOUNDED_FALLOFF
+    return 1.0 / (d2 + 1.0);
+#endif
     float x2 = d2 / (r * r);
     float w = clamp(1.0 - x2 * x2, 0.0, 1.0);
     return w * w / (d2 + 1.0);

@@ -113,7 +113,7 @@ def build_city(lights: int | None = None, seed: int = 0, distribution: str | Non
     ], near=0.5, far=3000.0)
     lo, hi = _aabb(meshes)
     lo[1] = 0.0
-    ls = _distribute(n, dist, meshes, lo, hi, rng, (0.5, 15.0))
+    ls = _distribute(n, dist, meshes, lo, hi, rng, (2.0, 40.0))
     return _finish("city", cams, meshes, ls)
 
 
@@ -174,7 +174,7 @@ def build_arena(lights: int | None = None, seed: int = 0, distribution: str | No
     ], near=0.25, far=600.0)
     lo, hi = _aabb(meshes)
     lo[1] = 0.0
-    ls = _distribute(n, dist, meshes, lo, hi, rng, (0.5, 12.0))
+    ls = _distribute(n, dist, meshes, lo, hi, rng, (1.0, 20.0))
     return _finish("arena", cams, meshes, ls)
 
 
