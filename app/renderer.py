@@ -46,6 +46,7 @@ class Renderer:
         self._check_size(size)
         self.gbuffer = GBuffer(self.ctx, scene.meshes, size)
         self.buffers: dict[str, object] = {}
+        self.last_meta: dict | None = None
 
     @property
     def size(self) -> tuple[int, int]:
@@ -99,7 +100,10 @@ class Renderer:
 
     def render(self, technique: Technique, frame: int = 0, opts: Options | None = None,
                frames: int = 64, lights: np.ndarray | None = None, readback: bool = True,
-               camera=None) -> FrameResult | None:
+               camera=None, extra_defines: dict | None = None) -> FrameResult | None:
+        """Render one frame.  readback=False leaves the outputs on the GPU (buffers
+        out_color, out_stats, wave_stats) and the figures in self.last_meta.
+        extra_defines reach the shading program (e.g. UNBOUNDED_FALLOFF=1)."""
         opts = opts or Options()
         cam = camera or self.camera(frame, frames)
         w, h = self.size
@@ -136,7 +140,7 @@ class Renderer:
         self._buffer("out_color", w * h * 16)
         self._buffer("out_stats", w * h * 16)
         self._buffer("wave_stats", groups[0] * groups[1] * 16)
-        defines = dict(build.defines, WAVE_NATIVE=int(native))
+        defines = dict(build.defines, WAVE_NATIVE=int(native), **(extra_defines or {}))
         ext = ("GL_ARB_shader_ballot", "GL_ARB_shader_group_vote", "GL_ARB_gpu_shader_int64") if native else ()
         prog = self.programs.compute(technique.shader, defines, virtual, ext)
         self._set_uniforms(prog, uniforms)
@@ -152,6 +156,7 @@ class Renderer:
             "stats": build.stats, "resolution": [w, h], "frame": frame,
             "renderer": self.limits.renderer,
         }
+        self.last_meta = meta
         if not readback:
             return None
         return self._read(meta, groups)

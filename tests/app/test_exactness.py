@@ -1,0 +1,59 @@
+"""The exactness check: every registered technique gives brute's contrib_count and
+contrib_hash at every pixel, on every builtin scene with both light distributions at
+8,192 lights, along the camera path, under every option, and on randomized scenes."""
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
+
+from app.techniques import Options
+from scenes import BUILTIN_SCENES, load_scene
+from scenes.model import Camera
+from tests.helpers import assert_exact, make_scene, random_lights, render_all
+
+SIZE = (192, 108)
+
+
+@pytest.mark.parametrize("distribution", ["uniform", "geometry"])
+@pytest.mark.parametrize("name", list(BUILTIN_SCENES))
+def test_builtin_scenes_are_exact(gl, name, distribution):
+    scene = load_scene(name, lights=8192, seed=1, distribution=distribution)
+    scene.resolution = SIZE
+    results = render_all(scene)
+    assert_exact(results, f"{name}/{distribution}")
+    assert results["brute"].contrib_count.sum() > 0, "scene lights touch nothing: test is void"
+
+
+@pytest.mark.parametrize("opts", [
+    Options(tile=16, slices=8), Options(tile=64, slices=24), Options(duplicated=True),
+    Options(sort_buckets=512), Options(lights_per_leaf=1, max_leaves=8), Options(radius_scale=8.0),
+    Options(native_wave=True), Options(tile=20, slices=4)],
+    ids=["t16s8", "t64s24", "duplicated", "buckets", "tiny-leaves", "tree-heavy", "native-wave", "t20"])
+def test_options_keep_exactness(gl, opts):
+    scene = load_scene("arena", lights=4096, seed=3)
+    scene.resolution = SIZE
+    assert_exact(render_all(scene, opts), str(opts))
+
+
+def test_camera_path_frames_are_exact(gl):
+    scene = load_scene("city", lights=4096, seed=2)
+    scene.resolution = (160, 90)
+    from app.renderer import Renderer
+    from app.techniques import REGISTRY
+    r = Renderer(scene)
+    try:
+        for frame in (5, 17, 40):
+            assert_exact({n: r.render(t, frame, frames=48) for n, t in REGISTRY.items()}, f"frame {frame}")
+    finally:
+        r.release()
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**31), n=st.integers(1, 600), fov=st.floats(20, 120),
+       w=st.integers(1, 130), h=st.integers(1, 90), tile=st.sampled_from([8, 16, 33, 48]),
+       near=st.sampled_from([0.01, 0.1, 1.0]))
+def test_random_scenes_are_exact(gl, seed, n, fov, w, h, tile, near):
+    rng = np.random.default_rng(seed)
+    lights = random_lights(rng, n, (-25, -2, -45), (25, 10, 12), radius=(0.05, 12.0))
+    cam = Camera((0.0, 2.0, 8.0), (rng.uniform(-3, 3), 1.0, -20.0), fov_y_deg=fov, near=near, far=300.0)
+    scene = make_scene(lights, size=(w, h), camera=cam)
+    assert_exact(render_all(scene, Options(tile=tile, slices=int(rng.integers(2, 24)))), f"seed {seed}")

@@ -1,0 +1,62 @@
+"""Shader loader: #include with #line, defines after #version, unknown defines an error,
+compile errors that name the file and line; the program cache."""
+import pytest
+
+from app import shaders
+from app.shaders import ProgramCache, ShaderError, Source
+
+MAIN = '#version 430\n// define: N\nlayout(local_size_x = 1) in;\n#include "inc.glsl"\nvoid main() { f(); }\n'
+
+
+def test_include_is_wrapped_in_line_directives():
+    src = Source("main.comp", {"main.comp": MAIN, "inc.glsl": "void f() {}\n"})
+    text = src.text({"N": 3})
+    lines = text.splitlines()
+    assert lines[0] == "#version 430" and lines[1] == "#define N 3" and lines[2] == "#line 2 0"
+    i = lines.index("#line 1 1")
+    assert lines[i + 1] == "void f() {}" and lines[i + 2] == "#line 5 0"
+
+
+def test_unknown_define_is_an_error():
+    src = Source("main.comp", {"main.comp": MAIN, "inc.glsl": ""})
+    with pytest.raises(ShaderError, match="unknown define.*TYPO"):
+        src.text({"TYPO": 1})
+
+
+def test_missing_include_and_cycles_are_errors():
+    with pytest.raises(ShaderError, match="not found: nope.glsl"):
+        Source("m", {"m": '#version 430\n#include "nope.glsl"\n'})
+    with pytest.raises(ShaderError, match="cycle"):
+        Source("m", {"m": '#version 430\n#include "a"\n', "a": '#include "b"\n', "b": '#include "a"\n'})
+
+
+def test_include_depth_is_limited():
+    files = {f"f{i}": f'#include "f{i + 1}"\n' for i in range(40)}
+    files["m"] = '#version 430\n#include "f0"\n'
+    with pytest.raises(ShaderError, match="deeper than"):
+        Source("m", files)
+
+
+def test_compile_error_names_included_file_and_line(gl):
+    cache = ProgramCache(gl)
+    bad = {"main.comp": MAIN, "inc.glsl": "void f() {\n  float x = ;\n}\n"}
+    with pytest.raises(ShaderError) as e:
+        cache.compute("main.comp", {"N": 1}, bad)
+    assert "inc.glsl:2" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_cache_reuses_programs_and_recompiles_on_define_change(gl):
+    cache = ProgramCache(gl)
+    files = {"main.comp": MAIN, "inc.glsl": "void f() {}\n"}
+    a = cache.compute("main.comp", {"N": 1}, files)
+    assert cache.compute("main.comp", {"N": 1}, files) is a
+    assert cache.compute("main.comp", {"N": 2}, files) is not a
+
+
+def test_every_glsl_file_is_reachable():
+    used = set()
+    for comp in shaders.GLSL_DIR.glob("*.comp"):
+        from app import features
+        used |= set(Source(comp.name, features.virtual_files(("point", "spot"))).files)
+    missing = {p.name for p in shaders.GLSL_DIR.glob("*.glsl")} - used
+    assert not missing, f"unused shader files: {missing}"
