@@ -115,7 +115,7 @@ class Renderer:
             build = technique.build(FrameInput(lights, cam, max_depth), opts)
         except LimitError as exc:
             raise UserError(str(exc)) from None
-        features = feat.feature_set(build.lights.view.type)
+        features = feat.feature_set(build.lights.type)
 
         t0 = time.perf_counter()
         for name, array in build.buffers.items():

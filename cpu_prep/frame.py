@@ -1,7 +1,7 @@
 """The CPU stage of one frame, as timed steps shared by every technique (tree paper 4.1:
 cull, sort, bin, build, pack; upload is timed by the app).
 
-    prepare_lights():  view transform + frustum cull  ->  depth sort  ->  GPU_LIGHT / GPU_BOUND
+    prepare_lights():  view transform + frustum cull -> depth sort -> GPU_LIGHT / GPU_BOUND
     bin_cells():       conservative cell boxes -> CSR per-cell lists (depth-sorted)
 """
 from __future__ import annotations
@@ -12,9 +12,12 @@ import time
 
 import numpy as np
 
-from . import bounds, grid as gridmod, lights as lightsmod
+from . import grid as gridmod, lights as lightsmod
 from .camera import FrameCamera
+from .lights import PreparedLights
 from .limits import MAX_STORAGE_BYTES, LimitError
+
+__all__ = ["StageTimes", "PreparedLights", "prepare_lights", "bin_cells", "check_buffer"]
 
 
 @dataclass
@@ -28,37 +31,22 @@ class StageTimes:
         self.ms[name] = self.ms.get(name, 0.0) + (time.perf_counter() - t0) * 1e3
 
 
-@dataclass
-class PreparedLights:
-    view: lightsmod.ViewLights   # visible lights, depth-sorted
-    gpu: np.ndarray              # GPU_LIGHT, same order
-    bounds: np.ndarray           # GPU_BOUND, same order
-    depth_lo: np.ndarray         # float32, rounded down: conservative depth range per light
-    depth_hi: np.ndarray         # float32, rounded up
-
-
 def prepare_lights(scene_lights: np.ndarray, cam: FrameCamera, times: StageTimes,
                    sort_buckets: int = 0) -> PreparedLights:
     with times.stage("cull"):
-        vl = lightsmod.view_lights(scene_lights, cam)
-        vl = vl.take(lightsmod.frustum_cull(vl, cam))
+        vis, pos, dirs, center, brad = lightsmod.view_and_cull(scene_lights, cam)
     with times.stage("sort"):
-        vl = vl.take(lightsmod.depth_sort(vl.depth, sort_buckets))
+        order = lightsmod.depth_order(-center[:, 2], sort_buckets)
     with times.stage("pack"):
-        gpu, bnd = lightsmod.pack_lights(vl)
-        lo, hi = vl.depth_range
-        # round outwards to float32 so the GPU's float32 depth comparisons stay conservative
-        lo32 = np.nextafter(lo.astype(np.float32), np.float32(-np.inf))
-        hi32 = np.nextafter(hi.astype(np.float32), np.float32(np.inf))
-    return PreparedLights(vl, gpu, bnd, lo32, hi32)
+        pl = lightsmod.pack(vis, pos, dirs, center, brad, order, scene_lights)
+    check_buffer("light buffer", pl.gpu.nbytes)
+    return pl
 
 
 def bin_cells(pl: PreparedLights, cam: FrameCamera, grid: gridmod.Grid, times: StageTimes):
     """CSR (offsets, entries) of the depth-sorted visible lights over the grid's cells."""
     with times.stage("bin"):
-        rect = bounds.screen_rects(pl.view.center, pl.view.bound_radius, cam)
-        lo, hi = pl.view.depth_range
-        boxes = gridmod.cell_boxes(grid, rect, lo, hi)
+        boxes = gridmod.light_boxes(grid, cam, pl.center, pl.bound_radius)
         offsets, entries = gridmod.scatter(grid, boxes)
     check_buffer("light index list", entries.nbytes)
     return offsets, entries

@@ -15,6 +15,7 @@ import math
 import numba
 import numpy as np
 
+from .bounds import pixel_rect
 from .camera import FrameCamera
 from .limits import SLICE_DEPTH_REL_MARGIN
 
@@ -52,13 +53,9 @@ class Grid:
         return 1.0 - self.log_min * self.slice_scale if self.slices > 1 else 0.0
 
     def slice_of(self, depth) -> np.ndarray:
-        """Listing 4 (with the scale corrected), float64; depth <= 0 goes to slice 0."""
-        depth = np.asarray(depth, np.float64)
-        if self.slices == 1:
-            return np.zeros(depth.shape, np.int64)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            s = np.log(np.where(depth > 0, depth, 1e-300)) * self.slice_scale + self.slice_bias
-        return np.minimum(np.maximum(s, 0.0).astype(np.int64), self.slices - 1)
+        """Listing 4 (scale corrected) for an array of depths; depth <= 0 goes to slice 0."""
+        return _slices_of(np.ascontiguousarray(depth, np.float64).ravel(), self.slice_scale,
+                          self.slice_bias, self.slices).reshape(np.shape(depth))
 
     def slice_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Depth range [near, far) of each slice; slice 0 starts at 0, the last ends at inf."""
@@ -80,46 +77,111 @@ def make_grid(cam: FrameCamera, tile: int, slices: int, max_depth: float,
     return Grid(cam.width, cam.height, tile, slices, math.log(min_depth), math.log(max_depth))
 
 
-def cell_boxes(grid: Grid, rect, depth_lo, depth_hi):
-    """Each light's inclusive box of cells: (tx0, tx1, ty0, ty1, s0, s1) as int32 arrays,
-    clamped to the grid.  Boxes of lights off the screen come out empty (tx0 > tx1 ...)."""
-    x0, x1, y0, y1 = rect
-    t = grid.tile
-    # floor of the continuous pixel extent: pixel p (centre p + 0.5) is in tile p // t
-    tx0 = np.maximum(np.floor(x0 / t), 0)
-    tx1 = np.minimum(np.floor(x1 / t), grid.tiles_x - 1)
-    ty0 = np.maximum(np.floor(y0 / t), 0)
-    ty1 = np.minimum(np.floor(y1 / t), grid.tiles_y - 1)
-    s0 = grid.slice_of(depth_lo * (1 - SLICE_DEPTH_REL_MARGIN))
-    s1 = grid.slice_of(depth_hi * (1 + SLICE_DEPTH_REL_MARGIN))
-    return tuple(a.astype(np.int32) for a in (tx0, tx1, ty0, ty1, s0, s1))
+@numba.njit(inline="always")
+def slice_index(depth, scale, bias, slices):
+    """Tree paper listing 4 with the scale corrected (see Grid); depth <= 0 -> slice 0."""
+    if slices == 1 or depth <= 0.0:
+        return 0
+    s = max(math.log(depth) * scale + bias, 0.0)
+    return int(min(s, slices - 1.0))
+
+
+@numba.njit(cache=True)
+def _slices_of(depth, scale, bias, slices):
+    out = np.empty(depth.shape[0], np.int64)
+    for i in range(depth.shape[0]):
+        out[i] = slice_index(depth[i], scale, bias, slices)
+    return out
+
+
+@numba.njit(inline="always")
+def _box(x0, x1, y0, y1, d_lo, d_hi, tile, tiles_x, tiles_y, slices, scale, bias):
+    """Inclusive cell box (tx0, tx1, ty0, ty1, s0, s1) of a pixel rectangle and a depth
+    range, clamped to the grid; empty (tx0 > tx1 ...) off screen.  Pixel p (centre p+0.5)
+    lies in tile p // tile.  The depth range widens by SLICE_DEPTH_REL_MARGIN."""
+    tx0 = int(max(math.floor(x0 / tile), 0.0))
+    tx1 = int(min(math.floor(x1 / tile), tiles_x - 1.0))
+    ty0 = int(max(math.floor(y0 / tile), 0.0))
+    ty1 = int(min(math.floor(y1 / tile), tiles_y - 1.0))
+    s0 = slice_index(d_lo * (1.0 - SLICE_DEPTH_REL_MARGIN), scale, bias, slices)
+    s1 = slice_index(d_hi * (1.0 + SLICE_DEPTH_REL_MARGIN), scale, bias, slices)
+    return tx0, tx1, ty0, ty1, s0, s1
 
 
 @numba.njit(cache=True, nogil=True)
-def _scatter(tx0, tx1, ty0, ty1, s0, s1, tiles_x, tiles_y, cells):
-    n = tx0.shape[0]
+def _boxes_from_rects(rect, d_lo, d_hi, tile, tiles_x, tiles_y, slices, scale, bias):
+    out = np.empty((rect.shape[0], 6), np.int32)
+    for i in range(rect.shape[0]):
+        out[i] = _box(rect[i, 0], rect[i, 1], rect[i, 2], rect[i, 3], d_lo[i], d_hi[i],
+                      tile, tiles_x, tiles_y, slices, scale, bias)
+    return out
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _light_boxes(center, radius, near, tan_x, tan_y, width, height,
+                 tile, tiles_x, tiles_y, slices, scale, bias):
+    out = np.empty((center.shape[0], 6), np.int32)
+    for i in numba.prange(center.shape[0]):
+        cx, cy, cz, r = center[i, 0], center[i, 1], center[i, 2], radius[i]
+        x0, x1, y0, y1 = pixel_rect(cx, cy, cz, r, near, tan_x, tan_y, width, height)
+        out[i] = _box(x0, x1, y0, y1, -cz - r, -cz + r, tile, tiles_x, tiles_y, slices, scale, bias)
+    return out
+
+
+def _grid_args(grid: Grid):
+    return (float(grid.tile), grid.tiles_x, grid.tiles_y, grid.slices, grid.slice_scale, grid.slice_bias)
+
+
+def cell_boxes(grid: Grid, rect, depth_lo, depth_hi) -> np.ndarray:
+    """(N, 6) int32 boxes (tx0, tx1, ty0, ty1, s0, s1) from pixel rectangles and depth ranges."""
+    r = np.ascontiguousarray(np.stack(rect, 1), np.float64)
+    return _boxes_from_rects(r, np.ascontiguousarray(depth_lo, np.float64),
+                             np.ascontiguousarray(depth_hi, np.float64), *_grid_args(grid))
+
+
+def light_boxes(grid: Grid, cam: FrameCamera, center, radius) -> np.ndarray:
+    """(N, 6) boxes of culling spheres: Mara-McGuire rectangle and depth range per light."""
+    return _light_boxes(center, radius, cam.near, cam.tan_half_x, cam.tan_half_y,
+                        float(cam.width), float(cam.height), *_grid_args(grid))
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _scatter(boxes, tiles_x, tiles_y, slices, bands):
+    """Two passes (count, fill) over every light's box.  The slices are split into `bands`
+    handled in parallel: each band walks all lights in order but writes only its own
+    cells, so lists stay in light order and the result does not depend on the threads."""
+    n = boxes.shape[0]
+    per_slice = tiles_x * tiles_y
+    cells = per_slice * slices
     offsets = np.zeros(cells + 1, np.int64)
-    for i in range(n):
-        for s in range(s0[i], s1[i] + 1):
-            for ty in range(ty0[i], ty1[i] + 1):
-                row = (s * tiles_y + ty) * tiles_x
-                for tx in range(tx0[i], tx1[i] + 1):
-                    offsets[row + tx + 1] += 1
+    for band in numba.prange(bands):
+        s_lo, s_hi = band * slices // bands, (band + 1) * slices // bands
+        for i in range(n):
+            s0, s1 = max(boxes[i, 4], s_lo), min(boxes[i, 5], s_hi - 1)
+            for s in range(s0, s1 + 1):
+                for ty in range(boxes[i, 2], boxes[i, 3] + 1):
+                    row = (s * tiles_y + ty) * tiles_x + 1
+                    for tx in range(boxes[i, 0], boxes[i, 1] + 1):
+                        offsets[row + tx] += 1
     for c in range(cells):
         offsets[c + 1] += offsets[c]
     entries = np.empty(offsets[cells], np.uint32)
     cursor = offsets[:cells].copy()
-    for i in range(n):
-        for s in range(s0[i], s1[i] + 1):
-            for ty in range(ty0[i], ty1[i] + 1):
-                row = (s * tiles_y + ty) * tiles_x
-                for tx in range(tx0[i], tx1[i] + 1):
-                    entries[cursor[row + tx]] = i
-                    cursor[row + tx] += 1
+    for band in numba.prange(bands):
+        s_lo, s_hi = band * slices // bands, (band + 1) * slices // bands
+        for i in range(n):
+            s0, s1 = max(boxes[i, 4], s_lo), min(boxes[i, 5], s_hi - 1)
+            for s in range(s0, s1 + 1):
+                for ty in range(boxes[i, 2], boxes[i, 3] + 1):
+                    row = (s * tiles_y + ty) * tiles_x
+                    for tx in range(boxes[i, 0], boxes[i, 1] + 1):
+                        entries[cursor[row + tx]] = i
+                        cursor[row + tx] += 1
     return offsets, entries
 
 
 def scatter(grid: Grid, boxes) -> tuple[np.ndarray, np.ndarray]:
-    """CSR (offsets int64 of length cells+1, entries uint32) of lights per cell; `boxes`
-    from cell_boxes() for lights in depth order, so each cell's entries are depth-sorted."""
-    return _scatter(*boxes, grid.tiles_x, grid.tiles_y, grid.cells)
+    """CSR (offsets int64 of length cells+1, entries uint32) of lights per cell; `boxes` of
+    lights in depth order, so each cell's entries come out depth-sorted."""
+    bands = min(grid.slices, max(numba.get_num_threads(), 1))
+    return _scatter(boxes, grid.tiles_x, grid.tiles_y, grid.slices, bands)

@@ -9,23 +9,33 @@ slice reach to infinity; their extent is clipped to the scene's max depth.
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from .grid import Grid
 
 
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _choose(offsets, entries, depth_lo, depth_hi, slice_lo, slice_hi, per_slice, radius_scale):
+    cells = offsets.shape[0] - 1
+    out = np.zeros(cells, np.bool_)
+    for c in numba.prange(cells):
+        n = offsets[c + 1] - offsets[c]
+        if n == 0:
+            continue
+        s = c // per_slice
+        lo, hi = slice_lo[s], slice_hi[s]
+        total = 0.0
+        for e in range(offsets[c], offsets[c + 1]):
+            i = entries[e]
+            total += max(min(float(depth_hi[i]), hi) - max(float(depth_lo[i]), lo), 0.0)
+        out[c] = total / n < 0.5 * (hi - lo) * radius_scale
+    return out
+
+
 def choose_trees(grid: Grid, offsets, entries, depth_lo, depth_hi, max_depth: float,
                  radius_scale: float = 1.0) -> np.ndarray:
-    counts = np.diff(offsets)
-    per_slice = grid.tiles_x * grid.tiles_y
     lo_s, hi_s = grid.slice_bounds()
     hi_s = np.minimum(hi_s, max(max_depth, lo_s[-1]))
-    cell_slice = np.repeat(np.arange(grid.slices), per_slice)
-    entry_cell = np.repeat(np.arange(grid.cells), counts)
-    c_lo = lo_s[cell_slice][entry_cell]
-    c_hi = hi_s[cell_slice][entry_cell]
-    clipped = np.minimum(depth_hi[entries], c_hi) - np.maximum(depth_lo[entries], c_lo)
-    sums = np.bincount(entry_cell, weights=np.maximum(clipped, 0.0), minlength=grid.cells)
-    radius = 0.5 * (hi_s - lo_s)[cell_slice] * radius_scale
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return (counts > 0) & (sums / np.maximum(counts, 1) < radius)
+    return _choose(offsets, entries, depth_lo, depth_hi, lo_s, hi_s,
+                   grid.tiles_x * grid.tiles_y, float(radius_scale))

@@ -10,6 +10,7 @@ two to each other (and a GL test round-trips a buffer through a shader).
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from . import limits
@@ -94,14 +95,30 @@ def glsl_declarations() -> str:
 
 # ---- tree node bits, written once ----
 
+@numba.njit(inline="always")
+def node_bits(is_leaf, count, skip):
+    """isLeaf in bit 0, lightCount in bits 1-16, skipCount in bits 17-31 (listing 1).
+    Callers guarantee the widths (tree.leaves_per_cell); pack_node_bits checks them."""
+    return np.uint32((is_leaf & 1) | (count << 1) | (skip << (1 + limits.NODE_COUNT_BITS)))
+
+
+@numba.njit(cache=True)
+def _pack_bits(is_leaf, count, skip):
+    out = np.empty(is_leaf.shape[0], np.uint32)
+    for i in range(out.shape[0]):
+        out[i] = node_bits(is_leaf[i], count[i], skip[i])
+    return out
+
+
 def pack_node_bits(is_leaf, count, skip) -> np.ndarray:
-    """isLeaf in bit 0, lightCount in bits 1-16, skipCount in bits 17-31 (listing 1)."""
-    is_leaf, count, skip = (np.asarray(a, np.int64) for a in (is_leaf, count, skip))
+    """node_bits for arrays, refusing values that would not fit their bit fields."""
+    shape = np.broadcast(is_leaf, count, skip).shape
+    is_leaf, count, skip = (np.broadcast_to(np.asarray(a, np.int64), shape).ravel() for a in (is_leaf, count, skip))
     if count.size and (count.min() < 0 or count.max() > limits.NODE_MAX_LIGHTS):
         raise limits.LimitError(f"tree node light count {count.max()} exceeds 16 bits")
     if skip.size and (skip.min() < 0 or skip.max() > limits.NODE_MAX_SKIP):
         raise limits.LimitError(f"tree node skip count {skip.max()} exceeds 15 bits")
-    return ((is_leaf & 1) | (count << 1) | (skip << (1 + limits.NODE_COUNT_BITS))).astype(np.uint32)
+    return _pack_bits(is_leaf, count, skip).reshape(shape)
 
 
 def unpack_node_bits(bits):

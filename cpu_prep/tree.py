@@ -4,8 +4,9 @@ lights, converted from breadth-first to depth-first with precomputed tables, ski
 for the stackless traversal of listing 3, packed into the 16-byte node of listing 1.
 
     CellRange[cell] = (first node, node count) -> TreeNode[] (depth-first, one tree per cell)
-    TreeNode leaf: (minDepth, maxDepth, firstLightIndex, isLeaf | count | skip)
-                                           -> entries[firstLightIndex ..+count] -> GpuLight[]
+    TreeNode: (minDepth, maxDepth, firstLightIndex, isLeaf | lightCount | skipCount)
+    leaf -> entries[firstLightIndex .. +lightCount] -> GpuLight[]
+    64 leaves = 127 nodes = 2 KiB a tree
 
 A cell stored as a list is a one-node tree whose root is a leaf (paper 3.4).  Fallback for
 the 16-bit light count: a cell whose lights would overflow one leaf gets more leaves
@@ -15,9 +16,11 @@ from __future__ import annotations
 
 from functools import lru_cache
 
+import numba
 import numpy as np
 
 from . import layouts
+from .layouts import node_bits
 from .limits import LimitError, NODE_MAX_LIGHTS, NODE_MAX_SKIP
 
 
@@ -46,6 +49,16 @@ def depth_first_tables(leaves: int):
     return order, skip, skip == 1
 
 
+@lru_cache(maxsize=None)
+def _all_tables(max_leaves: int):
+    """Tables of every power of two up to max_leaves, concatenated; offsets by log2(L)."""
+    sizes = [1 << k for k in range(max_leaves.bit_length())]
+    offs = np.concatenate([[0], np.cumsum([2 * L - 1 for L in sizes])]).astype(np.int64)
+    order = np.concatenate([depth_first_tables(L)[0] for L in sizes])
+    skip = np.concatenate([depth_first_tables(L)[1] for L in sizes])
+    return order, skip, offs
+
+
 def leaves_per_cell(counts, is_tree, lights_per_leaf: int, max_leaves: int) -> np.ndarray:
     """Leaf count of each cell: a power of two near count / lights_per_leaf, capped at
     max_leaves; list cells one leaf; more leaves wherever a leaf would pass 65,535 lights."""
@@ -59,6 +72,54 @@ def leaves_per_cell(counts, is_tree, lights_per_leaf: int, max_leaves: int) -> n
     return np.where(counts > 0, leaves, 0)
 
 
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _build(offsets, entries, depth_lo, depth_hi, leaves, node_start,
+           tab_order, tab_skip, tab_off, nodes_f, nodes_u, chunks):
+    # Trees are independent (paper 4.1: built in parallel); chunks of cells share scratch.
+    for chunk in numba.prange(chunks):
+        _build_cells(offsets, entries, depth_lo, depth_hi, leaves, node_start, tab_order,
+                     tab_skip, tab_off, nodes_f, nodes_u,
+                     chunk * leaves.shape[0] // chunks, (chunk + 1) * leaves.shape[0] // chunks)
+
+
+@numba.njit(nogil=True)
+def _build_cells(offsets, entries, depth_lo, depth_hi, leaves, node_start,
+                 tab_order, tab_skip, tab_off, nodes_f, nodes_u, c_begin, c_end):
+    max_l = max(leaves.max(), 1)
+    bf_min = np.empty(2 * max_l - 1, np.float32)
+    bf_max = np.empty(2 * max_l - 1, np.float32)
+    bf_first = np.empty(2 * max_l - 1, np.int64)
+    bf_count = np.empty(2 * max_l - 1, np.int64)
+    for c in range(c_begin, c_end):
+        L = leaves[c]
+        if L == 0:
+            continue
+        o, n = offsets[c], offsets[c + 1] - offsets[c]
+        # leaves: balanced runs of the cell's depth-sorted lights
+        for j in range(L):
+            a, b = o + (j * n) // L, o + ((j + 1) * n) // L
+            lo, hi = np.float32(np.inf), np.float32(-np.inf)
+            for e in range(a, b):
+                lo = min(lo, depth_lo[entries[e]])
+                hi = max(hi, depth_hi[entries[e]])
+            q = L - 1 + j
+            bf_min[q], bf_max[q], bf_first[q], bf_count[q] = lo, hi, a, b - a
+        # parents bottom-up, breadth-first numbering
+        for q in range(L - 2, -1, -1):
+            bf_min[q] = min(bf_min[2 * q + 1], bf_min[2 * q + 2])
+            bf_max[q] = max(bf_max[2 * q + 1], bf_max[2 * q + 2])
+            bf_first[q], bf_count[q] = bf_first[2 * q + 1], 0
+        # breadth-first -> depth-first through the table of this L
+        t = tab_off[int(np.log2(L))]
+        base = node_start[c]
+        for q in range(2 * L - 1):
+            src, skip = tab_order[t + q], tab_skip[t + q]
+            nodes_f[base + q, 0] = bf_min[src]
+            nodes_f[base + q, 1] = bf_max[src]
+            nodes_u[base + q, 2] = bf_first[src]
+            nodes_u[base + q, 3] = node_bits(1 if skip == 1 else 0, bf_count[src], skip)
+
+
 def build_trees(offsets, entries, depth_lo, depth_hi, is_tree,
                 lights_per_leaf: int, max_leaves: int):
     """Trees for every cell of a CSR binning.
@@ -69,75 +130,13 @@ def build_trees(offsets, entries, depth_lo, depth_hi, is_tree,
     counts = np.diff(offsets)
     leaves = leaves_per_cell(counts, is_tree, lights_per_leaf, max_leaves)
     node_counts = np.where(leaves > 0, 2 * leaves - 1, 0)
-    node_start = np.concatenate([[0], np.cumsum(node_counts)])
-    nodes = np.zeros(int(node_start[-1]), layouts.TREE_NODE)
-
-    # Leaves of all cells at once: leaf j of cell c holds entries [start, end), balanced.
-    leaf_cell = np.repeat(np.arange(len(counts)), leaves)
-    first_leaf = np.concatenate([[0], np.cumsum(leaves)])[:-1]
-    j = np.arange(len(leaf_cell)) - first_leaf[leaf_cell]
-    n_c, l_c, o_c = counts[leaf_cell], leaves[leaf_cell], offsets[:-1][leaf_cell]
-    start = o_c + (j * n_c) // l_c
-    end = o_c + ((j + 1) * n_c) // l_c
-    lo_e = depth_lo[entries]
-    hi_e = depth_hi[entries]
-    leaf_min = _segment_reduce(np.minimum, lo_e, start, end, np.float32(np.inf))
-    leaf_max = _segment_reduce(np.maximum, hi_e, start, end, np.float32(-np.inf))
-
-    for L in np.unique(leaves[leaves > 0]).tolist():
-        cells = np.flatnonzero(leaves == L)
-        sel = np.flatnonzero(np.isin(leaf_cell, cells))   # leaves of these cells, in order
-        shape = (len(cells), L)
-        bf_min = _breadth_first(leaf_min[sel].reshape(shape), np.minimum)
-        bf_max = _breadth_first(leaf_max[sel].reshape(shape), np.maximum)
-        bf_first = _breadth_first(start[sel].reshape(shape), np.minimum)
-        bf_count = np.zeros_like(bf_first)
-        bf_count[:, L - 1:] = (end - start)[sel].reshape(shape)
-        order, skip, is_leaf = depth_first_tables(L)
-        dst = node_start[cells][:, None] + np.arange(2 * L - 1)[None, :]
-        nodes["min_depth"][dst] = bf_min[:, order]
-        nodes["max_depth"][dst] = bf_max[:, order]
-        nodes["first_light"][dst] = bf_first[:, order]
-        nodes["bits"][dst] = layouts.pack_node_bits(
-            np.broadcast_to(is_leaf, dst.shape), bf_count[:, order], np.broadcast_to(skip, dst.shape))
-
+    node_start = np.zeros(len(counts) + 1, np.int64)
+    np.cumsum(node_counts, out=node_start[1:])
+    raw = np.zeros((int(node_start[-1]), 4), np.float32)
+    tab_order, tab_skip, tab_off = _all_tables(int(max(leaves.max(initial=1), 1)))
+    _build(offsets, entries, depth_lo, depth_hi, leaves, node_start, tab_order, tab_skip,
+           tab_off, raw, raw.view(np.uint32), 8 * numba.get_num_threads())
     ranges = np.zeros(len(counts), layouts.CELL_RANGE)
     ranges["offset_count"][:, 0] = node_start[:-1]
     ranges["offset_count"][:, 1] = node_counts
-    return ranges, nodes, leaves
-
-
-def _segment_reduce(op, values, start, end, empty):
-    """op.reduceat over [start, end) segments; empty segments give `empty`."""
-    out = np.full(len(start), empty, values.dtype)
-    ok = end > start
-    if ok.any():
-        out[ok] = _reduceat(op, values, start[ok], end[ok])
-    return out
-
-
-def _reduceat(op, values, start, end):
-    # reduceat reduces [start[i], start[i+1]); segments here are contiguous except across
-    # empty ones, so reduce on the boundaries and keep each segment's own result.
-    bounds = np.empty(2 * len(start), np.int64)
-    bounds[0::2], bounds[1::2] = start, end
-    valid = bounds < len(values)
-    r = op.reduceat(values, bounds[valid])
-    full = np.empty(len(bounds), values.dtype)
-    full[valid] = r
-    return full[0::2]
-
-
-def _breadth_first(leaf_values: np.ndarray, op) -> np.ndarray:
-    """(cells, L) leaf values -> (cells, 2L-1) breadth-first tree, parents = op(children),
-    one vectorised step per level."""
-    cells, L = leaf_values.shape
-    bf = np.empty((cells, 2 * L - 1), leaf_values.dtype)
-    bf[:, L - 1:] = leaf_values
-    width = L
-    while width > 1:
-        first_child = width - 1
-        kids = bf[:, first_child:first_child + width].reshape(cells, width // 2, 2)
-        bf[:, width // 2 - 1:width - 1] = op(kids[:, :, 0], kids[:, :, 1])
-        width //= 2
-    return bf
+    return ranges, raw.view(layouts.TREE_NODE).reshape(-1), leaves

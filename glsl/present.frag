@@ -87,7 +87,8 @@ void main() {
     if (u_view == VIEW_HEAT) {
         float vmax = u_heat_max > 0.0 ? u_heat_max : max(float(max_evaluated), 1.0);
         uint e = out_stats[i].x;
-        c = depth > 0.0 ? turbo(float(e) / vmax) : vec3(0.0);
+        // log ramp: a few hot pixels (near lights) do not flatten the rest of the frame
+        c = depth > 0.0 ? turbo(log2(1.0 + float(e)) / log2(1.0 + vmax)) : vec3(0.0);
         if (depth > 0.0 && e == 0u) c = vec3(0.07);
     } else if (u_view == VIEW_CLASSES) {
         int gw = (u_size.x + 7) / 8;

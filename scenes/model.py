@@ -26,7 +26,7 @@ LIGHT_DTYPE = np.dtype([
     ("direction", np.float32, 3),   # unit vector, spot lights only
     ("cos_inner", np.float32),
     ("cos_outer", np.float32),
-])
+], align=True)   # aligned fields: the CPU stage's numba kernels read records directly
 
 
 def make_lights(n: int) -> np.ndarray:

@@ -50,7 +50,7 @@ def test_scatter_lists_every_light_in_its_box_depth_sorted(seed):
     dlo = rng.uniform(-5, 120, n)
     boxes = gridmod.cell_boxes(g, rect, dlo, dlo + rng.uniform(0, 50, n))
     offsets, entries = gridmod.scatter(g, boxes)
-    tx0, tx1, ty0, ty1, s0, s1 = boxes
+    tx0, tx1, ty0, ty1, s0, s1 = boxes.T
     expect = [[] for _ in range(g.cells)]
     for i in range(n):
         for s in range(s0[i], s1[i] + 1):

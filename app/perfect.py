@@ -1,0 +1,167 @@
+"""The perfect culler: the physical limit on every cost plot of the benchmark.
+
+Outside the timed region it builds, for every pixel, the exact list of the lights that affect
+it; then it times the same shading loop every technique runs (evaluate_light) over exactly
+those lists.  Its shading time is the floor no culling structure can beat with this shading
+loop, and its culling waste (evaluated / contrib_count) is exactly 1.0.
+
+    untimed:  perfect_count.comp  G-buffer x lights[] -> perfect_counts[pixel]
+              CPU prefix sum      -> perfect_ranges[pixel] = (first entry, count), per band
+              perfect_fill.comp   -> perfect_entries[] (light indices, depth order)
+    timed:    shade_perfect.comp  perfect_ranges -> perfect_entries -> lights[]
+
+Both set-up passes decide "affects" with evaluate_light itself, so the lists are exact by
+construction (the same float32 function on the same inputs).  The image is cut into bands of
+whole 8x8 groups when the entries of the whole image would not fit one storage block (e.g.
+65,536 lights at 1920x1080: ~50 lights a pixel = 400 MiB); the shading time is then the sum
+of the bands' dispatches.
+
+It is not a technique of the registry (it needs the G-buffer before its "CPU stage" and its
+structure is never shippable); app.bench runs it beside them.  It drives the Renderer's
+G-buffer, program cache, timer and named buffers, and binds its own buffers at 10-12.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from . import features as feat
+from .errors import UserError
+from .techniques import FrameInput, Options
+from .techniques.base import prepare
+
+NAME = "perfect"
+BINDINGS = {"perfect_counts": 10, "perfect_ranges": 11, "perfect_entries": 12}
+
+
+class PerfectCuller:
+    name = NAME
+    summary = "exact per-pixel light lists built untimed (the shading floor)"
+    shader = "shade_perfect.comp"
+
+    def __init__(self, renderer, max_band_bytes: int | None = None):
+        self.r = renderer
+        self.max_band_bytes = int(max_band_bytes or renderer.limits.max_storage_block)
+        self.buffers: dict[str, object] = {}
+        self.last_setup_ms: dict[str, float] = {}
+
+    def _buffer(self, name: str, nbytes: int):
+        nbytes = max(int(nbytes), 16)
+        buf = self.buffers.get(name)
+        if buf is None or buf.size < nbytes:
+            if buf is not None:
+                buf.release()
+            buf = self.r.ctx.buffer(reserve=nbytes)
+            self.buffers[name] = buf
+        buf.bind_to_storage_buffer(BINDINGS[name])
+        return buf
+
+    def bands(self, counts: np.ndarray) -> list[tuple[int, int, int]]:
+        """(first row, end row, entries) of each band, GL row order; rows in whole groups of
+        8 so that a band's dispatch lines up with the 8x8 waves."""
+        h = counts.shape[0]
+        per_group_row = [int(counts[y:y + 8].sum()) for y in range(0, h, 8)]
+        cap = self.max_band_bytes // 4
+        out, start, total = [], 0, 0
+        for g, n in enumerate(per_group_row):
+            if n > cap:
+                raise UserError(f"perfect culler: 8 rows need {n * 4 >> 20} MiB of light indices, "
+                                f"over the {self.max_band_bytes >> 20} MiB storage-block limit")
+            if total + n > cap:
+                out.append((start * 8, g * 8, total))
+                start, total = g, 0
+            total += n
+        out.append((start * 8, h, total))
+        return out
+
+    def render(self, frame: int = 0, opts: Options | None = None, frames: int = 64,
+               lights: np.ndarray | None = None, readback: bool = True, camera=None,
+               extra_defines: dict | None = None):
+        """One frame, as Renderer.render: a FrameResult (or None, figures in last_meta) whose
+        gpu_ms holds gbuffer and shade only; the untimed set-up is in meta['setup_ms']."""
+        r = self.r
+        opts = opts or Options()
+        cam = camera or r.camera(frame, frames)
+        w, h = r.size
+        lights = r.scene.lights if lights is None else lights
+        max_depth = r.scene.max_depth or cam.far
+
+        r.timer.run("gbuffer", lambda: r.gbuffer.draw(cam))
+        build = prepare(FrameInput(lights, cam, max_depth), opts)   # cull, sort, pack: timed
+        t0 = time.perf_counter()
+        r._upload("lights", build.buffers["lights"])
+        upload_ms = (time.perf_counter() - t0) * 1e3
+        gpu_ms = r.timer.take()
+
+        features = feat.feature_set(build.lights.gpu["id_type"][:, 1])   # GPU layout: y = type
+        virtual = feat.virtual_files(features)
+        defines = dict(LIGHTS_DUPLICATED=0, WAVE_NATIVE=0, **(extra_defines or {}))
+        n_lights = len(build.lights.gpu)
+        r.gbuffer.bind()
+        groups_x = math.ceil(w / 8)
+        r._buffer("out_color", w * h * 16)
+        r._buffer("out_stats", w * h * 16)
+        r._buffer("wave_stats", groups_x * math.ceil(h / 8) * 16)
+        r._bind(("lights", "out_color", "out_stats", "wave_stats"))
+
+        def program(name):
+            prog = self.r.programs.compute(name, defines, virtual)
+            for k, v in dict(u_size=(w, h), u_light_count=n_lights, u_row0=0).items():
+                if k in prog:
+                    prog[k].value = v
+            return prog
+
+        # ---- untimed set-up: count, prefix sum, fill (per band) --------------------------
+        setup = {}
+        t0 = time.perf_counter()
+        counts_buf = self._buffer("perfect_counts", w * h * 4)
+        prog = program("perfect_count.comp")
+        prog.run(groups_x, math.ceil(h / 8), 1)
+        counts = np.frombuffer(counts_buf.read(size=w * h * 4), np.uint32).reshape(h, w)
+        setup["count"] = (time.perf_counter() - t0) * 1e3
+
+        bands = self.bands(counts)
+        fill, shade = program("perfect_fill.comp"), program(self.shader)
+        fill_ms = 0.0
+        entries_total = 0
+        for y0, y1, n in bands:
+            t0 = time.perf_counter()
+            c = counts[y0:y1].ravel().astype(np.uint64)
+            ranges = np.zeros((len(c), 2), np.uint32)
+            ranges[1:, 0] = np.cumsum(c)[:-1]
+            ranges[:, 1] = c
+            self._buffer("perfect_ranges", ranges.nbytes).write(ranges.tobytes())
+            self._buffer("perfect_entries", n * 4)
+            band_groups = (groups_x, math.ceil((y1 - y0) / 8), 1)
+            for p in (fill, shade):
+                if "u_row0" in p:
+                    p["u_row0"].value = y0
+            fill.run(*band_groups)
+            r.ctx.finish()
+            fill_ms += (time.perf_counter() - t0) * 1e3
+            entries_total += n
+            r.timer.run("shade", lambda: shade.run(*band_groups))   # the timed region
+        setup["fill"] = fill_ms
+        self.last_setup_ms = setup
+        gpu_ms.update(r.timer.take())
+
+        meta = {
+            "technique": NAME, "options": opts.as_dict(), "features": list(features),
+            "wave": "emulated-64", "cpu_ms": dict(build.times.ms, upload=upload_ms),
+            "gpu_ms": gpu_ms, "setup_ms": setup,
+            "bytes": {"lights": int(build.buffers["lights"].nbytes),
+                      "perfect_ranges": int(w * h * 8), "perfect_entries": int(entries_total * 4)},
+            "stats": dict(build.stats, bands=len(bands), list_entries=entries_total),
+            "resolution": [w, h], "frame": frame, "renderer": r.limits.renderer,
+        }
+        r.last_meta = meta
+        if not readback:
+            return None
+        return r._read(meta, (groups_x, math.ceil(h / 8)))
+
+    def release(self) -> None:
+        for b in self.buffers.values():
+            b.release()
+        self.buffers.clear()

@@ -1,0 +1,22 @@
+#version 430
+// Perfect culler, the timed pass: the shading loop over exactly the lights that affect the
+// pixel (its culling waste is 1.0 by construction).  Its time is the floor every technique's
+// shading pass is measured against.
+#include "generated.glsl"
+#include "wave.glsl"
+#include "common.glsl"
+#include "perfect_common.glsl"
+
+layout(std430, binding = B_PERFECT_RANGES) readonly buffer PerfectRanges { uvec2 perfect_ranges[]; };
+layout(std430, binding = B_PERFECT_ENTRIES) readonly buffer PerfectEntries { uint perfect_entries[]; };
+
+void main() {
+    PixelState s = perfect_load_pixel();
+    if (s.shading) {
+        uvec2 r = perfect_ranges[perfect_band_index(s)];
+        for (uint k = r.x; k < r.x + r.y; ++k) evaluate_light(s, lights[perfect_entries[k]]);
+    }
+    store_pixel(s);
+    uint longest = groupAllMax(s.evaluated);
+    if (gl_LocalInvocationIndex == 0u) wave_stats[perfect_group_index()] = uvec4(longest, 1u, 0u, 0u);
+}
