@@ -286,7 +286,7 @@ def fig_heat(rows, maps, out, info) -> tuple[str | None, list[str]]:
     if not keys:
         return None, []
     panels = [(k.split("/", 1)[1], maps[k]) for k in keys]
-    if "exact" in maps:
+    if "exact" in maps and f"evaluated/{PERFECT}" not in maps:
         panels.append(("exact (lights affecting)", maps["exact"]))
     vals = np.concatenate([m.ravel() for _, m in panels])
     pos = vals[vals > 0]

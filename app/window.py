@@ -405,12 +405,14 @@ def _window_config_class():
             """Figures for the HUD: the renderer's meta when it keeps one, else the Build."""
             ctx, r = self.ctx, self.renderer
             w, h = r.size
+            ctx.memory_barrier()        # the shade pass's storage writes before our reads
             self.view_stats.clear()
             r.gbuffer.position.use(0)
             r.buffers["out_stats"].bind_to_storage_buffer(self.feat.BINDINGS["out_stats"])
             self.view_stats.bind_to_storage_buffer(self.b_view)
             self.stats_prog["u_size"].value = (w, h)
             self.stats_prog.run(math.ceil(w / 8), math.ceil(h / 8), 1)
+            ctx.memory_barrier()
             s = np.frombuffer(self.view_stats.read(), np.uint32).astype(np.float64)
             covered = s[0]
             meta = getattr(r, "last_meta", None)

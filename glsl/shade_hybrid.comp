@@ -28,10 +28,11 @@ void main() {
         load_shared_tree(base, groupAllMax(r.y));
         if (s.shading) traverse_shared_tree(s, r.y);
     } else if (waveActiveAllTrue(!is_tree)) {
-        // a) lists only: the root is the leaf, no depth test (paper 3.4)
+        // a) lists only: one node each, the root is the leaf (paper 3.4: "a dependent
+        //    fetch and a bit test"); no loop
         if (is_list) {
-            TreeNode n = nodes[r.x];
-            evaluate_list(s, n.first_light, node_light_count(n.bits));
+            uint i = 0u;
+            visit_node(s, nodes[r.x], i);
         }
     } else if (waveActiveAllTrue(is_tree || !s.shading)) {
         // b) trees only

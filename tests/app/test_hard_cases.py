@@ -31,7 +31,7 @@ from app.dump import mix
 from app.errors import UserError
 from app.renderer import Renderer
 from app.techniques import REGISTRY, FrameInput, Options
-from cpu_prep import grid as gridmod, layouts, lights as lightsmod
+from cpu_prep import grid as gridmod, layouts
 from cpu_prep.camera import frame_camera
 from cpu_prep.limits import NODE_MAX_LIGHTS, NODE_MAX_SKIP
 from scenes.geometry import box_mesh
@@ -172,13 +172,11 @@ def reference_counts(pos4, cam, lights, chunk_elems: int = 1 << 22):
     h, w = pos4.shape[:2]
     P = pos4[..., :3].reshape(-1, 3).astype(np.float64)
     covered = pos4[..., 3].reshape(-1) > 0
-    vl = lightsmod.view_lights(lights, cam)
-    L = vl.pos.astype(np.float64)
-    r = vl.radius.astype(np.float64)
-    D = vl.direction.astype(np.float64)
-    cos_o = vl.cos_outer.astype(np.float64)
-    spot = vl.type == 1
-    ids = mix(vl.ids)
+    L, D = view_space(lights, cam)
+    r = lights["radius"].astype(np.float64)
+    cos_o = lights["cos_outer"].astype(np.float64)
+    spot = lights["type"] == 1
+    ids = mix(np.arange(len(lights), dtype=np.uint32))
     lo = np.zeros(len(P), np.int64)
     hi = np.zeros(len(P), np.int64)
     hsh = np.zeros(len(P), np.uint32)
@@ -207,6 +205,22 @@ def reference_counts(pos4, cam, lights, chunk_elems: int = 1 << 22):
         hi += maybe.sum(1)
         hsh ^= np.bitwise_xor.reduce(np.where(sure, ids[None, sl], np.uint32(0)), axis=1)
     return lo.reshape(h, w), hi.reshape(h, w), hsh.reshape(h, w)
+
+
+def view_space(lights, cam):
+    """Light positions and directions in view space, float32 as the GPU receives them
+    (float64 transform, rounded once), returned as float64."""
+    m = cam.view_from_world
+    pos = (lights["position"].astype(np.float64) @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
+    d = lights["direction"].astype(np.float64) @ m[:3, :3].T
+    d = (d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-30)).astype(np.float32)
+    return pos.astype(np.float64), d.astype(np.float64)
+
+
+def visible_count(f, lights, opts=None) -> int:
+    """Lights the CPU stage keeps (frustum cull) for this frame."""
+    b = REGISTRY["brute"].build(FrameInput(lights, f.cam, f.scene.max_depth), opts or Options())
+    return int(b.stats["visible_lights"])
 
 
 def concat(*arrays):
@@ -254,8 +268,8 @@ def test_camera_inside_many_lights(gl, seed, n):
             L["radius"] * rng.uniform(0, 0.95, n))[:, None]
         L["radius"][:1], L["type"][:1] = 20.0, 0   # at least one point light reaches the floor
         L["position"][0] = eye
-        vl = lightsmod.view_lights(L, f.cam)
-        assert (np.linalg.norm(vl.pos, axis=1) < vl.radius).all(), "eye not inside every light"
+        vpos, _ = view_space(L, f.cam)
+        assert (np.linalg.norm(vpos, axis=1) < L["radius"]).all(), "eye not inside every light"
         f.check(L, where=f"camera in {n} lights")
 
 
@@ -310,8 +324,8 @@ def test_lights_behind_camera_reaching_forward(gl, seed, n):
         L["cos_inner"][spot] = L["cos_outer"][spot]
         # one guaranteed reach: a point light 1 m behind the eye, radius 20
         L["position"][0], L["radius"][0], L["type"][0] = eye + back * 1.0, 20.0, 0
-        vl = lightsmod.view_lights(L, f.cam)
-        assert (vl.pos[:, 2] > 0).all(), "light centres must be behind the eye"
+        vpos, _ = view_space(L, f.cam)
+        assert (vpos[:, 2] > 0).all(), "light centres must be behind the eye"
         f.check(L, where="behind the camera")
 
 
@@ -374,10 +388,9 @@ def test_lights_within_float32_epsilon_of_frustum_sides(gl, seed, fov, depth, si
         B["radius"] = [r for _, r in touching]
         res = f.check(concat(A, B), where=f"frustum edges fov={fov} depth={depth} size={size}")
         # (a) alone: all kept by the conservative frustum cull
-        vl = lightsmod.view_lights(A, f.cam)
-        kept = lightsmod.frustum_cull(vl, f.cam)
-        assert len(kept) == len(A), (
-            f"frustum cull dropped {len(A) - len(kept)} of {len(A)} lights tangent to a side "
+        kept = visible_count(f, A)
+        assert kept == len(A), (
+            f"frustum cull dropped {len(A) - kept} of {len(A)} lights tangent to a side "
             f"plane within float32 epsilon")
         # (b) centres are outside the frustum, and some edge pixels are lit
         c = B["position"].astype(np.float64)
