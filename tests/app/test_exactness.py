@@ -57,3 +57,16 @@ def test_random_scenes_are_exact(gl, seed, n, fov, w, h, tile, near):
     cam = Camera((0.0, 2.0, 8.0), (rng.uniform(-3, 3), 1.0, -20.0), fov_y_deg=fov, near=near, far=300.0)
     scene = make_scene(lights, size=(w, h), camera=cam)
     assert_exact(render_all(scene, Options(tile=tile, slices=int(rng.integers(2, 24)))), f"seed {seed}")
+
+
+def test_tiled_pool_overflow_shades_every_light(gl, monkeypatch):
+    """Tiles whose lists do not fit the pool are flagged and shade every light: still exact."""
+    from app.techniques import tiled
+    monkeypatch.setattr(tiled, "POOL_MAX_ENTRIES", 1500)
+    scene = load_scene("hangar", lights=512, seed=5)
+    scene.resolution = (96, 64)
+    results = render_all(scene, Options(tile=16), techniques=["brute", "tiled"])
+    assert_exact(results, "pool overflow")
+    shaded = results["brute"].depth > 0
+    every = (results["tiled"].evaluated == results["brute"].evaluated)[shaded]
+    assert every.any() and not every.all()   # some tiles overflowed, some did not
