@@ -135,6 +135,7 @@ class Renderer:
             self._set_uniforms(prog, uniforms)
             self._bind(list(build.buffers) + list(p.outputs(build)))
             self.timer.run(p.name, lambda: prog.run(*p.groups(build)))
+            self.ctx.memory_barrier()   # the next pass reads what this one wrote
 
         groups = (math.ceil(w / 8), math.ceil(h / 8))
         self._buffer("out_color", w * h * 16)
@@ -146,6 +147,7 @@ class Renderer:
         self._set_uniforms(prog, uniforms)
         self._bind(self.buffers)
         self.timer.run("shade", lambda: prog.run(*groups, 1))
+        self.ctx.memory_barrier()
         gpu_ms = self.timer.take()
 
         meta = {

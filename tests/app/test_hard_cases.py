@@ -165,45 +165,52 @@ class Frame:
         return res
 
 
-def reference_counts(pos4, cam, lights, chunk_elems: int = 1 << 22):
+def reference_counts(pos4, cam, lights):
     """Per pixel (H, W): lights that surely affect the pixel, lights that may (float32
     rounding of the GPU test), and the contract hash of the sure set.  Float64 on the
-    float32 inputs the GPU sees (view-space light data from cpu_prep.lights.view_lights)."""
+    float32 inputs the GPU sees (view-space light data, see view_space()); candidate
+    (pixel, light) pairs come from a k-d tree of the covered pixels' positions."""
+    from scipy.spatial import cKDTree
     h, w = pos4.shape[:2]
-    P = pos4[..., :3].reshape(-1, 3).astype(np.float64)
-    covered = pos4[..., 3].reshape(-1) > 0
+    lo = np.zeros(h * w, np.int64)
+    hi = np.zeros(h * w, np.int64)
+    hsh = np.zeros(h * w, np.uint32)
+    cov = np.flatnonzero(pos4[..., 3].reshape(-1) > 0)
+    if len(cov) == 0 or len(lights) == 0:
+        return lo.reshape(h, w), hi.reshape(h, w), hsh.reshape(h, w)
+    P = pos4[..., :3].reshape(-1, 3)[cov].astype(np.float64)
     L, D = view_space(lights, cam)
     r = lights["radius"].astype(np.float64)
-    cos_o = lights["cos_outer"].astype(np.float64)
-    spot = lights["type"] == 1
-    ids = mix(np.arange(len(lights), dtype=np.uint32))
-    lo = np.zeros(len(P), np.int64)
-    hi = np.zeros(len(P), np.int64)
-    hsh = np.zeros(len(P), np.uint32)
-    Pn = np.abs(P).max(1)
-    step = max(1, chunk_elems // max(len(P), 1))
-    for s in range(0, len(L), step):
-        sl = slice(s, s + step)
-        d = P[:, None, :] - L[None, sl, :]
-        dist = np.sqrt((d * d).sum(-1))
-        # float32: P - L rounds per component (<= 1 ulp of the larger operand), the dot
-        # product and compare add a few ulp of d2
-        err = 4 * F32_EPS * (Pn[:, None] + np.abs(L[sl]).max(1)[None, :]) + 8 * F32_EPS * dist
-        sure = dist + err < r[None, sl] * (1 - 8 * F32_EPS)
-        maybe = dist - err < r[None, sl] * (1 + 8 * F32_EPS)
-        if spot[sl].any():
-            along = (d * D[None, sl, :]).sum(-1)
-            safe = np.maximum(dist, 1e-300)
-            c = along / safe
-            tol = 2 * err / safe + 16 * F32_EPS
-            sp = spot[sl][None, :]
-            sure &= ~sp | ((c > cos_o[None, sl] + tol) & (dist > err))
-            maybe &= ~sp | (c > cos_o[None, sl] - tol) | (dist <= err)
-        sure &= covered[:, None]
-        maybe &= covered[:, None]
-        lo += sure.sum(1)
-        hi += maybe.sum(1)
-        hsh ^= np.bitwise_xor.reduce(np.where(sure, ids[None, sl], np.uint32(0)), axis=1)
+    reach = r * (1 + 1e-4) + 8 * F32_EPS * (np.abs(L).max(1) + np.abs(P).max()) + 1e-30
+    near = cKDTree(P).query_ball_point(L, reach, return_sorted=False)
+    counts = np.fromiter((len(x) for x in near), np.int64, len(near))
+    if counts.sum() == 0:
+        return lo.reshape(h, w), hi.reshape(h, w), hsh.reshape(h, w)
+    li = np.repeat(np.arange(len(L)), counts)
+    pi = np.fromiter((j for x in near for j in x), np.int64, int(counts.sum()))
+    d = P[pi] - L[li]
+    dist = np.sqrt((d * d).sum(-1))
+    # float32: P - L rounds per component (<= 1 ulp of the larger operand); the dot product
+    # and the compare add a few ulp of d2
+    err = 4 * F32_EPS * (np.abs(P[pi]).max(1) + np.abs(L[li]).max(1)) + 8 * F32_EPS * dist
+    sure = dist + err < r[li] * (1 - 8 * F32_EPS)
+    maybe = dist - err < r[li] * (1 + 8 * F32_EPS)
+    spot = lights["type"][li] == 1
+    if spot.any():
+        cos_o = lights["cos_outer"].astype(np.float64)[li]
+        c = (d * D[li]).sum(-1) / np.maximum(dist, 1e-300)
+        tol = 2 * err / np.maximum(dist, 1e-300) + 16 * F32_EPS
+        sure &= ~spot | ((c > cos_o + tol) & (dist > err))
+        maybe &= ~spot | (c > cos_o - tol) | (dist <= err)
+    pix = cov[pi]
+    lo += np.bincount(pix[sure], minlength=h * w)
+    hi += np.bincount(pix[maybe], minlength=h * w)
+    ids = mix(li[sure].astype(np.uint32))
+    order = np.argsort(pix[sure], kind="stable")
+    sp, ids = pix[sure][order], ids[order]
+    if len(sp):
+        starts = np.flatnonzero(np.r_[True, sp[1:] != sp[:-1]])
+        hsh[sp[starts]] = np.bitwise_xor.reduceat(ids, starts)
     return lo.reshape(h, w), hi.reshape(h, w), hsh.reshape(h, w)
 
 
@@ -666,8 +673,8 @@ def _no_visible(kind: str, cam) -> np.ndarray:
         L["type"] = 1                          # sphere alone would reach far in front
         L["position"] = np.column_stack([rng.uniform(-1, 1, (n, 2)), rng.uniform(0.01, 1.0, n)])
         L["radius"] = rng.uniform(5.0, 30.0, n)
-        L["direction"] = -fwd
-        L["cos_outer"] = L["cos_inner"] = np.cos(np.radians(rng.uniform(1.0, 80.0, n)))
+        L["direction"] = -fwd                  # (up to 44 degrees the bounding sphere is
+        L["cos_outer"] = L["cos_inner"] = np.cos(np.radians(rng.uniform(1.0, 44.0, n)))  # tight)
     return L
 
 
