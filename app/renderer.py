@@ -140,7 +140,7 @@ class Renderer:
         groups = (math.ceil(w / 8), math.ceil(h / 8))
         self._buffer("out_color", w * h * 16)
         self._buffer("out_stats", w * h * 16)
-        self._buffer("wave_stats", groups[0] * groups[1] * 16)
+        self._buffer("wave_stats", groups[0] * groups[1] * 16).clear()   # atomics accumulate
         defines = dict(build.defines, WAVE_NATIVE=int(native), **(extra_defines or {}))
         ext = ("GL_ARB_shader_ballot", "GL_ARB_shader_group_vote", "GL_ARB_gpu_shader_int64") if native else ()
         prog = self.programs.compute(technique.shader, defines, virtual, ext)

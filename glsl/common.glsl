@@ -12,7 +12,7 @@ layout(binding = 2) uniform sampler2D g_albedo;
 layout(std430, binding = B_LIGHTS) readonly buffer LightBuffer { GpuLight lights[]; };
 layout(std430, binding = B_OUT_COLOR) writeonly buffer OutColor { vec4 out_color[]; };
 layout(std430, binding = B_OUT_STATS) writeonly buffer OutStats { uvec4 out_stats[]; };
-layout(std430, binding = B_WAVE_STATS) writeonly buffer WaveStats { uvec4 wave_stats[]; };
+layout(std430, binding = B_WAVE_STATS) buffer WaveStats { uvec4 wave_stats[]; };  // zeroed each frame
 
 uniform ivec2 u_size;
 uniform uint u_light_count;
@@ -76,4 +76,13 @@ void store_pixel(PixelState s) {
 
 uint group_index() {
     return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+}
+
+// Wave statistics, per 8x8 group: the longest lane's loop length (the wave's scalar
+// iterations) and which traversal case ran (bit 0 list, bit 1 tree; both = mixed).
+// Global atomics, not a group reduction: barriers are what the emulation pays most for.
+void write_wave_stats(uint iterations, uint case_bits) {
+    uint g = group_index();
+    atomicMax(wave_stats[g].x, iterations);
+    if (case_bits != 0u) atomicOr(wave_stats[g].y, case_bits);
 }

@@ -33,11 +33,3 @@ uint cell_of(PixelState s) {
 void evaluate_list(inout PixelState s, uint first, uint count) {
     for (uint k = first; k < first + count; ++k) evaluate_light(s, LIST_LIGHT(k));
 }
-
-// Wave statistics: the longest lane's loop length (scalar iterations of the wave) and which
-// traversal case ran (bit 0 list, bit 1 tree; both = mixed), written by lane 0.
-void write_wave_stats(uint iterations, uint case_bits) {
-    uint longest = groupAllMax(iterations);
-    uint cases = groupAllBitOr(case_bits);
-    if (gl_LocalInvocationIndex == 0u) wave_stats[group_index()] = uvec4(longest, cases, 0u, 0u);
-}

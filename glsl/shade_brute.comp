@@ -9,6 +9,5 @@ void main() {
     if (s.shading)
         for (uint i = 0u; i < u_light_count; ++i) evaluate_light(s, lights[i]);
     store_pixel(s);
-    uint longest = groupAllMax(s.evaluated);
-    if (gl_LocalInvocationIndex == 0u) wave_stats[group_index()] = uvec4(longest, 1u, 0u, 0u);
+    write_wave_stats(s.evaluated, 1u);
 }

@@ -16,25 +16,32 @@ void main() {
     bool is_tree = s.shading && r.y > 1u;
     bool is_list = s.shading && r.y == 1u;
 
-    // Shared-memory tree: decided with group-wide (emulated) votes, since it needs barriers.
-    uint lo = groupAllMin(is_tree ? cell : 0xFFFFFFFFu);
-    uint hi = groupAllMax(is_tree ? cell : 0u);
-    bool one_tree = groupActiveAllTrue(!s.shading || is_tree) && lo == hi
-                    && groupAllMax(r.y) <= uint(SHARED_TREE_NODES);
+    // One group vote: the cell range of tree lanes, their node count, and whether any lane
+    // has a tree / any shading lane has none.  The shared-memory load needs barriers, so it
+    // is decided by this group-wide vote whichever wave API is compiled.
+    uvec4 v = groupReduce(is_tree ? cell : 0xFFFFFFFFu, is_tree ? cell : 0u, is_tree ? r.y : 0u,
+                          (is_tree ? 1u : 0u) | (s.shading && !is_tree ? 2u : 0u));
+    bool one_tree = v.w == 1u && v.x == v.y && v.z <= uint(SHARED_TREE_NODES);
+#if WAVE_NATIVE
+    bool all_list = waveActiveAllTrue(!is_tree);
+    bool all_tree = waveActiveAllTrue(is_tree || !s.shading);
+#else
+    bool all_list = (v.w & 1u) == 0u;      // the emulated wave is the group: reuse its vote
+    bool all_tree = (v.w & 2u) == 0u;
+#endif
     uint case_bits = (is_list ? 1u : 0u) | (is_tree ? 2u : 0u);
 
     if (one_tree) {
-        uint base = groupAllMax(is_tree ? r.x : 0u);
-        load_shared_tree(base, groupAllMax(r.y));
+        load_shared_tree(groupReduce(0u, is_tree ? r.x : 0u, 0u, 0u).y, v.z);
         if (s.shading) traverse_shared_tree(s, r.y);
-    } else if (waveActiveAllTrue(!is_tree)) {
+    } else if (all_list) {
         // a) lists only: one node each, the root is the leaf (paper 3.4: "a dependent
         //    fetch and a bit test"); no loop
         if (is_list) {
             uint i = 0u;
             visit_node(s, nodes[r.x], i);
         }
-    } else if (waveActiveAllTrue(is_tree || !s.shading)) {
+    } else if (all_tree) {
         // b) trees only
         if (s.shading) traverse_tree(s, r.x, r.y);
     } else {

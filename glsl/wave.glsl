@@ -12,6 +12,25 @@
 
 shared uint wave_scalar;
 shared uint wave_bits[2];
+shared uint wave_reduce[4];
+
+// Four reductions in one round of barriers (barriers dominate the emulation's cost):
+// (min of a, max of b, max of c, OR of d) over the group.
+uvec4 groupReduce(uint a_min, uint b_max, uint c_max, uint d_or) {
+    barrier();
+    if (gl_LocalInvocationIndex == 0u) {
+        wave_reduce[0] = 0xFFFFFFFFu; wave_reduce[1] = 0u; wave_reduce[2] = 0u; wave_reduce[3] = 0u;
+    }
+    barrier();
+    atomicMin(wave_reduce[0], a_min);
+    atomicMax(wave_reduce[1], b_max);
+    atomicMax(wave_reduce[2], c_max);
+    atomicOr(wave_reduce[3], d_or);
+    barrier();
+    uvec4 r = uvec4(wave_reduce[0], wave_reduce[1], wave_reduce[2], wave_reduce[3]);
+    barrier();
+    return r;
+}
 
 uint groupAllMin(uint v) {
     barrier();
