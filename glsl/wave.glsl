@@ -32,38 +32,9 @@ uvec4 groupReduce(uint a_min, uint b_max, uint c_max, uint d_or) {
     return r;
 }
 
-uint groupAllMin(uint v) {
-    barrier();
-    if (gl_LocalInvocationIndex == 0u) wave_scalar = 0xFFFFFFFFu;
-    barrier();
-    atomicMin(wave_scalar, v);
-    barrier();
-    uint r = wave_scalar;
-    barrier();
-    return r;
-}
-
-uint groupAllMax(uint v) {
-    barrier();
-    if (gl_LocalInvocationIndex == 0u) wave_scalar = 0u;
-    barrier();
-    atomicMax(wave_scalar, v);
-    barrier();
-    uint r = wave_scalar;
-    barrier();
-    return r;
-}
-
-uint groupAllBitOr(uint v) {
-    barrier();
-    if (gl_LocalInvocationIndex == 0u) wave_scalar = 0u;
-    barrier();
-    atomicOr(wave_scalar, v);
-    barrier();
-    uint r = wave_scalar;
-    barrier();
-    return r;
-}
+uint groupAllMin(uint v) { return groupReduce(v, 0u, 0u, 0u).x; }
+uint groupAllMax(uint v) { return groupReduce(0xFFFFFFFFu, v, 0u, 0u).y; }
+uint groupAllBitOr(uint v) { return groupReduce(0xFFFFFFFFu, 0u, 0u, v).w; }
 
 uvec2 groupBallot(bool b) {
     barrier();

@@ -79,6 +79,17 @@ def grid_uniforms(grid: gridmod.Grid) -> dict[str, object]:
             "u_slice_bias": float(grid.slice_bias)}
 
 
+def prepare_binned(frame: FrameInput, opts: Options, slices: int):
+    """prepare() plus the grid (slices = 1: 2D tiles) and the CSR binning of the lights."""
+    b = prepare(frame, opts)
+    cam = frame.camera
+    b.grid = gridmod.make_grid(cam, opts.tile, slices, frame.max_depth, opts.near_slice_depth)
+    offsets, entries = cpuframe.bin_cells(b.lights, cam, b.grid, b.times)
+    b.uniforms.update(grid_uniforms(b.grid))
+    b.stats["cells"] = b.grid.cells
+    return b, offsets, entries
+
+
 def prepare(frame: FrameInput, opts: Options) -> Build:
     """The steps every technique shares: cull, sort, pack the visible lights."""
     times = cpuframe.StageTimes()

@@ -7,9 +7,9 @@ cell an index list of the lights whose conservative box of cells contains it.
 """
 import numpy as np
 
-from cpu_prep import frame as cpuframe, grid as gridmod, layouts
+from cpu_prep import frame as cpuframe, layouts
 
-from .base import Technique, grid_uniforms, prepare
+from .base import Technique, prepare_binned
 
 
 def list_buffers(b, offsets, entries, opts):
@@ -31,12 +31,8 @@ class Clustered(Technique):
     shader = "shade_clustered.comp"
 
     def build(self, frame, opts):
-        b = prepare(frame, opts)
-        cam = frame.camera
-        b.grid = gridmod.make_grid(cam, opts.tile, opts.slices, frame.max_depth, opts.near_slice_depth)
-        offsets, entries = cpuframe.bin_cells(b.lights, cam, b.grid, b.times)
+        b, offsets, entries = prepare_binned(frame, opts, opts.slices)
         with b.times.stage("pack"):
             list_buffers(b, offsets, entries, opts)
-        b.uniforms.update(grid_uniforms(b.grid))
-        b.stats.update(cells=b.grid.cells, list_entries=len(entries))
+        b.stats["list_entries"] = len(entries)
         return b

@@ -4,9 +4,9 @@ tree whose root is a leaf, so one buffer layout serves both.
 
     ranges[cell] = (first node, node count: 1 = list, >1 = tree) -> nodes[] -> entries[] -> lights[]
 """
-from cpu_prep import frame as cpuframe, grid as gridmod, hybrid as hybridmod
+from cpu_prep import hybrid as hybridmod
 
-from .base import Technique, grid_uniforms, prepare
+from .base import Technique, prepare_binned
 from .tree import tree_buffers
 
 
@@ -16,14 +16,9 @@ class Hybrid(Technique):
     shader = "shade_hybrid.comp"
 
     def build(self, frame, opts):
-        b = prepare(frame, opts)
-        cam = frame.camera
-        b.grid = gridmod.make_grid(cam, opts.tile, opts.slices, frame.max_depth, opts.near_slice_depth)
-        offsets, entries = cpuframe.bin_cells(b.lights, cam, b.grid, b.times)
+        b, offsets, entries = prepare_binned(frame, opts, opts.slices)
         with b.times.stage("build"):
             is_tree = hybridmod.choose_trees(b.grid, offsets, entries, b.lights.depth_lo,
                                              b.lights.depth_hi, frame.max_depth, opts.radius_scale)
         tree_buffers(b, offsets, entries, is_tree, opts)
-        b.uniforms.update(grid_uniforms(b.grid))
-        b.stats["cells"] = b.grid.cells
         return b

@@ -6,9 +6,9 @@
 """
 import numpy as np
 
-from cpu_prep import frame as cpuframe, grid as gridmod, tree as treemod
+from cpu_prep import frame as cpuframe, tree as treemod
 
-from .base import Technique, grid_uniforms, prepare
+from .base import Technique, prepare_binned
 from .clustered import list_buffers
 
 SHARED_TREE_NODES = 128   # shared-memory copy of one tree: 128 x 16 B = 2 KiB
@@ -36,11 +36,6 @@ class Tree(Technique):
     shader = "shade_tree.comp"
 
     def build(self, frame, opts):
-        b = prepare(frame, opts)
-        cam = frame.camera
-        b.grid = gridmod.make_grid(cam, opts.tile, 1, frame.max_depth, opts.near_slice_depth)
-        offsets, entries = cpuframe.bin_cells(b.lights, cam, b.grid, b.times)
+        b, offsets, entries = prepare_binned(frame, opts, 1)
         tree_buffers(b, offsets, entries, np.ones(b.grid.cells, bool), opts)
-        b.uniforms.update(grid_uniforms(b.grid))
-        b.stats["cells"] = b.grid.cells
         return b
