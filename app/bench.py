@@ -1,12 +1,12 @@
 """Benchmark: what each culling technique costs and what it gains (DESIGN "Measuring").
 
     python -m app.bench cpu --scene S --technique T [--lights N] [--size WxH] [--tile 48]
-                            [--slices 16] [--repeat R] [--json]
+                            [--slices 16] [--repeat R] [--threads 1] [--json]
         The CPU stage alone (no GL context at all): technique.build R times after a warm-up
         (numba JIT), median/min/max ms of each stage (cull, sort, bin, build, pack) and total.
 
     python -m app.bench [--quick|--full] --out DIR [--size WxH] [--scenes a,b] [--lights 1024,4096]
-                        [--frames K] [--repeat R]
+                        [--frames K] [--repeat R] [--threads 1]
         The sweep: scenes x every technique of the registry (+ the perfect culler) x light
         counts x camera-path frames, plus option studies (tile size, hybrid radius scale,
         duplicated vs indexed lists, the light cutoff) and a CPU-only light-count series.
@@ -21,8 +21,13 @@ Studies (column `study` of results.csv):
     cutoff    the threshold that sets each light's radius (see cutoff_lights) against an
               unbounded reference (every light, no window), every technique + perfect
     cpu       technique.build only, at the CPU preset's resolution and light counts (figure 4)
+    cpu_tile  technique.build only at the CPU resolution, tile sizes of the tile study (figure 6)
 Which techniques a study covers is found by building with each option value and comparing
 the outputs, never by name, so a technique added to REGISTRY appears with no change here.
+
+CPU threads: the CPU stage runs on `--threads` numba threads, 1 by default as in the tree
+paper's figure 4 ("single threaded").  On small VMs numba's parallel regions can cost more than
+the work (a thread wake-up waits for the scheduler tick), so compare thread counts with care.
 
 Timing: every configuration is rendered once with read-back (counters, image) and then
 repeated; the first render of a program in the process is a discarded warm-up (shader and
@@ -82,15 +87,16 @@ class Preset:
     cpu_lights: tuple[int, ...]
     cpu_repeat: int
     seed: int = 0
+    cpu_threads: int = 1          # numba threads of the CPU stage (0: numba's default)
     tile: int = 48                # paper defaults for every other study
     slices: int = 16
 
 
 QUICK = Preset(
-    name="quick", size=(320, 180), scenes=("arena", "city"), lights=(1024, 4096), frames=6,
-    repeat=3, heavy_repeat=1, heavy_eval_pp=256.0, tiles=(16, 32, 48, 64),
-    radius_scales=(0.5, 1.0, 2.0, 4.0), cutoffs=(256, 1024, 4096, 16384),
-    cutoff_scenes=("arena",), cutoff_lights=2048, study_scene="arena", study_lights=4096,
+    name="quick", size=(320, 180), scenes=("arena", "city", "hangar", "gallery"),
+    lights=(1024, 4096), frames=8, repeat=3, heavy_repeat=1, heavy_eval_pp=256.0,
+    tiles=(16, 32, 48, 64), radius_scales=(0.5, 1.0, 2.0, 4.0),
+    cutoffs=(256, 1024, 4096, 16384, 65536), cutoff_scenes=("arena", "city"), cutoff_lights=2048, study_scene="arena", study_lights=4096,
     heat_scene="city", cpu_scene="arena", cpu_size=(1920, 1080),
     cpu_lights=(1024, 4096, 16384, 65536), cpu_repeat=5)
 
@@ -173,6 +179,15 @@ def cpu_stage_samples(technique, scene, size, opts: Options, repeat: int, frame:
     return out
 
 
+def set_cpu_threads(n: int) -> int:
+    """Run the CPU stage's numba kernels on n threads (0: leave numba's default); returns
+    the count in use."""
+    import numba
+    if n > 0:
+        numba.set_num_threads(min(int(n), numba.config.NUMBA_NUM_THREADS))
+    return int(numba.get_num_threads())
+
+
 def _stats(values) -> tuple[float, float, float]:
     a = np.asarray(values, np.float64)
     return (float(np.median(a)), float(a.min()), float(a.max())) if len(a) else (math.nan,) * 3
@@ -186,11 +201,14 @@ def cpu_main(argv) -> None:
     p.add_argument("--frame", type=int, default=0, help="camera path frame (of --frames)")
     p.add_argument("--frames", type=int, default=64, help="length of the camera path loop")
     p.add_argument("--repeat", type=int, default=9, help="measured builds (after one warm-up)")
+    p.add_argument("--threads", type=int, default=1,
+                   help="numba threads of the CPU stage (default 1, as the paper; 0: all)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     cli.add_option_args(p)
     args = p.parse_args(argv)
-    if args.repeat < 1 or args.frames < 1 or args.frame < 0:
-        raise UserError("--repeat and --frames must be >= 1, --frame >= 0")
+    if args.repeat < 1 or args.frames < 1 or args.frame < 0 or args.threads < 0:
+        raise UserError("--repeat and --frames must be >= 1, --frame and --threads >= 0")
+    threads = set_cpu_threads(args.threads)
     technique = get(args.technique)
     opts = cli.options_from(args)
     scene = cli.load_scene_args(args)
@@ -201,6 +219,7 @@ def cpu_main(argv) -> None:
     out = {
         "technique": technique.name, "scene": args.scene, "size": list(size),
         "lights": int(len(scene.lights)), "visible": s["visible"], "repeat": args.repeat,
+        "threads": threads,
         "options": opts.as_dict(),
         "median_ms": {k: round(st[k][0], 4) for k in keys},
         "min_ms": {k: round(st[k][1], 4) for k in keys},
@@ -210,7 +229,7 @@ def cpu_main(argv) -> None:
         print(json.dumps(out))
         return
     print(f"{technique.name} on {args.scene} at {size[0]}x{size[1]}: {out['lights']} lights, "
-          f"{out['visible']} visible, {args.repeat} builds after a warm-up")
+          f"{out['visible']} visible, {args.repeat} builds after a warm-up, {threads} thread(s)")
     print(f"{'stage':8} {'median ms':>10} {'min ms':>10} {'max ms':>10} {'share':>7}")
     tot = st["total"][0] or 1.0
     for k in keys:
@@ -229,7 +248,7 @@ COLUMNS = [
     "gpu_cull_ms", "gpu_cull_min_ms", "gpu_cull_max_ms",
     "gpu_shade_ms", "gpu_shade_min_ms", "gpu_shade_max_ms", "gpu_passes",
     "frame_cost_ms", "evaluated_pp", "exact_pp", "waste", "nodes_pp", "wave_iters",
-    "bytes_lights", "bytes_culling", "error_ref", "image_error", "mismatch_count",
+    "bytes_lights", "bytes_culling", "error_ref", "image_error", "radiance_ratio", "mismatch_count",
     "mismatch_hash", "floor_position_pct",
 ]
 TIMING_COLUMNS = {c for c in COLUMNS if c.endswith("_ms")} | {"gpu_passes", "floor_position_pct"}
@@ -244,7 +263,6 @@ class Job:
     technique: str                # a REGISTRY id, or PERFECT
     opts: Options
     cutoff: int = 0               # 0: the scene's own radii; -1: unbounded reference
-    record: bool = True
 
     def describe(self) -> str:
         extra = {"tile": f"tile {self.opts.tile}", "radius": f"radius_scale {self.opts.radius_scale}",
@@ -313,7 +331,7 @@ class Sweep:
         p, jobs = self.p, []
         # the reference first in every group: the others' exactness and error need it
         names = [REFERENCE] + [t for t in REGISTRY if t != REFERENCE] + [PERFECT]
-        study_techs = {}
+        study_techs = self.study_techs = {}
         sc = self.scene(p.study_scene, self.light_counts(p.study_scene, (p.study_lights,))[0])
         cam = frame_camera(sc.camera_at(0, p.frames), *p.size)
         fi = FrameInput(sc.lights, cam, sc.max_depth or cam.far)
@@ -361,7 +379,7 @@ class Sweep:
         cut = -1 if job.study == "cutoff" and job.cutoff < 0 else job.cutoff
         key = (job.scene, job.lights, job.frame, cut)
         if key not in self.refs:
-            ref_job = replace(job, technique=REFERENCE, cutoff=cut, record=False)
+            ref_job = replace(job, technique=REFERENCE, cutoff=cut)
             self.refs[key] = self.render(renderer, None, ref_job, True)
         return self.refs[key]
 
@@ -427,6 +445,7 @@ class Sweep:
             ref_err = self.reference(renderer, job)
             r["error_ref"] = REFERENCE
         r["image_error"] = image_error(res, ref_err)
+        r["radiance_ratio"] = radiance_ratio(res, ref_err)
         if job.study == "cutoff" and job.cutoff < 0:
             r["mismatch_count"] = r["mismatch_hash"] = 0
         else:
@@ -443,10 +462,12 @@ class Sweep:
         if not (job.study == "path" and job.scene == p.heat_scene and job.frame == 0
                 and job.lights == max(self.light_counts(job.scene, p.lights))):
             return
-        self.maps[f"evaluated/{job.technique}"] = block_mean(res.evaluated.astype(np.float64), 16)
+        block = 8 if res.evaluated.shape[1] < 960 else 16
+        self.maps["block"] = np.array(block)
+        self.maps[f"evaluated/{job.technique}"] = block_mean(res.evaluated.astype(np.float64), block)
         self.maps[f"cases/{job.technique}"] = (res.wave[..., 1] & 3).astype(np.uint8)
         if job.technique == REFERENCE:
-            self.maps["exact"] = block_mean(res.contrib_count.astype(np.float64), 16)
+            self.maps["exact"] = block_mean(res.contrib_count.astype(np.float64), block)
 
     def run(self) -> list[dict]:
         from .renderer import Renderer
@@ -484,10 +505,11 @@ class Sweep:
     def _forget(self, job: Job) -> None:
         """Drop references no later job needs (full-resolution frames are ~50 MB each)."""
         p = self.p
+        study_n = self.light_counts(p.study_scene, (p.study_lights,))[0]
         for key in list(self.refs):
             scene, n, frame, cut = key
             keep = (scene == job.scene and n == job.lights and frame == job.frame) or \
-                   (frame == 0 and cut == 0 and n == p.study_lights)
+                   (scene == p.study_scene and frame == 0 and cut == 0 and n == study_n)
             if not keep:
                 del self.refs[key]
 
@@ -513,26 +535,26 @@ class Sweep:
             return (time.perf_counter() - t0) * 1e3
 
         counts = self.light_counts(p.cpu_scene, p.cpu_lights)
-        total = len(counts) * len(REGISTRY)
-        i = 0
-        for n in counts:
-            sc = self.scene(p.cpu_scene, n)
-            for name, tech in REGISTRY.items():
-                i += 1
-                self.progress(i, total, f"cpu {p.cpu_scene} {n} lights {name} at "
-                                        f"{p.cpu_size[0]}x{p.cpu_size[1]}")
-                s = cpu_stage_samples(tech, sc, p.cpu_size, self.base, p.cpu_repeat, 0, p.frames,
-                                      upload=upload)
-                r = {c: "" for c in COLUMNS}
-                r.update(study="cpu", scene=p.cpu_scene, lights=n, visible=s["visible"],
-                         width=p.cpu_size[0], height=p.cpu_size[1], frame=0, frames=p.frames,
-                         technique=name, tile=self.base.tile, slices=self.base.slices,
-                         radius_scale=self.base.radius_scale, duplicated=0, cutoff=0,
-                         samples=p.cpu_repeat)
-                for k in CPU_STAGES + (UPLOAD,):
-                    r[f"cpu_{k}_ms"] = _stats(s[k])[0]
-                r["cpu_total_ms"], r["cpu_total_min_ms"], r["cpu_total_max_ms"] = _stats(s["total"])
-                self.rows.append(r)
+        n_tile = self.light_counts(p.study_scene, (p.study_lights,))[0]
+        series = [("cpu", p.cpu_scene, n, name, self.base) for n in counts for name in REGISTRY]
+        series += [("cpu_tile", p.study_scene, n_tile, name, replace(self.base, tile=t))
+                   for t in p.tiles for name in getattr(self, "study_techs", {}).get("tile", ())]
+        for i, (study, scene, n, name, opts) in enumerate(series, 1):
+            sc = self.scene(scene, n)
+            self.progress(i, len(series), f"{study} {scene} {n} lights {name} tile {opts.tile} "
+                                          f"at {p.cpu_size[0]}x{p.cpu_size[1]}")
+            s = cpu_stage_samples(REGISTRY[name], sc, p.cpu_size, opts, p.cpu_repeat, 0, p.frames,
+                                  upload=upload)
+            r = {c: "" for c in COLUMNS}
+            r.update(study=study, scene=scene, lights=n, visible=s["visible"],
+                     width=p.cpu_size[0], height=p.cpu_size[1], frame=0, frames=p.frames,
+                     technique=name, tile=opts.tile, slices=opts.slices,
+                     radius_scale=opts.radius_scale, duplicated=0, cutoff=0,
+                     samples=p.cpu_repeat)
+            for k in CPU_STAGES + (UPLOAD,):
+                r[f"cpu_{k}_ms"] = _stats(s[k])[0]
+            r["cpu_total_ms"], r["cpu_total_min_ms"], r["cpu_total_max_ms"] = _stats(s["total"])
+            self.rows.append(r)
         for b in scratch.values():
             b.release()
 
@@ -547,6 +569,13 @@ def image_error(res, ref) -> float:
     mean = float(b.mean())
     rmse = float(np.sqrt(((a - b) ** 2).mean()))
     return rmse / mean if mean > 0 else rmse
+
+
+def radiance_ratio(res, ref) -> float:
+    """Mean linear radiance over the reference's geometry pixels, relative to the reference."""
+    mask = ref.depth > 0
+    b = float(ref.image[mask].astype(np.float64).mean()) if mask.any() else 0.0
+    return float(res.image[mask].astype(np.float64).mean()) / b if b > 0 else 1.0
 
 
 def fill_floor_positions(rows: list[dict]) -> None:
@@ -636,6 +665,8 @@ def sweep_main(argv) -> None:
     p.add_argument("--repeat", type=int, help="override: repeats per configuration")
     p.add_argument("--cpu-lights", help="override: light counts of the CPU series")
     p.add_argument("--cpu-size", type=cli.parse_size, help="override: WxH of the CPU series")
+    p.add_argument("--threads", type=int, help="numba threads of the CPU stage (default 1, "
+                                               "as the paper's figure 4; 0: numba's default)")
     args = p.parse_args(argv)
     preset = preset_from_args(args)
     out = Path(args.out)
@@ -680,18 +711,24 @@ def preset_from_args(args) -> Preset:
         ch["cpu_lights"] = _int_list(args.cpu_lights, "--cpu-lights")
     if args.cpu_size:
         ch["cpu_size"] = tuple(args.cpu_size)
+    if args.threads is not None:
+        if args.threads < 0:
+            raise UserError("--threads must be >= 0")
+        ch["cpu_threads"] = args.threads
     return replace(preset, **ch)
 
 
 def run_sweep(preset: Preset, out: Path, command: str, log=sys.stderr) -> list[dict]:
     from . import report
     t0 = time.perf_counter()
+    threads = set_cpu_threads(preset.cpu_threads)
     sweep = Sweep(preset, out, command, log)
     rows = sweep.run()
     write_csv(rows, out / "results.csv")
     np.savez_compressed(out / "maps.npz", **sweep.maps)
     elapsed = time.perf_counter() - t0
     info = dict(machine_info(), command=command, preset=preset.name, elapsed_s=elapsed,
+                cpu_threads=threads,
                 config={f.name: getattr(preset, f.name) for f in fields(preset)})
     (out / "run.json").write_text(json.dumps(info, indent=1, default=list) + "\n")
     report.write_report(out, read_csv(out / "results.csv"), dict(np.load(out / "maps.npz")), info)

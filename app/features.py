@@ -17,6 +17,8 @@ from cpu_prep import layouts
 BINDINGS = {
     "lights": 0, "out_color": 1, "out_stats": 2, "wave_stats": 3, "ranges": 4,
     "entries": 5, "nodes": 6, "dup_lights": 7, "bounds": 8, "counter": 9,
+    # the benchmark's perfect culler (app.perfect) and the window's frame sums (app.window)
+    "perfect_counts": 10, "perfect_ranges": 11, "perfect_entries": 12, "view_stats": 13,
 }
 
 LIGHT_TYPES = ("point", "spot")   # index = type id of LIGHT_DTYPE

@@ -71,14 +71,15 @@ def save_classification(wave: np.ndarray, size: tuple[int, int], path, title: st
     w, h = size
     img = np.repeat(np.repeat(rgb, 8, 0), 8, 1)[:h, :w]
     plt, fig = _figure(w, h)
-    ax = fig.add_axes([0.02, 0.08, 0.8, 0.84])
+    ax = fig.add_axes([0.02, 0.14, 0.96, 0.74])
     ax.imshow(img, interpolation="nearest")
     ax.set_xticks([]), ax.set_yticks([])
     ax.set_title(title or "hybrid traversal per wave", fontsize=9)
     from matplotlib.patches import Patch
     shares = {CASE_NAMES[k]: float((bits == k).mean()) for k in CASE_COLORS}
     ax.legend(handles=[Patch(color=np.array(CASE_COLORS[k]) / 255, label=f"{CASE_NAMES[k]} {shares[CASE_NAMES[k]]:.0%}")
-                       for k in (1, 2, 3, 0)], loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+                       for k in (1, 2, 3, 0)], loc="upper center", bbox_to_anchor=(0.5, -0.01), ncol=4, fontsize=8,
+              frameon=False)
     fig.savefig(path)
     plt.close(fig)
     return shares

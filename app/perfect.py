@@ -18,10 +18,11 @@ of the bands' dispatches.
 
 It is not a technique of the registry (it needs the G-buffer before its "CPU stage" and its
 structure is never shippable); app.bench runs it beside them.  It drives the Renderer's
-G-buffer, program cache, timer and named buffers, and binds its own buffers at 10-12.
+G-buffer, program cache, timer and named buffers, and its buffers are the renderer's named ones (bindings in app.features).
 """
 from __future__ import annotations
 
+import hashlib
 import math
 import time
 
@@ -33,7 +34,6 @@ from .techniques import FrameInput, Options
 from .techniques.base import prepare
 
 NAME = "perfect"
-BINDINGS = {"perfect_counts": 10, "perfect_ranges": 11, "perfect_entries": 12}
 
 
 class PerfectCuller:
@@ -44,18 +44,13 @@ class PerfectCuller:
     def __init__(self, renderer, max_band_bytes: int | None = None):
         self.r = renderer
         self.max_band_bytes = int(max_band_bytes or renderer.limits.max_storage_block)
-        self.buffers: dict[str, object] = {}
         self.last_setup_ms: dict[str, float] = {}
+        self._lists_key = None      # the frame whose lists the buffers hold (one band only)
 
     def _buffer(self, name: str, nbytes: int):
-        nbytes = max(int(nbytes), 16)
-        buf = self.buffers.get(name)
-        if buf is None or buf.size < nbytes:
-            if buf is not None:
-                buf.release()
-            buf = self.r.ctx.buffer(reserve=nbytes)
-            self.buffers[name] = buf
-        buf.bind_to_storage_buffer(BINDINGS[name])
+        """One of the renderer's named buffers, bound at its point of features.BINDINGS."""
+        buf = self.r.buffer(name, nbytes)
+        buf.bind_to_storage_buffer(feat.BINDINGS[name])
         return buf
 
     def bands(self, counts: np.ndarray) -> list[tuple[int, int, int]]:
@@ -67,8 +62,9 @@ class PerfectCuller:
         out, start, total = [], 0, 0
         for g, n in enumerate(per_group_row):
             if n > cap:
-                raise UserError(f"perfect culler: 8 rows need {n * 4 >> 20} MiB of light indices, "
-                                f"over the {self.max_band_bytes >> 20} MiB storage-block limit")
+                raise UserError(f"perfect culler: 8 image rows need {n * 4 / 2**20:.2f} MiB of light "
+                                f"indices, over the {self.max_band_bytes / 2**20:.2f} MiB limit of "
+                                f"a storage block")
             if total + n > cap:
                 out.append((start * 8, g * 8, total))
                 start, total = g, 0
@@ -91,7 +87,7 @@ class PerfectCuller:
         r.timer.run("gbuffer", lambda: r.gbuffer.draw(cam))
         build = prepare(FrameInput(lights, cam, max_depth), opts)   # cull, sort, pack: timed
         t0 = time.perf_counter()
-        r._upload("lights", build.buffers["lights"])
+        r.upload("lights", build.buffers["lights"])
         upload_ms = (time.perf_counter() - t0) * 1e3
         gpu_ms = r.timer.take()
 
@@ -101,10 +97,10 @@ class PerfectCuller:
         n_lights = len(build.lights.gpu)
         r.gbuffer.bind()
         groups_x = math.ceil(w / 8)
-        r._buffer("out_color", w * h * 16)
-        r._buffer("out_stats", w * h * 16)
-        r._buffer("wave_stats", groups_x * math.ceil(h / 8) * 16)
-        r._bind(("lights", "out_color", "out_stats", "wave_stats"))
+        r.buffer("out_color", w * h * 16)
+        r.buffer("out_stats", w * h * 16)
+        r.buffer("wave_stats", groups_x * math.ceil(h / 8) * 16).clear()   # atomics accumulate
+        r.bind(("lights", "out_color", "out_stats", "wave_stats"))
 
         def program(name):
             prog = self.r.programs.compute(name, defines, virtual)
@@ -114,36 +110,53 @@ class PerfectCuller:
             return prog
 
         # ---- untimed set-up: count, prefix sum, fill (per band) --------------------------
+        # A repeat of the same frame (same G-buffer camera, lights, defines) whose lists fit
+        # one band reuses them: the set-up costs about two brute-force passes.
+        key = hashlib.sha1(b"".join([
+            np.ascontiguousarray(build.buffers["lights"]).tobytes(),
+            np.asarray(cam.view_from_world, np.float64).tobytes(),
+            np.asarray(cam.clip_from_view, np.float64).tobytes(),
+            repr((w, h, self.max_band_bytes, sorted(defines.items()),
+                  sorted(virtual.items()))).encode()])).hexdigest()
         setup = {}
-        t0 = time.perf_counter()
-        counts_buf = self._buffer("perfect_counts", w * h * 4)
-        prog = program("perfect_count.comp")
-        prog.run(groups_x, math.ceil(h / 8), 1)
-        counts = np.frombuffer(counts_buf.read(size=w * h * 4), np.uint32).reshape(h, w)
-        setup["count"] = (time.perf_counter() - t0) * 1e3
-
-        bands = self.bands(counts)
         fill, shade = program("perfect_fill.comp"), program(self.shader)
+        if key == self._lists_key:
+            bands, reuse = self._lists_bands, True
+        else:
+            self._lists_key, reuse = None, False
+            t0 = time.perf_counter()
+            counts_buf = self._buffer("perfect_counts", w * h * 4)
+            program("perfect_count.comp").run(groups_x, math.ceil(h / 8), 1)
+            counts = np.frombuffer(counts_buf.read(size=w * h * 4), np.uint32).reshape(h, w)
+            setup["count"] = (time.perf_counter() - t0) * 1e3
+            bands = self.bands(counts)
         fill_ms = 0.0
         entries_total = 0
         for y0, y1, n in bands:
             t0 = time.perf_counter()
+            band_groups = (groups_x, math.ceil((y1 - y0) / 8), 1)
+            for p in (fill, shade):
+                if "u_row0" in p:
+                    p["u_row0"].value = y0
+            entries_total += n
+            if reuse:
+                r.bind(("perfect_ranges", "perfect_entries"))
+                r.timer.run("shade", lambda: shade.run(*band_groups))
+                continue
             c = counts[y0:y1].ravel().astype(np.uint64)
             ranges = np.zeros((len(c), 2), np.uint32)
             ranges[1:, 0] = np.cumsum(c)[:-1]
             ranges[:, 1] = c
             self._buffer("perfect_ranges", ranges.nbytes).write(ranges.tobytes())
             self._buffer("perfect_entries", n * 4)
-            band_groups = (groups_x, math.ceil((y1 - y0) / 8), 1)
-            for p in (fill, shade):
-                if "u_row0" in p:
-                    p["u_row0"].value = y0
             fill.run(*band_groups)
             r.ctx.finish()
             fill_ms += (time.perf_counter() - t0) * 1e3
-            entries_total += n
             r.timer.run("shade", lambda: shade.run(*band_groups))   # the timed region
-        setup["fill"] = fill_ms
+        if not reuse:
+            setup["fill"] = fill_ms
+            if len(bands) == 1:
+                self._lists_key, self._lists_bands = key, bands
         self.last_setup_ms = setup
         gpu_ms.update(r.timer.take())
 
@@ -153,15 +166,14 @@ class PerfectCuller:
             "gpu_ms": gpu_ms, "setup_ms": setup,
             "bytes": {"lights": int(build.buffers["lights"].nbytes),
                       "perfect_ranges": int(w * h * 8), "perfect_entries": int(entries_total * 4)},
-            "stats": dict(build.stats, bands=len(bands), list_entries=entries_total),
+            "stats": dict(build.stats, bands=len(bands), list_entries=entries_total,
+                          lists_reused=reuse),
             "resolution": [w, h], "frame": frame, "renderer": r.limits.renderer,
         }
         r.last_meta = meta
         if not readback:
             return None
-        return r._read(meta, (groups_x, math.ceil(h / 8)))
+        return r.read_outputs(meta, (groups_x, math.ceil(h / 8)))
 
     def release(self) -> None:
-        for b in self.buffers.values():
-            b.release()
-        self.buffers.clear()
+        """Nothing of its own: its buffers are the renderer's, released with it."""

@@ -67,7 +67,7 @@ class Renderer:
 
     # ---- buffers -------------------------------------------------------------------
 
-    def _buffer(self, name: str, nbytes: int):
+    def buffer(self, name: str, nbytes: int):
         """The named storage buffer, at least nbytes (>= 16), reused across frames."""
         nbytes = max(int(nbytes), 16)
         if nbytes > self.limits.max_storage_block:
@@ -81,13 +81,13 @@ class Renderer:
             self.buffers[name] = buf
         return buf
 
-    def _upload(self, name: str, array: np.ndarray):
-        buf = self._buffer(name, array.nbytes)
+    def upload(self, name: str, array: np.ndarray):
+        buf = self.buffer(name, array.nbytes)
         if array.nbytes:
             buf.write(np.ascontiguousarray(array).tobytes())
         return buf
 
-    def _bind(self, names) -> None:
+    def bind(self, names) -> None:
         for n in names:
             if n in self.buffers:
                 self.buffers[n].bind_to_storage_buffer(feat.BINDINGS[n])
@@ -119,7 +119,7 @@ class Renderer:
 
         t0 = time.perf_counter()
         for name, array in build.buffers.items():
-            self._upload(name, array)
+            self.upload(name, array)
         upload_ms = (time.perf_counter() - t0) * 1e3
 
         uniforms = dict(build.uniforms, u_size=(w, h), u_light_count=len(build.lights.gpu))
@@ -128,24 +128,24 @@ class Renderer:
         self.gbuffer.bind()
         for p in technique.prepasses:
             for name, nbytes in p.outputs(build).items():
-                buf = self._buffer(name, nbytes)
+                buf = self.buffer(name, nbytes)
                 if name in p.zeroed:
                     buf.clear()
             prog = self.programs.compute(p.shader, {}, virtual)
             self._set_uniforms(prog, uniforms)
-            self._bind(list(build.buffers) + list(p.outputs(build)))
+            self.bind(list(build.buffers) + list(p.outputs(build)))
             self.timer.run(p.name, lambda: prog.run(*p.groups(build)))
             self.ctx.memory_barrier()   # the next pass reads what this one wrote
 
         groups = (math.ceil(w / 8), math.ceil(h / 8))
-        self._buffer("out_color", w * h * 16)
-        self._buffer("out_stats", w * h * 16)
-        self._buffer("wave_stats", groups[0] * groups[1] * 16).clear()   # atomics accumulate
+        self.buffer("out_color", w * h * 16)
+        self.buffer("out_stats", w * h * 16)
+        self.buffer("wave_stats", groups[0] * groups[1] * 16).clear()   # atomics accumulate
         defines = dict(build.defines, WAVE_NATIVE=int(native), **(extra_defines or {}))
         ext = ("GL_ARB_shader_ballot", "GL_ARB_shader_group_vote", "GL_ARB_gpu_shader_int64") if native else ()
         prog = self.programs.compute(technique.shader, defines, virtual, ext)
         self._set_uniforms(prog, uniforms)
-        self._bind(self.buffers)
+        self.bind(self.buffers)
         self.timer.run("shade", lambda: prog.run(*groups, 1))
         self.ctx.memory_barrier()
         gpu_ms = self.timer.take()
@@ -161,7 +161,7 @@ class Renderer:
         self.last_meta = meta
         if not readback:
             return None
-        return self._read(meta, groups)
+        return self.read_outputs(meta, groups)
 
     def _culling_bytes(self, technique, build) -> dict[str, int]:
         out = {k: int(v.nbytes) for k, v in build.buffers.items()}
@@ -175,7 +175,7 @@ class Renderer:
             if k in prog:
                 prog[k].value = v
 
-    def _read(self, meta, groups) -> FrameResult:
+    def read_outputs(self, meta, groups) -> FrameResult:
         w, h = self.size
         color = np.frombuffer(self.buffers["out_color"].read(size=w * h * 16), np.float32).reshape(h, w, 4)
         stats = np.frombuffer(self.buffers["out_stats"].read(size=w * h * 16), np.uint32).reshape(h, w, 4)

@@ -80,6 +80,24 @@ def _lighting(r) -> float:
     return _num(r["gpu_cull_ms"]) + _num(r["gpu_shade_ms"])
 
 
+def _log_axes(ax, x=True, y=True) -> None:
+    """Log scale with plain tick labels at 1, 2, 5 x 10^k (no overlapping minor labels)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+    fmt = FuncFormatter(lambda v, _: f"{v:g}")
+    for on, axis, setter, lim in ((x, ax.xaxis, ax.set_xscale, ax.get_xlim),
+                                  (y, ax.yaxis, ax.set_yscale, ax.get_ylim)):
+        if not on:
+            continue
+        setter("log")
+        ax.autoscale_view()
+        lo, hi = sorted(lim())
+        narrow = lo > 0 and hi / lo < 4       # less than a factor 4: label every 1..9 x 10^k
+        axis.set_major_locator(LogLocator(base=10, subs=tuple(float(k) for k in range(1, 10))
+                                          if narrow else (1.0, 2.0, 5.0)))
+        axis.set_major_formatter(fmt)
+        axis.set_minor_formatter(NullFormatter())
+
+
 class Colors:
     def __init__(self, techniques):
         import matplotlib
@@ -120,7 +138,7 @@ def fig_path(rows, out, colors) -> tuple[str, list[str]]:
                 gm[t] = _gmean(y)
                 ax.plot([r["frame"] for r in tr], y, color=colors(t), lw=1.3, ms=3,
                         label=t, **colors.style(t))
-            ax.set_yscale("log")
+            _log_axes(ax, x=False)
             ax.set_title(f"{sc}, {n} lights", fontsize=9)
             ax.set_xlabel("camera path frame", fontsize=8)
             ax.set_ylabel("GPU cull + shade (ms)", fontsize=8)
@@ -219,8 +237,11 @@ def fig_cpu(rows, out, colors) -> tuple[str | None, list[str], str]:
                     f"{growth}.")
     under = [t for t in techs if all(totals[t][n] < 2.0 for n in counts if n <= 8192)]
     if any(n <= 8192 for n in counts):
-        text.append(f"At 8192 lights or fewer, {', '.join(under) or 'no technique'} stay under "
-                    f"2 ms (the paper: every technique under 2 ms there).")
+        who = (f"every technique stays" if len(under) == len(techs) else
+               f"{', '.join(under)} {'stays' if len(under) == 1 else 'stay'}" if under else
+               "no technique stays")
+        text.append(f"At 8192 lights or fewer {who} under 2 ms (the paper: every technique "
+                    f"under 2 ms there, single threaded on an i7-4790K).")
     shares = stage_shares(cpu)
     table = ["| technique | " + " | ".join(STAGES) + f" | total at {hi} lights |",
              "|---" * (len(STAGES) + 2) + "|"]
@@ -247,12 +268,14 @@ def fig_tile(rows, out, colors) -> tuple[str | None, list[str]]:
     if not tile:
         return None, []
     techs = _order(tile, "technique")
+    cpu_rows = _sel(rows, study="cpu_tile")      # the CPU stage at the CPU series' resolution
     fig, axes = plt.subplots(1, 3, dpi=DPI, figsize=(12, 3.2))
     text = []
     for t in techs:
         tr = sorted(_sel(tile, technique=t), key=lambda r: r["tile"])
         x = [int(r["tile"]) for r in tr]
-        cpu = [_num(r["cpu_total_ms"]) for r in tr]
+        ct = {int(r["tile"]): _num(r["cpu_total_ms"]) for r in _sel(cpu_rows, technique=t)}
+        cpu = [ct.get(v, _num(r["cpu_total_ms"])) for v, r in zip(x, tr)]
         gpu = [_lighting(r) for r in tr]
         both = [a + b for a, b in zip(cpu, gpu)]
         for ax, y in zip(axes, (cpu, gpu, both)):
@@ -261,16 +284,25 @@ def fig_tile(rows, out, colors) -> tuple[str | None, list[str]]:
         text.append(f"{t}: GPU lighting is lowest at {bg} px tiles ({_ms(min(gpu))}, "
                     f"{_ms(max(gpu))} at worst); CPU goes from {_ms(cpu[0])} at {x[0]} px to "
                     f"{_ms(cpu[-1])} at {x[-1]} px; CPU + GPU is lowest at {bb} px.")
-    for ax, title in zip(axes, ("CPU stage (ms)", "GPU cull + shade (ms)", "CPU + GPU (ms)")):
+    r0 = tile[0]
+    cpu_res = (f"{int(cpu_rows[0]['width'])}x{int(cpu_rows[0]['height'])}" if cpu_rows else
+               f"{int(r0['width'])}x{int(r0['height'])}")
+    gpu_res = f"{int(r0['width'])}x{int(r0['height'])}"
+    for ax, title in zip(axes, (f"CPU stage at {cpu_res} (ms)", f"GPU cull + shade at {gpu_res} (ms)",
+                                "CPU + GPU (ms)")):
         ax.set_title(title, fontsize=9)
         ax.set_xlabel("tile size (px)", fontsize=8)
         ax.set_xticks(sorted(set(int(r["tile"]) for r in tile)))
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
     axes[-1].legend(fontsize=7)
-    r0 = tile[0]
-    fig.suptitle(f"tile size, {r0['scene']}, {int(r0['lights'])} lights, frame {int(r0['frame'])}, "
-                 f"{int(r0['width'])}x{int(r0['height'])}", fontsize=9)
+    fig.suptitle(f"tile size, {r0['scene']}, {int(r0['lights'])} lights, frame {int(r0['frame'])}",
+                 fontsize=9)
+    if int(r0["width"]) < 1920:
+        k = 1920 / int(r0["width"])
+        text.append(f"The GPU passes ran at {gpu_res}: there a {int(min(x))} px tile covers the share "
+                    f"of the image a {int(min(x) * k)} px tile covers at 1920x1080, so the GPU optimum "
+                    f"sits at a smaller tile than the paper's 48 px; the CPU stage ran at {cpu_res}.")
     fig.tight_layout()
     name = "tile_size.png"
     fig.savefig(out / name)
@@ -306,7 +338,8 @@ def fig_heat(rows, maps, out, info) -> tuple[str | None, list[str]]:
         ax.set_title(f"{t}: {m.mean():.3g}/px", fontsize=8)
     fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.8).set_label("lights / pixel (log)", fontsize=8)
     scene = info.get("config", {}).get("heat_scene", "")
-    fig.suptitle(f"lights evaluated per pixel, 16x16 block means, {scene} frame 0", fontsize=9)
+    b = int(maps.get("block", 16))
+    fig.suptitle(f"lights evaluated per pixel, {b}x{b} block means, {scene} frame 0", fontsize=9)
     name = "heatmaps.png"
     fig.savefig(out / name)
     plt.close(fig)
@@ -322,27 +355,46 @@ def fig_heat(rows, maps, out, info) -> tuple[str | None, list[str]]:
     return name, text
 
 
-def fig_classification(rows, maps, out) -> tuple[list[str], list[str]]:
-    """Tree paper figure 3, for every technique whose waves take more than one path."""
-    from .images import save_classification
+def fig_classification(rows, maps, out) -> tuple[str | None, list[str]]:
+    """Tree paper figure 3, for every technique whose waves take more than one path: per 8x8
+    wave, list (blue), tree (green), mixed (white), empty (grey)."""
+    plt = _plt()
+    from matplotlib.patches import Patch
+    from .images import CASE_COLORS, CASE_NAMES
     path = _sel(rows, study="path")
     if not path:
-        return [], []
+        return None, []
     w, h = int(path[0]["width"]), int(path[0]["height"])
-    names, text = [], []
+    chosen = []
     for k in [k for k in maps if k.startswith("cases/")]:
-        t = k.split("/", 1)[1]
         cases = maps[k]
-        if len(np.unique(cases[cases > 0])) < 2:
-            continue
-        wave = np.zeros(cases.shape + (4,), np.uint32)
-        wave[..., 1] = cases
-        name = f"classification_{t}.png"
-        shares = save_classification(wave, (w, h), out / name, f"{t}: traversal per 8x8 wave")
-        names.append(name)
-        text.append(f"{t}: " + ", ".join(f"{v:.0%} of the waves {k}" for k, v in shares.items()
-                                          if v > 0) + ".")
-    return names, text
+        if len(np.unique(cases[cases > 0])) >= 2:
+            chosen.append((k.split("/", 1)[1], cases))
+    if not chosen:
+        return None, []
+    fig, axes = plt.subplots(1, len(chosen), squeeze=False, dpi=DPI,
+                             figsize=(4.2 * len(chosen) + 1.8, 4.2 * h / w + 0.7))
+    text = []
+    for ax, (t, cases) in zip(axes[0], chosen):
+        rgb = np.zeros(cases.shape + (3,), np.uint8)
+        for k, c in CASE_COLORS.items():
+            rgb[cases == k] = c
+        ax.imshow(np.repeat(np.repeat(rgb, 8, 0), 8, 1)[:h, :w], interpolation="nearest")
+        ax.set_xticks([]), ax.set_yticks([])
+        ax.set_title(f"{t}: traversal per 8x8 wave", fontsize=9)
+        shares = {CASE_NAMES[k]: float((cases == k).mean()) for k in CASE_COLORS}
+        busy = 1.0 - shares["empty"]
+        text.append(f"{t}: of the waves that shade, " + ", ".join(
+            f"{shares[n] / busy:.0%} {n}" for n in ("list", "tree", "mixed")) +
+            (f" ({shares['empty']:.0%} of all waves are empty)." if busy > 0 else "."))
+    axes[0][-1].legend(handles=[Patch(facecolor=np.array(CASE_COLORS[k]) / 255, edgecolor="0.5",
+                                      label=CASE_NAMES[k]) for k in (1, 2, 3, 0)],
+                       fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    fig.tight_layout()
+    name = "classification.png"
+    fig.savefig(out / name)
+    plt.close(fig)
+    return name, text
 
 
 def aggregate_path(rows) -> dict:
@@ -411,8 +463,7 @@ def fig_accuracy(rows, out, colors) -> tuple[str | None, list[str]]:
         if front:
             ax.step([pts[t][0] for t in front], [pts[t][1] for t in front], where="post",
                     color="0.4", lw=1, ls=":", zorder=2, label="Pareto front")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
+        _log_axes(ax)
         ax.set_xlabel("frame cost: CPU stage + GPU cull + shade (ms, mean over path)", fontsize=7)
         ax.set_ylabel("lights evaluated / lights affecting", fontsize=7)
         ax.set_title(f"{key[0]}, {key[1]} lights", fontsize=9)
@@ -427,7 +478,8 @@ def fig_accuracy(rows, out, colors) -> tuple[str | None, list[str]]:
             s += "; " + ", ".join(f"{t} is dominated by " + next(
                 f for f in front if pts[f][0] <= pts[t][0] and pts[f][1] <= pts[t][1]) for t in off)
         if PERFECT in d:
-            s += f". Perfect culling would cost {_ms(d[PERFECT]['cost'])} (shading only, lists free)"
+            s += f". The perfect culler would cost {_ms(d[PERFECT]['cost'])} (the shared CPU steps + " \
+                 f"shading over exact lists built untimed)"
         text.append(s + ".")
     handles, labels = axes[0][0].get_legend_handles_labels()
     axes[0][-1].legend(handles, labels, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
@@ -464,8 +516,7 @@ def fig_cutoff(rows, out, colors) -> tuple[str | None, list[str]]:
         if ref:
             ax.axvline(_num(ref[0]["frame_cost_ms"]), color="0.3", ls=":", lw=1,
                        label=f"unbounded {REFERENCE}")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
+        _log_axes(ax)
         ax.set_xlabel("frame cost (ms)", fontsize=8)
         ax.set_ylabel("RMSE vs unbounded / mean radiance", fontsize=8)
         n = int(sub[0]["lights"])
@@ -475,8 +526,15 @@ def fig_cutoff(rows, out, colors) -> tuple[str | None, list[str]]:
         errs = {c: _mean([r["image_error"] for r in bounded if int(r["cutoff"]) == c]) for c in cutoffs}
         vis = {c: _mean([r["visible"] for r in bounded if int(r["cutoff"]) == c
                          and r["technique"] == REFERENCE]) for c in cutoffs}
+        ratio = {c: _mean([r["radiance_ratio"] for r in bounded if int(r["cutoff"]) == c]) for c in cutoffs}
         s = f"**{sc}**: image error against the unbounded reference is " + ", ".join(
             f"{errs[c]:.2g} at t=1/{c}" for c in cutoffs)
+        s += " (the bounded image holds " + ", ".join(f"{100 * ratio[c]:.0f}%" for c in cutoffs) + \
+             " of the reference's mean radiance"
+        c0 = cutoffs[-1]
+        if errs[c0] > 0 and 1.0 - ratio[c0] >= 0.5 * errs[c0]:
+            s += "; most of the error is energy missing from the cut tails"
+        s += ")"
         cheapest = {}
         for c in cutoffs:
             cands = [r for r in bounded if int(r["cutoff"]) == c and r["technique"] not in (REFERENCE, PERFECT)]
@@ -640,8 +698,8 @@ def write_report(out: Path, rows: list[dict], maps: dict, info: dict) -> list[st
     section("Tile size (tree paper figure 6)", name, text)
     name, text = fig_heat(rows, maps, out, info)
     section("Lights evaluated per pixel (tree paper figure 1)", name, text)
-    names, text = fig_classification(rows, maps, out)
-    section("Traversal per wave: list / tree / mixed (tree paper figure 3)", names, text)
+    name, text = fig_classification(rows, maps, out)
+    section("Traversal per wave: list / tree / mixed (tree paper figure 3)", name, text)
     name, text = fig_cutoff(rows, out, colors)
     section("The light cutoff: image error vs cost", name, text,
             "Each light's radius is set where its unbounded falloff I/(d^2+1) drops to t times the "
@@ -662,6 +720,8 @@ def write_report(out: Path, rows: list[dict], maps: dict, info: dict) -> list[st
         f"- machine: {info.get('cpu', '?')}, {info.get('cores', '?')} cores; "
         f"{info.get('system', '')}, Python {info.get('python', '')}",
         f"- GL: {info.get('gl_renderer', '?')} ({info.get('gl_version', '')})",
+        f"- CPU stage: {info.get('cpu_threads', '?')} numba thread(s) (the paper's figure 4 is "
+        f"single threaded)",
         f"- run time: {info.get('elapsed_s', 0):.0f} s; {len(rows)} rows in results.csv",
         "",
     ]

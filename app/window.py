@@ -224,7 +224,7 @@ def _window_config_class():
             self._shot_fbo = None
             # programs
             virtual = {"generated.glsl": feat.generated_glsl()}
-            self.b_view = max(feat.BINDINGS.values()) + 1
+            self.b_view = feat.BINDINGS["view_stats"]
             vert = (Path(__file__).resolve().parent.parent / "glsl" / "present.vert").read_text()
 
             def program(hud: int):

@@ -36,14 +36,15 @@ def test_results_columns_and_rows(sweep):
         got = {r["technique"] for r in rows if r["study"] == study}
         want = set(REGISTRY) | ({bench.PERFECT} if study != "cpu" else set())
         assert got == want, f"{study}: {sorted(got)} != {sorted(want)}"
-    assert {r["study"] for r in rows} == {"path", "tile", "radius", "layout", "cutoff", "cpu"}
-    tiles = {r["tile"] for r in rows if r["study"] == "tile"}
-    assert tiles == {16.0, 32.0, 48.0, 64.0}
+    assert {r["study"] for r in rows} == {"path", "tile", "radius", "layout", "cutoff", "cpu",
+                                          "cpu_tile"}
+    for study in ("tile", "cpu_tile"):
+        assert {r["tile"] for r in rows if r["study"] == study} == {16.0, 32.0, 48.0, 64.0}
 
 
 def test_exactness_and_waste(sweep):
     _, rows = sweep
-    rendered = [r for r in rows if r["study"] != "cpu"]
+    rendered = [r for r in rows if not r["study"].startswith("cpu")]
     assert rendered
     for r in rendered:
         where = f"{r['study']} {r['technique']} cutoff {r['cutoff']}"
@@ -85,7 +86,13 @@ def test_perfect_culler_exact_lists(gl, rng):
         ref = r.render(REGISTRY[bench.REFERENCE], 0, Options())
         p = PerfectCuller(r)
         one = p.render(0, Options())
-        p.max_band_bytes = 256          # force several 8-row bands
+        again = p.render(0, Options())          # same frame: the lists are reused
+        assert again.meta["stats"]["lists_reused"] and not one.meta["stats"]["lists_reused"]
+        assert np.array_equal(again.contrib_hash, one.contrib_hash)
+        gl_rows = one.contrib_count[::-1].astype(np.int64)      # GL row order, bottom first
+        per_group = [int(gl_rows[y:y + 8].sum()) for y in range(0, gl_rows.shape[0], 8)]
+        p.max_band_bytes = 4 * max(per_group)   # force several bands of whole 8-row groups
+        assert sum(per_group) > max(per_group)
         banded = p.render(0, Options())
         assert banded.meta["stats"]["bands"] > 1
         for res in (one, banded):
