@@ -52,6 +52,7 @@ import numpy as np
 
 from . import cli
 from .errors import UserError
+from cpu_prep.arena import Arena
 from .techniques import REGISTRY, FrameInput, Options, get
 
 REFERENCE = "brute"            # the exactness reference of the dump contract
@@ -160,7 +161,8 @@ def cpu_stage_samples(technique, scene, size, opts: Options, repeat: int, frame:
     w, h = size
     cam = frame_camera(scene.camera_at(frame, frames), w, h)
     lights = scene.lights if lights is None else lights
-    fi = FrameInput(lights, cam, scene.max_depth or cam.far)
+    # one arena across the repeats: the frame-to-frame reuse an engine (and the Renderer) has
+    fi = FrameInput(lights, cam, scene.max_depth or cam.far, Arena())
     for _ in range(warmup):
         technique.build(fi, opts)
     stages = list(CPU_STAGES) + ([UPLOAD] if upload else [])

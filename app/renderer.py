@@ -13,6 +13,7 @@ import time
 
 import numpy as np
 
+from cpu_prep.arena import Arena
 from cpu_prep.camera import frame_camera
 from cpu_prep.limits import LimitError
 from . import features as feat, gl
@@ -47,6 +48,7 @@ class Renderer:
         self.gbuffer = GBuffer(self.ctx, scene.meshes, size)
         self.buffers: dict[str, object] = {}
         self.last_meta: dict | None = None
+        self.arena = Arena()     # CPU-stage outputs, reused frame to frame (uploaded at once)
 
     @property
     def size(self) -> tuple[int, int]:
@@ -112,7 +114,7 @@ class Renderer:
 
         self.timer.run("gbuffer", lambda: self.gbuffer.draw(cam))
         try:
-            build = technique.build(FrameInput(lights, cam, max_depth), opts)
+            build = technique.build(FrameInput(lights, cam, max_depth, self.arena), opts)
         except LimitError as exc:
             raise UserError(str(exc)) from None
         features = feat.feature_set(build.lights.type)

@@ -13,6 +13,7 @@ import time
 import numpy as np
 
 from . import grid as gridmod, lights as lightsmod
+from .arena import Arena
 from .camera import FrameCamera
 from .lights import PreparedLights
 from .limits import MAX_STORAGE_BYTES, LimitError
@@ -32,22 +33,23 @@ class StageTimes:
 
 
 def prepare_lights(scene_lights: np.ndarray, cam: FrameCamera, times: StageTimes,
-                   sort_buckets: int = 0) -> PreparedLights:
+                   sort_buckets: int = 0, arena: Arena | None = None) -> PreparedLights:
     with times.stage("cull"):
-        vis, pos, dirs, center, brad = lightsmod.view_and_cull(scene_lights, cam)
+        rows, spheres = lightsmod.view_and_cull(scene_lights, cam, arena)
     with times.stage("sort"):
-        order = lightsmod.depth_order(-center[:, 2], sort_buckets)
+        order = lightsmod.depth_order(-spheres[:, 2], sort_buckets)
     with times.stage("pack"):
-        pl = lightsmod.pack(vis, pos, dirs, center, brad, order, scene_lights)
+        pl = lightsmod.pack(rows, spheres, order, arena)
     check_buffer("light buffer", pl.gpu.nbytes)
     return pl
 
 
-def bin_cells(pl: PreparedLights, cam: FrameCamera, grid: gridmod.Grid, times: StageTimes):
+def bin_cells(pl: PreparedLights, cam: FrameCamera, grid: gridmod.Grid, times: StageTimes,
+              arena: Arena | None = None):
     """CSR (offsets, entries) of the depth-sorted visible lights over the grid's cells."""
     with times.stage("bin"):
-        boxes = gridmod.light_boxes(grid, cam, pl.center, pl.bound_radius)
-        offsets, entries = gridmod.scatter(grid, boxes)
+        boxes = gridmod.light_boxes(grid, cam, pl.center, pl.bound_radius, arena)
+        offsets, entries = gridmod.scatter(grid, boxes, arena)
     check_buffer("light index list", entries.nbytes)
     return offsets, entries
 

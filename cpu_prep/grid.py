@@ -15,6 +15,7 @@ import math
 import numba
 import numpy as np
 
+from .arena import Arena, empty, zeros
 from .bounds import pixel_rect
 from .camera import FrameCamera
 from .limits import SLICE_DEPTH_REL_MARGIN
@@ -119,13 +120,11 @@ def _boxes_from_rects(rect, d_lo, d_hi, tile, tiles_x, tiles_y, slices, scale, b
 
 @numba.njit(cache=True, nogil=True, parallel=True)
 def _light_boxes(center, radius, near, tan_x, tan_y, width, height,
-                 tile, tiles_x, tiles_y, slices, scale, bias):
-    out = np.empty((center.shape[0], 6), np.int32)
+                 tile, tiles_x, tiles_y, slices, scale, bias, out):
     for i in numba.prange(center.shape[0]):
         cx, cy, cz, r = center[i, 0], center[i, 1], center[i, 2], radius[i]
         x0, x1, y0, y1 = pixel_rect(cx, cy, cz, r, near, tan_x, tan_y, width, height)
         out[i] = _box(x0, x1, y0, y1, -cz - r, -cz + r, tile, tiles_x, tiles_y, slices, scale, bias)
-    return out
 
 
 def _grid_args(grid: Grid):
@@ -139,49 +138,62 @@ def cell_boxes(grid: Grid, rect, depth_lo, depth_hi) -> np.ndarray:
                              np.ascontiguousarray(depth_hi, np.float64), *_grid_args(grid))
 
 
-def light_boxes(grid: Grid, cam: FrameCamera, center, radius) -> np.ndarray:
+def light_boxes(grid: Grid, cam: FrameCamera, center, radius, arena: Arena | None = None) -> np.ndarray:
     """(N, 6) boxes of culling spheres: Mara-McGuire rectangle and depth range per light."""
-    return _light_boxes(center, radius, cam.near, cam.tan_half_x, cam.tan_half_y,
-                        float(cam.width), float(cam.height), *_grid_args(grid))
+    out = empty(arena, "boxes", (len(center), 6), np.int32)
+    _light_boxes(center, radius, cam.near, cam.tan_half_x, cam.tan_half_y,
+                 float(cam.width), float(cam.height), *_grid_args(grid), out)
+    return out
+
+
+@numba.njit(inline="always")
+def _band(boxes, i, band, bands, slices):
+    """Slice range of light i's box inside band `band` of `bands`."""
+    s_lo, s_hi = band * slices // bands, (band + 1) * slices // bands
+    return max(boxes[i, 4], s_lo), min(boxes[i, 5], s_hi - 1)
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _scatter(boxes, tiles_x, tiles_y, slices, bands):
-    """Two passes (count, fill) over every light's box.  The slices are split into `bands`
-    handled in parallel: each band walks all lights in order but writes only its own
-    cells, so lists stay in light order and the result does not depend on the threads."""
-    n = boxes.shape[0]
-    per_slice = tiles_x * tiles_y
-    cells = per_slice * slices
-    offsets = np.zeros(cells + 1, np.int64)
+def _count(boxes, tiles_x, tiles_y, slices, bands, offsets):
+    """offsets[cell + 1] += lights whose box holds the cell, then the prefix sum.
+    The slices are split into `bands` handled in parallel: each band walks all lights but
+    touches only its own cells, so the result does not depend on the threads."""
     for band in numba.prange(bands):
-        s_lo, s_hi = band * slices // bands, (band + 1) * slices // bands
-        for i in range(n):
-            s0, s1 = max(boxes[i, 4], s_lo), min(boxes[i, 5], s_hi - 1)
+        for i in range(boxes.shape[0]):
+            s0, s1 = _band(boxes, i, band, bands, slices)
             for s in range(s0, s1 + 1):
                 for ty in range(boxes[i, 2], boxes[i, 3] + 1):
                     row = (s * tiles_y + ty) * tiles_x + 1
                     for tx in range(boxes[i, 0], boxes[i, 1] + 1):
                         offsets[row + tx] += 1
-    for c in range(cells):
+    for c in range(offsets.shape[0] - 1):
         offsets[c + 1] += offsets[c]
-    entries = np.empty(offsets[cells], np.uint32)
-    cursor = offsets[:cells].copy()
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _fill(boxes, tiles_x, tiles_y, slices, bands, cursor, entries):
+    """Each light's index into every cell of its box, lights in order (so each cell's list
+    keeps the depth order of the input); cursor starts as the cells' offsets."""
     for band in numba.prange(bands):
-        s_lo, s_hi = band * slices // bands, (band + 1) * slices // bands
-        for i in range(n):
-            s0, s1 = max(boxes[i, 4], s_lo), min(boxes[i, 5], s_hi - 1)
+        for i in range(boxes.shape[0]):
+            s0, s1 = _band(boxes, i, band, bands, slices)
             for s in range(s0, s1 + 1):
                 for ty in range(boxes[i, 2], boxes[i, 3] + 1):
                     row = (s * tiles_y + ty) * tiles_x
                     for tx in range(boxes[i, 0], boxes[i, 1] + 1):
                         entries[cursor[row + tx]] = i
                         cursor[row + tx] += 1
-    return offsets, entries
 
 
-def scatter(grid: Grid, boxes) -> tuple[np.ndarray, np.ndarray]:
+def scatter(grid: Grid, boxes, arena: Arena | None = None) -> tuple[np.ndarray, np.ndarray]:
     """CSR (offsets int64 of length cells+1, entries uint32) of lights per cell; `boxes` of
     lights in depth order, so each cell's entries come out depth-sorted."""
     bands = min(grid.slices, max(numba.get_num_threads(), 1))
-    return _scatter(boxes, grid.tiles_x, grid.tiles_y, grid.slices, bands)
+    args = (boxes, grid.tiles_x, grid.tiles_y, grid.slices, bands)
+    offsets = zeros(arena, "offsets", grid.cells + 1, np.int64)
+    _count(*args, offsets)
+    cursor = empty(arena, "cursor", grid.cells, np.int64)
+    cursor[:] = offsets[:-1]
+    entries = empty(arena, "entries", int(offsets[-1]), np.uint32)
+    _fill(*args, cursor, entries)
+    return offsets, entries

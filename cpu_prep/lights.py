@@ -14,6 +14,7 @@ import numba
 import numpy as np
 
 from . import layouts
+from .arena import Arena, empty
 from .bounds import grow, spot_sphere
 from .camera import FrameCamera
 from .limits import PIXEL_MARGIN, RADIUS_REL_MARGIN
@@ -42,16 +43,13 @@ class PreparedLights:
 
 
 @numba.njit(cache=True, nogil=True)
-def _view_cull(lights, m, near, far, tan_x, tan_y):
+def _view_cull(lights, m, near, far, tan_x, tan_y, rows, rows_u, sphere):
     """View transform (float64, stored float32 as the GPU sees it), culling sphere, and the
     frustum test of that sphere against the near/far planes and the four side planes
-    widened by PIXEL_MARGIN; returns the visible lights only."""
+    widened by PIXEL_MARGIN.  Each visible light is written, in scene order, as its finished
+    GPU_LIGHT row (rows / rows_u: float and uint views of one array) and its float64
+    culling sphere, so the sort's permutation later moves one cache line per light."""
     n = lights.shape[0]
-    vis = np.empty(n, np.int64)
-    pos = np.empty((n, 3), np.float32)
-    dirs = np.empty((n, 3), np.float32)
-    center = np.empty((n, 3))
-    brad = np.empty(n)
     norm_x, norm_y = math.sqrt(1.0 + tan_x * tan_x), math.sqrt(1.0 + tan_y * tan_y)
     k = 0
     for i in range(n):
@@ -77,19 +75,28 @@ def _view_cull(lights, m, near, far, tan_x, tan_y):
             continue
         if (cy + tan_y * depth) / norm_y < -r or (-cy + tan_y * depth) / norm_y < -r:
             continue
-        vis[k] = i
-        pos[k, 0], pos[k, 1], pos[k, 2] = px, py, pz
-        dirs[k, 0], dirs[k, 1], dirs[k, 2] = dx, dy, dz
-        center[k, 0], center[k, 1], center[k, 2], brad[k] = cx, cy, cz, r
+        # GPU_LIGHT: pos_radius, color_cos_inner, dir_cos_outer, id_type
+        rows[k, 0], rows[k, 1], rows[k, 2], rows[k, 3] = px, py, pz, li.radius
+        for a in range(3):
+            rows[k, 4 + a] = li.color[a] * li.intensity
+        rows[k, 7] = li.cos_inner
+        rows[k, 8], rows[k, 9], rows[k, 10], rows[k, 11] = dx, dy, dz, li.cos_outer
+        rows_u[k, 12], rows_u[k, 13], rows_u[k, 14], rows_u[k, 15] = i, li.type, 0, 0
+        sphere[k, 0], sphere[k, 1], sphere[k, 2], sphere[k, 3] = cx, cy, cz, r
         k += 1
-    return vis[:k], pos[:k], dirs[:k], center[:k], brad[:k]
+    return k
 
 
-def view_and_cull(lights: np.ndarray, cam: FrameCamera):
-    """(visible ids, float32 view pos, float32 view dir, float64 sphere centre, radius)."""
+def view_and_cull(lights: np.ndarray, cam: FrameCamera, arena: Arena | None = None):
+    """(GPU_LIGHT rows (K,16) float32, culling spheres (K,4) float64) of the K visible
+    lights, in scene order."""
     tx = cam.tan_half_x * (1.0 + 2.0 * PIXEL_MARGIN / cam.width)
     ty = cam.tan_half_y * (1.0 + 2.0 * PIXEL_MARGIN / cam.height)
-    return _view_cull(lights, cam.view_from_world, cam.near, cam.far, tx, ty)
+    n = len(lights)
+    rows = empty(arena, "visible_rows", (n, 16), np.float32)
+    sphere = empty(arena, "visible_spheres", (n, 4), np.float64)
+    k = _view_cull(lights, cam.view_from_world, cam.near, cam.far, tx, ty, rows, rows.view(np.uint32), sphere)
+    return rows[:k], sphere[:k]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -133,41 +140,32 @@ def depth_order(depth: np.ndarray, buckets: int = 0) -> np.ndarray:
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _pack(order, vis, pos, dirs, center, brad, lights, gpu_f, gpu_u, bound, lo, hi, c_out, r_out, t_out):
+def _pack(order, rows, sphere, gpu, spheres_out, bound, lo, hi):
     for j in numba.prange(order.shape[0]):
         i = order[j]
-        s = vis[i]
-        li = lights[s]
+        for a in range(16):
+            gpu[j, a] = rows[i, a]
+        for a in range(4):
+            spheres_out[j, a] = sphere[i, a]
+        r = sphere[i, 3]
         for a in range(3):
-            gpu_f[j, a] = pos[i, a]
-            gpu_f[j, 4 + a] = li.color[a] * li.intensity
-            gpu_f[j, 8 + a] = dirs[i, a]
-            bound[j, a] = center[i, a]
-            c_out[j, a] = center[i, a]
-        gpu_f[j, 3] = li.radius
-        gpu_f[j, 7] = li.cos_inner
-        gpu_f[j, 11] = li.cos_outer
-        gpu_u[j, 12] = s
-        gpu_u[j, 13] = li.type
-        r = brad[i]
-        r_out[j] = r
-        t_out[j] = li.type
+            bound[j, a] = sphere[i, a]
         # float32, rounded outwards: the GPU's float32 comparisons stay conservative.
         # (The stored centre's rounding is in grow()'s 4-ulp term; round the radius up.)
         bound[j, 3] = np.nextafter(np.float32(r), np.float32(np.inf))
-        lo[j] = np.nextafter(np.float32(-center[i, 2] - r), np.float32(-np.inf))
-        hi[j] = np.nextafter(np.float32(-center[i, 2] + r), np.float32(np.inf))
+        lo[j] = np.nextafter(np.float32(-sphere[i, 2] - r), np.float32(-np.inf))
+        hi[j] = np.nextafter(np.float32(-sphere[i, 2] + r), np.float32(np.inf))
 
 
-def pack(vis, pos, dirs, center, brad, order, lights: np.ndarray) -> PreparedLights:
+def pack(rows, sphere, order, arena: Arena | None = None) -> PreparedLights:
     """GPU_LIGHT / GPU_BOUND and the float32 depth ranges, in depth order."""
     n = len(order)
-    raw = np.zeros((n, 16), np.float32)
-    bound = np.empty((n, 4), np.float32)
-    lo, hi = np.empty(n, np.float32), np.empty(n, np.float32)
-    c_out, r_out, t_out = np.empty((n, 3)), np.empty(n), np.empty(n, np.uint8)
-    _pack(order, vis, pos, dirs, center, brad, lights, raw, raw.view(np.uint32), bound, lo, hi,
-          c_out, r_out, t_out)
-    return PreparedLights(ids=vis[order].astype(np.uint32), type=t_out, center=c_out, bound_radius=r_out,
-                          gpu=raw.view(layouts.GPU_LIGHT).reshape(n), bounds=bound.view(layouts.GPU_BOUND).reshape(n),
-                          depth_lo=lo, depth_hi=hi)
+    gpu = empty(arena, "gpu_lights", (n, 16), np.float32)
+    spheres = empty(arena, "sorted_spheres", (n, 4), np.float64)
+    bound = empty(arena, "gpu_bounds", (n, 4), np.float32)
+    lo, hi = empty(arena, "depth_lo", n, np.float32), empty(arena, "depth_hi", n, np.float32)
+    _pack(order, rows, sphere, gpu, spheres, bound, lo, hi)
+    meta = gpu.view(np.uint32)
+    return PreparedLights(ids=meta[:, 12], type=meta[:, 13].astype(np.uint8), center=spheres[:, :3],
+                          bound_radius=spheres[:, 3], gpu=gpu.view(layouts.GPU_LIGHT).reshape(n),
+                          bounds=bound.view(layouts.GPU_BOUND).reshape(n), depth_lo=lo, depth_hi=hi)

@@ -20,6 +20,7 @@ import numba
 import numpy as np
 
 from . import layouts
+from .arena import Arena, empty
 from .layouts import node_bits
 from .limits import LimitError, NODE_MAX_LIGHTS, NODE_MAX_SKIP
 
@@ -121,7 +122,7 @@ def _build_cells(offsets, entries, depth_lo, depth_hi, leaves, node_start,
 
 
 def build_trees(offsets, entries, depth_lo, depth_hi, is_tree,
-                lights_per_leaf: int, max_leaves: int):
+                lights_per_leaf: int, max_leaves: int, arena: Arena | None = None):
     """Trees for every cell of a CSR binning.
 
     offsets/entries: per-cell lists (entries index the depth-sorted light arrays);
@@ -132,7 +133,7 @@ def build_trees(offsets, entries, depth_lo, depth_hi, is_tree,
     node_counts = np.where(leaves > 0, 2 * leaves - 1, 0)
     node_start = np.zeros(len(counts) + 1, np.int64)
     np.cumsum(node_counts, out=node_start[1:])
-    raw = np.zeros((int(node_start[-1]), 4), np.float32)
+    raw = empty(arena, "nodes", (int(node_start[-1]), 4), np.float32)   # every node is written
     tab_order, tab_skip, tab_off = _all_tables(int(max(leaves.max(initial=1), 1)))
     _build(offsets, entries, depth_lo, depth_hi, leaves, node_start, tab_order, tab_skip,
            tab_off, raw, raw.view(np.uint32), 8 * numba.get_num_threads())

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from cpu_prep import frame as cpuframe, grid as gridmod, limits
+from cpu_prep.arena import Arena
 from cpu_prep.camera import FrameCamera
 
 
@@ -39,6 +40,7 @@ class FrameInput:
     lights: np.ndarray        # scenes LIGHT_DTYPE, world space
     camera: FrameCamera
     max_depth: float
+    arena: Arena | None = None   # reuse output arrays across frames (None: fresh arrays)
 
 
 @dataclass
@@ -84,7 +86,7 @@ def prepare_binned(frame: FrameInput, opts: Options, slices: int):
     b = prepare(frame, opts)
     cam = frame.camera
     b.grid = gridmod.make_grid(cam, opts.tile, slices, frame.max_depth, opts.near_slice_depth)
-    offsets, entries = cpuframe.bin_cells(b.lights, cam, b.grid, b.times)
+    offsets, entries = cpuframe.bin_cells(b.lights, cam, b.grid, b.times, frame.arena)
     b.uniforms.update(grid_uniforms(b.grid))
     b.stats["cells"] = b.grid.cells
     return b, offsets, entries
@@ -93,7 +95,7 @@ def prepare_binned(frame: FrameInput, opts: Options, slices: int):
 def prepare(frame: FrameInput, opts: Options) -> Build:
     """The steps every technique shares: cull, sort, pack the visible lights."""
     times = cpuframe.StageTimes()
-    pl = cpuframe.prepare_lights(frame.lights, frame.camera, times, opts.sort_buckets)
+    pl = cpuframe.prepare_lights(frame.lights, frame.camera, times, opts.sort_buckets, frame.arena)
     b = Build(lights=pl, times=times)
     b.buffers["lights"] = pl.gpu
     b.buffers["bounds"] = pl.bounds

@@ -20,5 +20,5 @@ class Hybrid(Technique):
         with b.times.stage("build"):
             is_tree = hybridmod.choose_trees(b.grid, offsets, entries, b.lights.depth_lo,
                                              b.lights.depth_hi, frame.max_depth, opts.radius_scale)
-        tree_buffers(b, offsets, entries, is_tree, opts)
+        tree_buffers(b, offsets, entries, is_tree, opts, frame.arena)
         return b

@@ -14,11 +14,11 @@ from .clustered import list_buffers
 SHARED_TREE_NODES = 128   # shared-memory copy of one tree: 128 x 16 B = 2 KiB
 
 
-def tree_buffers(b, offsets, entries, is_tree, opts):
+def tree_buffers(b, offsets, entries, is_tree, opts, arena=None):
     with b.times.stage("build"):
         ranges, nodes, leaves = treemod.build_trees(
             offsets, entries, b.lights.depth_lo, b.lights.depth_hi, is_tree,
-            opts.lights_per_leaf, opts.max_leaves)
+            opts.lights_per_leaf, opts.max_leaves, arena)
     with b.times.stage("pack"):
         list_buffers(b, offsets, entries, opts)
         b.buffers["ranges"] = ranges
@@ -37,5 +37,5 @@ class Tree(Technique):
 
     def build(self, frame, opts):
         b, offsets, entries = prepare_binned(frame, opts, 1)
-        tree_buffers(b, offsets, entries, np.ones(b.grid.cells, bool), opts)
+        tree_buffers(b, offsets, entries, np.ones(b.grid.cells, bool), opts, frame.arena)
         return b
