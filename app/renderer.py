@@ -194,4 +194,5 @@ class Renderer:
         for b in self.buffers.values():
             b.release()
         self.buffers.clear()
+        self.programs.release()
         self.gbuffer.release()

@@ -114,6 +114,12 @@ class ProgramCache:
             self.sources[key] = text
         return self._programs[key]
 
+    def release(self) -> None:
+        for prog in self._programs.values():
+            prog.release()
+        self._programs.clear()
+        self.sources.clear()
+
     def text_of(self, program) -> str:
         for key, prog in self._programs.items():
             if prog is program:

@@ -6,8 +6,23 @@ whose other core is busy (the GPU driver, llvmpipe, a test runner) a parallel re
 for a time slice and costs ~10 ms, far more than it saves.  The tree paper's figure 4 is
 single-threaded too.
 """
+import hashlib
 import os
+from pathlib import Path
 
 import numba
 
+
+def _cache_dir() -> Path:
+    """numba's on-disk cache, keyed by the source of this whole package: numba re-checks
+    only a kernel's own file, not the limits and inline bounds it compiled in."""
+    h = hashlib.sha1()
+    for p in sorted(Path(__file__).parent.glob("*.py")):
+        h.update(p.name.encode() + p.read_bytes())
+    base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
+    return base / "many-light-lab" / "numba" / h.hexdigest()[:16]
+
+
+if not os.environ.get("NUMBA_CACHE_DIR"):
+    numba.config.CACHE_DIR = str(_cache_dir())
 numba.set_num_threads(max(1, min(int(os.environ.get("LAB_CPU_THREADS", "1")), numba.config.NUMBA_NUM_THREADS)))

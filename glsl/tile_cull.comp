@@ -20,6 +20,7 @@ uniform uint u_capacity;      // entries in the pool
 uniform vec2 u_tan_half;      // tan of the half field of view, x and y
 
 shared uint s_min, s_max, s_count, s_base;
+shared uint s_mask[8];        // one bit per invocation: its light of this chunk is in the tile
 
 // Signed distance from the side plane through the eye at ndc coordinate `n` along one axis
 // (positive inside when `sign` = +1 for the low edge, -1 for the high edge).
@@ -76,11 +77,28 @@ void main() {
         if (overflow) s_count = 0xFFFFFFFFu;
     }
     barrier();
-    bool write = s_count != 0xFFFFFFFFu;
-    barrier();
-    if (lid == 0u) s_count = 0u;
-    barrier();
-    for (uint i = lid; i < u_light_count && !empty && write; i += 256u)
-        if (sphere_in_tile(bounds[i].center_radius, ndc, dmin, dmax))
-            tile_entries[s_base + atomicAdd(s_count, 1u)] = i;
+    bool write = s_count != 0xFFFFFFFFu && !empty;
+    // Fill in light order (= depth order, like every other technique's lists), so the list
+    // and the image's summation order do not depend on atomic scheduling: per chunk of 256
+    // lights, each hit's slot is the number of hits of lower invocations.
+    uint next = s_base;
+    uint chunks = write ? (u_light_count + 255u) / 256u : 0u;
+    for (uint c = 0u; c < chunks; ++c) {
+        if (lid < 8u) s_mask[lid] = 0u;
+        barrier();
+        uint i = c * 256u + lid;
+        bool hit = i < u_light_count && sphere_in_tile(bounds[i].center_radius, ndc, dmin, dmax);
+        if (hit) atomicOr(s_mask[lid >> 5], 1u << (lid & 31u));
+        barrier();
+        uint below = bitCount(s_mask[lid >> 5] & ((1u << (lid & 31u)) - 1u));
+        uint total = 0u;
+        for (uint w = 0u; w < 8u; ++w) {
+            uint n = bitCount(s_mask[w]);
+            if (w < (lid >> 5)) below += n;
+            total += n;
+        }
+        if (hit) tile_entries[next + below] = i;
+        next += total;
+        barrier();
+    }
 }

@@ -254,7 +254,7 @@ def cli_results(tmp_path_factory):
     """Every case's CompletedProcess, the subprocesses run concurrently."""
     jobs = {}
     for cid, (make, _) in CASES.items():
-        d = tmp_path_factory.mktemp(cid)
+        d = tmp_path_factory.mktemp("case")    # neutral name: messages must not match the path
         jobs[cid] = make(d)
     with ThreadPoolExecutor(max_workers=max(2, (os.cpu_count() or 2) + 1)) as ex:
         futures = {cid: ex.submit(_run, argv, ROOT) for cid, argv in jobs.items()}
@@ -272,6 +272,8 @@ def test_cli_rejects_bad_input(cli_results, case):
     assert len(lines) == 1, f"{case}: expected exactly one stderr line, got {len(lines)}: {err!r}"
     assert re.search(pattern, lines[0]), f"{case}: '{lines[0]}' does not name /{pattern}/"
     assert len(lines[0]) < 400, f"{case}: message too long ({len(lines[0])} chars)"
+    assert "No module named" not in lines[0], (
+        f"{case}: the message blames a missing Python module, not the input: '{lines[0]}'")
     assert proc.stdout.strip() == "", f"{case}: printed a result despite the error: {proc.stdout!r}"
 
 
@@ -287,6 +289,17 @@ def test_good_scene_file_is_accepted(tmp_path):
     s["lights_npz"] = "lights.npz"
     (tmp_path / "s2.json").write_text(json.dumps(s))
     proc = _run(["--scene", str(tmp_path / "s2.json"), "--size", "16x8"], ROOT)
+    assert proc.returncode == 0, proc.stderr
+
+
+def test_valid_mesh_with_non_utf8_comment_is_accepted(tmp_path):
+    """A well-formed OBJ whose comment holds a Latin-1 byte (as many exporters write) is a
+    good mesh: it must load, not be rejected as unreadable."""
+    (tmp_path / "m.obj").write_bytes(b"# caf\xe9 export\nv -1 0 -1\nv 1 0 -1\nv 0 1 -1\nf 1 2 3\n")
+    s = good_scene()
+    s["geometry"].append({"mesh": "m.obj"})
+    (tmp_path / "scene.json").write_text(json.dumps(s))
+    proc = _run(["--scene", str(tmp_path / "scene.json"), "--size", "16x8"], ROOT)
     assert proc.returncode == 0, proc.stderr
 
 
@@ -348,8 +361,9 @@ def test_storage_limit_boundary_and_named_buffer(gl):
         with pytest.raises(UserError):
             r._check_size((w, lim.max_storage_block // (16 * w) + 1))
         before = dict(r.buffers)
+        alloc = getattr(r, "buffer", None) or getattr(r, "_buffer")   # named storage buffer
         with pytest.raises(UserError, match="entries"):
-            r._buffer("entries", lim.max_storage_block + 1)
+            alloc("entries", lim.max_storage_block + 1)
         assert r.buffers == before
         # the resize path checks too, and leaves the renderer usable
         with pytest.raises(UserError):
