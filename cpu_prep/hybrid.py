@@ -16,14 +16,14 @@ from .grid import Grid
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _choose(offsets, entries, depth_lo, depth_hi, slice_lo, slice_hi, per_slice, radius_scale):
+def _choose(offsets, entries, depth_lo, depth_hi, slice_lo, slice_hi, slices, radius_scale):
     cells = offsets.shape[0] - 1
     out = np.zeros(cells, np.bool_)
     for c in numba.prange(cells):
         n = offsets[c + 1] - offsets[c]
         if n == 0:
             continue
-        s = c // per_slice
+        s = c % slices                 # cells are tile-major (cpu_prep.grid)
         lo, hi = slice_lo[s], slice_hi[s]
         total = 0.0
         for e in range(offsets[c], offsets[c + 1]):
@@ -38,4 +38,4 @@ def choose_trees(grid: Grid, offsets, entries, depth_lo, depth_hi, max_depth: fl
     lo_s, hi_s = grid.slice_bounds()
     hi_s = np.minimum(hi_s, max(max_depth, lo_s[-1]))
     return _choose(offsets, entries, depth_lo, depth_hi, lo_s, hi_s,
-                   grid.tiles_x * grid.tiles_y, float(radius_scale))
+                   grid.slices, float(radius_scale))

@@ -121,6 +121,26 @@ def _radix_order(keys):
     return order
 
 
+@numba.njit(cache=True, nogil=True)
+def _bucket_order(depth, buckets):
+    """Counting sort into `buckets` equal depth buckets; input order within a bucket."""
+    n = depth.shape[0]
+    lo, hi = depth.min(), depth.max()
+    scale = buckets / max(hi - lo, 1e-30)
+    key = np.empty(n, np.int64)
+    count = np.zeros(buckets + 1, np.int64)
+    for i in range(n):
+        key[i] = min(int((depth[i] - lo) * scale), buckets - 1)
+        count[key[i] + 1] += 1
+    for b in range(buckets):
+        count[b + 1] += count[b]
+    order = np.empty(n, np.int64)
+    for i in range(n):
+        order[count[key[i]]] = i
+        count[key[i]] += 1
+    return order
+
+
 def depth_order(depth: np.ndarray, buckets: int = 0) -> np.ndarray:
     """Order of lights by distance to the camera plane, ties by index (stable).
 
@@ -130,12 +150,10 @@ def depth_order(depth: np.ndarray, buckets: int = 0) -> np.ndarray:
     if len(depth) == 0:
         return np.zeros(0, np.int64)
     if buckets > 0:
-        lo, hi = float(depth.min()), float(depth.max())
-        key = ((depth - lo) * (buckets / max(hi - lo, 1e-30))).clip(0, buckets - 1).astype(np.uint32)
-    else:
-        # float32 bits made to order like the values: flip all bits of negatives, the sign of positives
-        bits = depth.astype(np.float32).view(np.uint32)
-        key = np.where(bits >> 31, ~bits, bits | np.uint32(0x80000000))
+        return _bucket_order(np.ascontiguousarray(depth, np.float64), buckets)
+    # float32 bits made to order like the values: flip all bits of negatives, the sign of positives
+    bits = depth.astype(np.float32).view(np.uint32)
+    key = np.where(bits >> 31, ~bits, bits | np.uint32(0x80000000))
     return _radix_order(key)
 
 

@@ -27,7 +27,7 @@ uint slice_of(float depth) {
 uint cell_of(PixelState s) {
     ivec2 t = s.pixel / u_tile;
     uint sl = u_slices > 1 ? slice_of(s.depth) : 0u;
-    return (sl * uint(u_tiles.y) + uint(t.y)) * uint(u_tiles.x) + uint(t.x);
+    return (uint(t.y) * uint(u_tiles.x) + uint(t.x)) * uint(u_slices) + sl;   // tile-major (cpu_prep.grid)
 }
 
 void evaluate_list(inout PixelState s, uint first, uint count) {

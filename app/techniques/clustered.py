@@ -3,7 +3,7 @@ tiles x depth slices (a near slice, then exponential slices: tree paper listing 
 cell an index list of the lights whose conservative box of cells contains it.
 
     ranges[cell] = (first entry, count) -> entries[] (uint) -> lights[] (GpuLight)
-    cell = (slice * tiles_y + ty) * tiles_x + tx;   960x540 at 48 px, 16 slices: 3,520 cells
+    cell = (ty * tiles_x + tx) * slices + slice;   960x540 at 48 px, 16 slices: 3,520 cells
 """
 import numpy as np
 

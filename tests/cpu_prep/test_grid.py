@@ -56,6 +56,6 @@ def test_scatter_lists_every_light_in_its_box_depth_sorted(seed):
         for s in range(s0[i], s1[i] + 1):
             for ty in range(ty0[i], ty1[i] + 1):
                 for tx in range(tx0[i], tx1[i] + 1):
-                    expect[(s * g.tiles_y + ty) * g.tiles_x + tx].append(i)
+                    expect[(ty * g.tiles_x + tx) * g.slices + s].append(i)
     got = [entries[offsets[c]:offsets[c + 1]].tolist() for c in range(g.cells)]
     assert got == expect       # light order kept: depth-sorted input gives sorted cells
