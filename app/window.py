@@ -231,7 +231,7 @@ def _window_config_class():
                 src = Source("present.frag", virtual)
                 try:
                     return self.ctx.program(vertex_shader=vert, fragment_shader=src.text(
-                        {"HUD": hud, "B_VIEW_STATS": self.b_view}))
+                        {"HUD": hud}))
                 except Exception as exc:
                     line = next((l for l in src.explain(str(exc)).splitlines() if "error" in l.lower()),
                                 str(exc).splitlines()[0] if str(exc) else "link failed")
@@ -241,7 +241,7 @@ def _window_config_class():
             self.present_vao = self.ctx.vertex_array(self.present, [])
             self.hud_vao = self.ctx.vertex_array(self.hud_prog, [])
             self.stats_prog = self.renderer.programs.compute(
-                "present_stats.comp", {"B_VIEW_STATS": self.b_view}, virtual)
+                "present_stats.comp", {}, virtual)
             self.view_stats = self.ctx.buffer(reserve=32)
             self.font_cache: dict = {}
             self.key_map = key_names(self.wnd.keys)

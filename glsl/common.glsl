@@ -40,9 +40,9 @@ struct PixelState {
 
 #include "features.glsl"
 
-PixelState load_pixel() {
+PixelState load_pixel_at(ivec2 pixel) {
     PixelState s;
-    s.pixel = ivec2(gl_GlobalInvocationID.xy);
+    s.pixel = pixel;
     s.inside = all(lessThan(s.pixel, u_size));
     vec4 pos = s.inside ? texelFetch(g_position, s.pixel, 0) : vec4(0.0);
     s.P = pos.xyz;
@@ -54,6 +54,8 @@ PixelState load_pixel() {
     s.evaluated = 0u; s.count = 0u; s.hash = 0u; s.nodes = 0u;
     return s;
 }
+
+PixelState load_pixel() { return load_pixel_at(ivec2(gl_GlobalInvocationID.xy)); }
 
 // Evaluate one light for the pixel: the only place any technique decides "affects".
 void evaluate_light(inout PixelState s, GpuLight L) {

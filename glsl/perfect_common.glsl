@@ -7,27 +7,13 @@
 //
 // The image is processed in horizontal bands of whole 8x8 groups (u_row0 = first GL row of
 // the band, a multiple of 8) so that the entry list of a band fits one storage block.
-// Binding points 10-12 are this module's own (app.features.BINDINGS stops at 9).
-#define B_PERFECT_COUNTS 10
-#define B_PERFECT_RANGES 11
-#define B_PERFECT_ENTRIES 12
+// Its buffers' binding points (B_PERFECT_*) are in app.features.BINDINGS, like every other.
 
 uniform int u_row0;
 
 // load_pixel() of common.glsl, for the pixel of this invocation in the current band.
 PixelState perfect_load_pixel() {
-    PixelState s;
-    s.pixel = ivec2(gl_GlobalInvocationID.xy) + ivec2(0, u_row0);
-    s.inside = all(lessThan(s.pixel, u_size));
-    vec4 pos = s.inside ? texelFetch(g_position, s.pixel, 0) : vec4(0.0);
-    s.P = pos.xyz;
-    s.depth = pos.w;
-    s.shading = s.inside && pos.w > 0.0;
-    s.N = s.inside ? texelFetch(g_normal, s.pixel, 0).xyz : vec3(0.0, 0.0, 1.0);
-    s.albedo = s.inside ? texelFetch(g_albedo, s.pixel, 0).rgb : vec3(0.0);
-    s.radiance = vec3(0.0);
-    s.evaluated = 0u; s.count = 0u; s.hash = 0u; s.nodes = 0u;
-    return s;
+    return load_pixel_at(ivec2(gl_GlobalInvocationID.xy) + ivec2(0, u_row0));
 }
 
 // Index of the pixel in the current band (ranges are band-relative).

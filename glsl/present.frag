@@ -5,7 +5,7 @@
 //   out_stats[y * W + x]   uvec4 evaluated, contrib_count, contrib_hash, nodes_visited
 //   wave_stats[group]      uvec4 longest loop, case bits (1 list, 2 tree, 3 mixed, 0 empty)
 //   view_stats             frame sums from present_stats.comp (max evaluated: heat scale)
-// define: HUD B_VIEW_STATS
+// define: HUD
 #include "generated.glsl"
 
 in vec2 v_uv;

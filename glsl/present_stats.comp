@@ -2,7 +2,7 @@
 // Frame sums for the window's HUD and heat scale (app/window.py), over pixels covered by
 // geometry: covered pixel count, lights evaluated, exact lights, max evaluated per pixel.
 // 64-bit sums as lo/hi words: each add detects its own carry from the returned old value.
-// define: B_VIEW_STATS
+// B_VIEW_STATS: app.features.BINDINGS, via generated.glsl
 #include "generated.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 
