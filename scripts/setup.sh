@@ -10,7 +10,7 @@ have_lib() { ldconfig -p 2>/dev/null | grep -q "$1"; }
 have_lib 'libEGL.so.1 ' || missing+=(libegl1)
 have_lib 'libEGL_mesa.so.0' || missing+=(libegl-mesa0)
 have_lib 'libGL.so.1 ' || missing+=(libgl1)
-ls /usr/lib/*/dri/swrast_dri.so /usr/lib/dri/swrast_dri.so >/dev/null 2>&1 || missing+=(libgl1-mesa-dri)
+[ -n "$(ls /usr/lib/*/dri/swrast_dri.so /usr/lib/dri/swrast_dri.so 2>/dev/null)" ] || missing+=(libgl1-mesa-dri)
 python3 -c 'import ensurepip' >/dev/null 2>&1 || missing+=(python3-venv)
 if [ "${LAB_WITH_XVFB:-0}" = 1 ]; then command -v Xvfb >/dev/null || missing+=(xvfb); fi
 
