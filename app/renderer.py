@@ -20,7 +20,7 @@ from . import features as feat, gl
 from .errors import UserError
 from .gbuffer import GBuffer
 from .shaders import ProgramCache
-from .techniques import Build, FrameInput, Options, Technique
+from .techniques import FrameInput, Options, Technique
 
 
 @dataclass

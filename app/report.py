@@ -237,7 +237,7 @@ def fig_cpu(rows, out, colors) -> tuple[str | None, list[str], str]:
                     f"{growth}.")
     under = [t for t in techs if all(totals[t][n] < 2.0 for n in counts if n <= 8192)]
     if any(n <= 8192 for n in counts):
-        who = (f"every technique stays" if len(under) == len(techs) else
+        who = ("every technique stays" if len(under) == len(techs) else
                f"{', '.join(under)} {'stays' if len(under) == 1 else 'stay'}" if under else
                "no technique stays")
         text.append(f"At 8192 lights or fewer {who} under 2 ms (the paper: every technique "
@@ -346,7 +346,7 @@ def fig_heat(rows, maps, out, info) -> tuple[str | None, list[str]]:
     means = {t: float(m.mean()) for t, m in panels}
     exact = float(maps["exact"].mean()) if "exact" in maps else math.nan
     ranked = sorted((t for t, _ in panels[:len(keys)] if t != PERFECT), key=means.get)
-    text = [f"On this frame the loop evaluates, per pixel on average: " +
+    text = ["On this frame the loop evaluates, per pixel on average: " +
             ", ".join(f"{t} {means[t]:.3g}" for t in ranked) +
             (f"; {exact:.3g} lights actually affect a pixel." if not math.isnan(exact) else ".")]
     if len(ranked) > 1 and not math.isnan(exact) and exact > 0:

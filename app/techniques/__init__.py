@@ -7,6 +7,8 @@ from .hybrid import Hybrid
 from .tiled import Tiled
 from .tree import Tree
 
+__all__ = ["REGISTRY", "get", "Build", "FrameInput", "Options", "Technique"]
+
 REGISTRY: dict[str, Technique] = {t.name: t for t in (Brute(), Tiled(), Clustered(), Tree(), Hybrid())}
 
 

@@ -17,7 +17,6 @@ from pathlib import Path
 import re
 import subprocess
 import sys
-import zipfile
 
 import numpy as np
 import pytest

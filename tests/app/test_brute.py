@@ -12,7 +12,6 @@ from tests.helpers import make_scene, random_lights
 
 def oracle(scene, renderer, lights):
     """(count, hash, near_boundary) per pixel, image order, in float64."""
-    cam = renderer.camera(0, 64)
     pos = renderer.gbuffer.read_position()[::-1].astype(np.float64)     # image order
     h, w, _ = pos.shape
     P = pos[..., :3].reshape(-1, 1, 3)

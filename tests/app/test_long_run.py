@@ -69,7 +69,7 @@ def test_500_frames_keep_memory_and_gl_objects_flat(gl):
     r = Renderer(scene, SIZE)
     try:
         checks = 0
-        rss = names_before = live_before = rss_before = None
+        names_before = live_before = rss_before = None
         for f in range(FRAMES):
             t = REGISTRY[names[f % len(names)]]
             r.render(t, f, Options(), frames=PATH_FRAMES, readback=False)
