@@ -29,7 +29,8 @@ void main() {
     bool all_list = (v.w & 1u) == 0u;      // the emulated wave is the group: reuse its vote
     bool all_tree = (v.w & 2u) == 0u;
 #endif
-    uint case_bits = (is_list ? 1u : 0u) | (is_tree ? 2u : 0u);
+    // bit 0 list, bit 1 tree (both: mixed), bit 2 the group traversed one shared-memory tree
+    uint case_bits = (is_list ? 1u : 0u) | (is_tree ? 2u : 0u) | (one_tree ? 4u : 0u);
 
     if (one_tree) {
         load_shared_tree(groupReduce(0u, is_tree ? r.x : 0u, 0u, 0u).y, v.z);

@@ -33,6 +33,8 @@ def test_hybrid_reports_list_tree_and_mixed_waves(gl):
         r.release()
     cases = res.wave[..., 1] & 3
     assert {1, 2, 3} <= set(np.unique(cases).tolist()), np.unique(cases)
+    shared = (res.wave[..., 1] & 4) != 0
+    assert shared.any() and (cases[shared] == 2).all()   # shared-memory trees: tree-only waves
     # longest loop of each wave bounds each of its lanes' work
     lanes = (res.evaluated + res.nodes)
     h, w = lanes.shape
