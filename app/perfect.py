@@ -30,7 +30,7 @@ import numpy as np
 
 from . import features as feat
 from .errors import UserError
-from .techniques import FrameInput, Options
+from .techniques import Options
 from .techniques.base import prepare
 
 NAME = "perfect"
@@ -79,13 +79,12 @@ class PerfectCuller:
         gpu_ms holds gbuffer and shade only; the untimed set-up is in meta['setup_ms']."""
         r = self.r
         opts = opts or Options()
-        cam = camera or r.camera(frame, frames)
+        fin = r.frame_input(frame, frames, lights, camera)
+        cam = fin.camera
         w, h = r.size
-        lights = r.scene.lights if lights is None else lights
-        max_depth = r.scene.max_depth or cam.far
 
         r.timer.run("gbuffer", lambda: r.gbuffer.draw(cam))
-        build = prepare(FrameInput(lights, cam, max_depth), opts)   # cull, sort, pack: timed
+        build = prepare(fin, opts)   # cull, sort, pack: timed
         t0 = time.perf_counter()
         r.upload("lights", build.buffers["lights"])
         upload_ms = (time.perf_counter() - t0) * 1e3

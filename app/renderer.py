@@ -100,6 +100,13 @@ class Renderer:
         w, h = self.size
         return frame_camera(self.scene.camera_at(frame, frames), w, h)
 
+    def frame_input(self, frame: int, frames: int, lights=None, camera=None) -> FrameInput:
+        """The CPU stage's input for a frame: the scene's lights (or `lights`), the path
+        camera of `frame` (or `camera`), the scene's max depth, this renderer's arena."""
+        cam = camera or self.camera(frame, frames)
+        lights = self.scene.lights if lights is None else lights
+        return FrameInput(lights, cam, self.scene.max_depth or cam.far, self.arena)
+
     def render(self, technique: Technique, frame: int = 0, opts: Options | None = None,
                frames: int = 64, lights: np.ndarray | None = None, readback: bool = True,
                camera=None, extra_defines: dict | None = None) -> FrameResult | None:
@@ -107,14 +114,12 @@ class Renderer:
         out_color, out_stats, wave_stats) and the figures in self.last_meta.
         extra_defines reach the shading program (e.g. UNBOUNDED_FALLOFF=1)."""
         opts = opts or Options()
-        cam = camera or self.camera(frame, frames)
+        fin = self.frame_input(frame, frames, lights, camera)
         w, h = self.size
-        lights = self.scene.lights if lights is None else lights
-        max_depth = self.scene.max_depth or cam.far
 
-        self.timer.run("gbuffer", lambda: self.gbuffer.draw(cam))
+        self.timer.run("gbuffer", lambda: self.gbuffer.draw(fin.camera))
         try:
-            build = technique.build(FrameInput(lights, cam, max_depth, self.arena), opts)
+            build = technique.build(fin, opts)
         except LimitError as exc:
             raise UserError(str(exc)) from None
         features = feat.feature_set(build.lights.type)
