@@ -30,6 +30,20 @@ def _plt():
     return plt
 
 
+def _side_legend(ax, *handles_labels, fontsize=7) -> None:
+    """The legend outside the panel grid, right of its top-right panel."""
+    ax.legend(*handles_labels, fontsize=fontsize, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+
+
+def _save(fig, out, name: str, tight: bool = True) -> str:
+    """Lay out, write out/name and free the figure; returns the file name."""
+    if tight:
+        fig.tight_layout()
+    fig.savefig(out / name)
+    _plt().close(fig)
+    return name
+
+
 # ---------------------------------------------------------------------------- table helpers
 
 def _order(rows, key):
@@ -171,11 +185,8 @@ def fig_path(rows, out, colors) -> tuple[str, list[str]]:
                      f"{_ms(spread[worst][1])}), {steady} least ({_ms(spread[steady][0])} to " \
                      f"{_ms(spread[steady][1])})"
             text.append(s + ".")
-    axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
-    fig.tight_layout()
-    name = "gpu_path.png"
-    fig.savefig(out / name)
-    plt.close(fig)
+    _side_legend(axes[0][-1])
+    name = _save(fig, out, "gpu_path.png")
     return name, text
 
 
@@ -219,13 +230,10 @@ def fig_cpu(rows, out, colors) -> tuple[str | None, list[str], str]:
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3, axis="y")
     axes[0][0].set_ylabel("CPU ms (median)", fontsize=8)
-    axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    _side_legend(axes[0][-1])
     r0 = cpu[0]
     fig.suptitle(f"CPU stage, {r0['scene']} at {int(r0['width'])}x{int(r0['height'])}", fontsize=9)
-    fig.tight_layout()
-    name = "cpu_stages.png"
-    fig.savefig(out / name)
-    plt.close(fig)
+    name = _save(fig, out, "cpu_stages.png")
 
     text, lo, hi = [], counts[0], counts[-1]
     totals = {t: {n: sum(_num(_sel(cpu, technique=t, lights=float(n))[0][f"cpu_{k}_ms"]) for k in STAGES)
@@ -303,10 +311,7 @@ def fig_tile(rows, out, colors) -> tuple[str | None, list[str]]:
         text.append(f"The GPU passes ran at {gpu_res}: there a {int(min(x))} px tile covers the share "
                     f"of the image a {int(min(x) * k)} px tile covers at 1920x1080, so the GPU optimum "
                     f"sits at a smaller tile than the paper's 48 px; the CPU stage ran at {cpu_res}.")
-    fig.tight_layout()
-    name = "tile_size.png"
-    fig.savefig(out / name)
-    plt.close(fig)
+    name = _save(fig, out, "tile_size.png")
     return name, text
 
 
@@ -340,9 +345,7 @@ def fig_heat(rows, maps, out, info) -> tuple[str | None, list[str]]:
     scene = info.get("config", {}).get("heat_scene", "")
     b = int(maps.get("block", 16))
     fig.suptitle(f"lights evaluated per pixel, {b}x{b} block means, {scene} frame 0", fontsize=9)
-    name = "heatmaps.png"
-    fig.savefig(out / name)
-    plt.close(fig)
+    name = _save(fig, out, "heatmaps.png", tight=False)
     means = {t: float(m.mean()) for t, m in panels}
     exact = float(maps["exact"].mean()) if "exact" in maps else math.nan
     ranked = sorted((t for t, _ in panels[:len(keys)] if t != PERFECT), key=means.get)
@@ -390,10 +393,7 @@ def fig_classification(rows, maps, out) -> tuple[str | None, list[str]]:
     axes[0][-1].legend(handles=[Patch(facecolor=np.array(CASE_COLORS[k]) / 255, edgecolor="0.5",
                                       label=CASE_NAMES[k]) for k in (1, 2, 3, 0)],
                        fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0))
-    fig.tight_layout()
-    name = "classification.png"
-    fig.savefig(out / name)
-    plt.close(fig)
+    name = _save(fig, out, "classification.png")
     return name, text
 
 
@@ -482,11 +482,8 @@ def fig_accuracy(rows, out, colors) -> tuple[str | None, list[str]]:
                  f"shading over exact lists built untimed)"
         text.append(s + ".")
     handles, labels = axes[0][0].get_legend_handles_labels()
-    axes[0][-1].legend(handles, labels, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
-    fig.tight_layout()
-    name = "accuracy_cost.png"
-    fig.savefig(out / name)
-    plt.close(fig)
+    _side_legend(axes[0][-1], handles, labels)
+    name = _save(fig, out, "accuracy_cost.png")
     return name, text
 
 
@@ -552,11 +549,8 @@ def fig_cutoff(rows, out, colors) -> tuple[str | None, list[str]]:
                  f"unbounded reference ({int(ref[0]['visible'])} lights, no window) costs " \
                  f"{_ms(ref[0]['frame_cost_ms'])}"
         text.append(s + ".")
-    axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
-    fig.tight_layout()
-    name = "cutoff.png"
-    fig.savefig(out / name)
-    plt.close(fig)
+    _side_legend(axes[0][-1])
+    name = _save(fig, out, "cutoff.png")
     return name, text
 
 
@@ -608,10 +602,7 @@ def fig_options(rows, out, colors) -> tuple[str | None, list[str]]:
     axes[2].tick_params(labelsize=7)
     if ltechs:
         axes[2].legend(fontsize=7)
-    fig.tight_layout()
-    name = "options.png"
-    fig.savefig(out / name)
-    plt.close(fig)
+    name = _save(fig, out, "options.png")
     return name, text
 
 
