@@ -10,6 +10,8 @@ buffer binding points (BINDINGS, the one table the renderer binds by).
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from cpu_prep import layouts
@@ -24,6 +26,7 @@ BINDINGS = {
 LIGHT_TYPES = ("point", "spot")   # index = type id of LIGHT_DTYPE
 
 
+@lru_cache(maxsize=None)
 def generated_glsl() -> str:
     binds = "\n".join(f"#define B_{k.upper()} {v}" for k, v in BINDINGS.items())
     return layouts.glsl_declarations() + binds + "\n"
@@ -37,6 +40,7 @@ def feature_set(light_types: np.ndarray) -> tuple[str, ...]:
     return names or ("point",)
 
 
+@lru_cache(maxsize=None)   # the same text objects every frame: cache keys hash once
 def features_glsl(features: tuple[str, ...]) -> str:
     spot, point = "spot" in features, "point" in features
     out = ['#include "light_window.glsl"']

@@ -14,6 +14,9 @@ from .errors import UserError
 
 _CTX: moderngl.Context | None = None
 
+# What the native wave API (glsl/wave.glsl, WAVE_NATIVE) needs: ballotARB returns uint64_t.
+NATIVE_WAVE_EXTENSIONS = ("GL_ARB_shader_ballot", "GL_ARB_shader_group_vote", "GL_ARB_gpu_shader_int64")
+
 
 @dataclass(frozen=True)
 class Limits:
@@ -64,8 +67,7 @@ def limits() -> Limits:
             max_compute_shared=int(ctx.info.get("GL_MAX_COMPUTE_SHARED_MEMORY_SIZE", 32768)),
             renderer=str(ctx.info["GL_RENDERER"]),
             version=str(ctx.info["GL_VERSION"]),
-            native_ballot={"GL_ARB_shader_ballot", "GL_ARB_shader_group_vote",
-                           "GL_ARB_gpu_shader_int64"} <= set(ctx.extensions),
+            native_ballot=set(NATIVE_WAVE_EXTENSIONS) <= set(ctx.extensions),
         )
     return _LIMITS
 

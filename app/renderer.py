@@ -133,14 +133,17 @@ class Renderer:
         virtual = feat.virtual_files(features)
         native = opts.native_wave and self.limits.native_ballot
         self.gbuffer.bind()
+        culling_bytes = {k: int(v.nbytes) for k, v in build.buffers.items()}
         for p in technique.prepasses:
-            for name, nbytes in p.outputs(build).items():
+            outputs = p.outputs(build)
+            culling_bytes.update(outputs)
+            for name, nbytes in outputs.items():
                 buf = self.buffer(name, nbytes)
                 if name in p.zeroed:
                     buf.clear()
             prog = self.programs.compute(p.shader, {}, virtual)
             self._set_uniforms(prog, uniforms)
-            self.bind(list(build.buffers) + list(p.outputs(build)))
+            self.bind(list(build.buffers) + list(outputs))
             self.timer.run(p.name, lambda: prog.run(*p.groups(build)))
             self.ctx.memory_barrier()   # the next pass reads what this one wrote
 
@@ -149,7 +152,7 @@ class Renderer:
         self.buffer("out_stats", w * h * 16)
         self.buffer("wave_stats", groups[0] * groups[1] * 16).clear()   # atomics accumulate
         defines = dict(build.defines, WAVE_NATIVE=int(native), **(extra_defines or {}))
-        ext = ("GL_ARB_shader_ballot", "GL_ARB_shader_group_vote", "GL_ARB_gpu_shader_int64") if native else ()
+        ext = gl.NATIVE_WAVE_EXTENSIONS if native else ()
         prog = self.programs.compute(technique.shader, defines, virtual, ext)
         self._set_uniforms(prog, uniforms)
         self.bind(self.buffers)
@@ -161,7 +164,7 @@ class Renderer:
             "technique": technique.name, "options": opts.as_dict(), "features": list(features),
             "wave": "native" if native else "emulated-64",
             "cpu_ms": dict(build.times.ms, upload=upload_ms), "gpu_ms": gpu_ms,
-            "bytes": self._culling_bytes(technique, build),
+            "bytes": culling_bytes,
             "stats": build.stats, "resolution": [w, h], "frame": frame,
             "renderer": self.limits.renderer,
         }
@@ -169,12 +172,6 @@ class Renderer:
         if not readback:
             return None
         return self.read_outputs(meta, groups)
-
-    def _culling_bytes(self, technique, build) -> dict[str, int]:
-        out = {k: int(v.nbytes) for k, v in build.buffers.items()}
-        for p in technique.prepasses:
-            out.update({k: int(v) for k, v in p.outputs(build).items()})
-        return out
 
     @staticmethod
     def _set_uniforms(prog, uniforms) -> None:

@@ -3,6 +3,7 @@ native subgroup path per subgroup (whatever size the driver reports)."""
 import numpy as np
 import pytest
 
+from app import gl as glmod
 from app.shaders import Source
 
 LANES = 64
@@ -46,11 +47,9 @@ void main() {
 }
 """
 
-EXT = ("GL_ARB_shader_ballot", "GL_ARB_shader_group_vote", "GL_ARB_gpu_shader_int64")
-
-
 def run(gl, native: bool) -> np.ndarray:
-    text = Source("t.comp", {"t.comp": MAIN}).text({"WAVE_NATIVE": int(native)}, EXT if native else ())
+    ext = glmod.NATIVE_WAVE_EXTENSIONS if native else ()
+    text = Source("t.comp", {"t.comp": MAIN}).text({"WAVE_NATIVE": int(native)}, ext)
     prog = gl.compute_shader(text)
     out = gl.buffer(reserve=LANES * 16 * 4)
     out.bind_to_storage_buffer(0)
@@ -79,7 +78,6 @@ def test_group_emulation_matches_numpy(gl):
 
 
 def test_native_subgroups_match_numpy_per_subgroup(gl):
-    from app import gl as glmod
     if not glmod.limits().native_ballot:
         pytest.fail("driver lacks GL_ARB_shader_ballot: the native path cannot be checked")
     got = run(gl, native=True)
