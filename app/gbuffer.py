@@ -4,7 +4,6 @@ from __future__ import annotations
 import numpy as np
 
 from cpu_prep.camera import FrameCamera
-from .shaders import GLSL_DIR
 
 
 def triangle_soup(meshes) -> np.ndarray:
@@ -23,10 +22,9 @@ def triangle_soup(meshes) -> np.ndarray:
 
 
 class GBuffer:
-    def __init__(self, ctx, meshes, size: tuple[int, int]):
+    def __init__(self, ctx, programs, meshes, size: tuple[int, int]):
         self.ctx = ctx
-        self.program = ctx.program(vertex_shader=(GLSL_DIR / "gbuffer.vert").read_text(),
-                                   fragment_shader=(GLSL_DIR / "gbuffer.frag").read_text())
+        self.program = programs.program("gbuffer.vert", "gbuffer.frag")   # owned by the cache
         soup = triangle_soup(meshes)
         self.vertices = len(soup)
         self.vbo = ctx.buffer(soup.tobytes() if len(soup) else b"\0" * 36)
@@ -79,4 +77,3 @@ class GBuffer:
         self.release_targets()
         self.vao.release()
         self.vbo.release()
-        self.program.release()

@@ -45,7 +45,7 @@ class Renderer:
         self.timer = gl.PassTimer(self.ctx)
         size = tuple(size or scene.resolution)
         self._check_size(size)
-        self.gbuffer = GBuffer(self.ctx, scene.meshes, size)
+        self.gbuffer = GBuffer(self.ctx, self.programs, scene.meshes, size)
         self.buffers: dict[str, object] = {}
         self.last_meta: dict | None = None
         self.arena = Arena()     # CPU-stage outputs, reused frame to frame (uploaded at once)

@@ -86,6 +86,19 @@ class Source:
         return _ERROR_LOC.sub(sub, log)
 
 
+def _first_error(sources: list[Source], log: str) -> str:
+    """'<shader>: <first error line, located as file:line>' from a driver's log.  For a
+    vertex + fragment program moderngl heads each stage's errors with its name."""
+    stage = sources[0]
+    if len(sources) == 2 and "fragment_shader\n" in log:
+        stage = sources[1]
+    for line in stage.explain(log).splitlines():
+        if "error" in line.lower():
+            return f"{stage.files[0]}: {line.strip()}"
+    first = next((l for l in log.splitlines() if l.strip()), "compile failed")
+    return f"{stage.files[0]}: {first.strip()}"
+
+
 def _define_value(v) -> str:
     if isinstance(v, bool):
         return "1" if v else "0"
@@ -100,18 +113,31 @@ class ProgramCache:
 
     def compute(self, name: str, defines: dict | None = None, virtual: dict | None = None,
                 extensions: tuple[str, ...] = ()) -> moderngl.ComputeShader:
+        return self._get((name,), defines, virtual, extensions,
+                         lambda texts: self.ctx.compute_shader(texts[0]))
+
+    def program(self, vertex: str, fragment: str, defines: dict | None = None,
+                virtual: dict | None = None) -> moderngl.Program:
+        """A vertex + fragment program; both stages see the same defines."""
+        return self._get((vertex, fragment), defines, virtual, (),
+                         lambda texts: self.ctx.program(vertex_shader=texts[0], fragment_shader=texts[1]))
+
+    def _get(self, names, defines, virtual, extensions, build):
         defines = dict(defines or {})
-        key = (name, tuple(sorted(defines.items())), tuple(sorted((virtual or {}).items())), extensions)
+        key = (names, tuple(sorted(defines.items())), tuple(sorted((virtual or {}).items())), extensions)
         if key not in self._programs:
-            src = Source(name, virtual)
-            text = src.text(defines, extensions)
+            sources = [Source(n, virtual) for n in names]
+            unknown = sorted(set(defines) - set().union(*(s.declared for s in sources)))
+            if unknown:
+                raise ShaderError(f"{'+'.join(names)}: unknown define(s) {', '.join(unknown)}")
+            # each stage gets the defines it declares
+            texts = [s.text({k: v for k, v in defines.items() if k in s.declared}, extensions)
+                     for s in sources]
             try:
-                self._programs[key] = self.ctx.compute_shader(text)
+                self._programs[key] = build(texts)
             except Exception as exc:
-                first = next((l for l in src.explain(str(exc)).splitlines() if "error" in l.lower()),
-                             str(exc).splitlines()[0] if str(exc) else "compile failed")
-                raise ShaderError(f"{name}: {first.strip()}") from None
-            self.sources[key] = text
+                raise ShaderError(_first_error(sources, str(exc))) from None
+            self.sources[key] = "\n".join(texts)
         return self._programs[key]
 
     def release(self) -> None:
@@ -120,8 +146,3 @@ class ProgramCache:
         self._programs.clear()
         self.sources.clear()
 
-    def text_of(self, program) -> str:
-        for key, prog in self._programs.items():
-            if prog is program:
-                return self.sources[key]
-        raise KeyError("program not from this cache")

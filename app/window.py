@@ -187,7 +187,6 @@ def _window_config_class():
             from cpu_prep.grid import make_grid
             from . import features as feat, gl
             from .renderer import Renderer
-            from .shaders import Source, ShaderError
             from .techniques import REGISTRY
             self.make_grid = make_grid
             self.feat = feat
@@ -225,19 +224,9 @@ def _window_config_class():
             # programs
             virtual = {"generated.glsl": feat.generated_glsl()}
             self.b_view = feat.BINDINGS["view_stats"]
-            vert = (Path(__file__).resolve().parent.parent / "glsl" / "present.vert").read_text()
-
-            def program(hud: int):
-                src = Source("present.frag", virtual)
-                try:
-                    return self.ctx.program(vertex_shader=vert, fragment_shader=src.text(
-                        {"HUD": hud}))
-                except Exception as exc:
-                    line = next((l for l in src.explain(str(exc)).splitlines() if "error" in l.lower()),
-                                str(exc).splitlines()[0] if str(exc) else "link failed")
-                    raise ShaderError(f"present.frag: {line.strip()}") from None
-            self.present = program(0)
-            self.hud_prog = program(1)
+            programs = self.renderer.programs
+            self.present = programs.program("present.vert", "present.frag", {"HUD": 0}, virtual)
+            self.hud_prog = programs.program("present.vert", "present.frag", {"HUD": 1}, virtual)
             self.present_vao = self.ctx.vertex_array(self.present, [])
             self.hud_vao = self.ctx.vertex_array(self.hud_prog, [])
             self.stats_prog = self.renderer.programs.compute(

@@ -60,3 +60,15 @@ def test_every_glsl_file_is_reachable():
         used |= set(Source(comp.name, features.virtual_files(("point", "spot"))).files)
     missing = {p.name for p in shaders.GLSL_DIR.glob("*.glsl")} - used
     assert not missing, f"unused shader files: {missing}"
+
+
+def test_render_program_error_names_the_failing_stage(gl):
+    files = {"v.vert": "#version 430\nvoid main() { gl_Position = vec4(0.0); }\n",
+             "f.frag": '#version 430\n// define: K\nout vec4 c;\n#include "inc.glsl"\nvoid main() { c = g(); }\n',
+             "inc.glsl": "vec4 g() {\n  return vec4(K) + ;\n}\n"}
+    cache = ProgramCache(gl)
+    with pytest.raises(ShaderError) as e:
+        cache.program("v.vert", "f.frag", {"K": 1}, files)
+    assert str(e.value).startswith("f.frag: inc.glsl:2")
+    with pytest.raises(ShaderError, match="unknown define"):
+        cache.program("v.vert", "f.frag", {"NOPE": 1}, files)
