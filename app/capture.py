@@ -4,8 +4,9 @@
                           [--size WxH] [--frame K] [--out image.png] [--dump frame.npz]
                           [--heatmap heat.png]
 
-plus technique options (--tile, --slices, ...), --classify PNG (hybrid list/tree/mixed map)
-and --list (builtin scenes and techniques).
+plus the chosen technique's own options (--tile, --slices, ...: an option it does not take
+is an error), --classify PNG (hybrid list/tree/mixed map) and --list (builtin scenes and
+techniques).
 """
 from __future__ import annotations
 
@@ -38,13 +39,16 @@ def main(argv=None) -> None:
     if args.list:
         print("scenes:     " + " ".join(BUILTIN_SCENES))
         print("techniques: " + " ".join(REGISTRY))
+        for t in REGISTRY.values():
+            role = "" if t.role == "technique" else f" [{t.role}]"
+            print(f"  {t.name:10} {t.summary}{role}")
         return
     if args.frame < 0 or args.frames < 1:
         raise cli.UserError("--frame must be >= 0 and --frames >= 1")
     technique = get(args.technique)
-    opts = cli.options_from(args)
+    opts = cli.options_for(technique, args)
     scene = cli.load_scene_args(args)
-    from .renderer import Renderer
+    from .pipeline.renderer import Renderer
     from . import images, dump
     t0 = time.perf_counter()
     renderer = Renderer(scene, args.size)
@@ -56,7 +60,7 @@ def main(argv=None) -> None:
         images.save_heatmap(result.evaluated, images.ensure_parent(args.heatmap),
                             f"{technique.name}: lights evaluated per pixel")
     if args.classify:
-        images.save_classification(result.wave, renderer.size, images.ensure_parent(args.classify),
+        images.save_classification(result.wave["case_bits"], renderer.size, images.ensure_parent(args.classify),
                                    f"{technique.name}: traversal per 8x8 wave")
     if args.dump:
         dump.write_dump(images.ensure_parent(args.dump), result)

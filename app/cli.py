@@ -1,11 +1,11 @@
-"""Shared command-line pieces: one-line argument errors, WxH sizes, technique options."""
+"""Shared command-line pieces: one-line argument errors, WxH sizes, scene arguments, and the
+technique options, whose flags come from the techniques' own declarations."""
 from __future__ import annotations
 
 import argparse
 import sys
 
 from .errors import UserError, exit_with
-from .techniques import Options
 
 
 class Parser(argparse.ArgumentParser):
@@ -25,7 +25,7 @@ def parse_size(text: str) -> tuple[int, int]:
     return w, h
 
 
-def _bounded(kind, lo, hi):
+def bounded(kind, lo, hi):
     def parse(text):
         try:
             v = kind(text)
@@ -39,35 +39,53 @@ def _bounded(kind, lo, hi):
 
 def add_scene_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scene", default="city", help="builtin scene name or a scene JSON file")
-    p.add_argument("--lights", type=_bounded(int, 0, 4_194_304), help="light count (default: the scene's)")
-    p.add_argument("--seed", type=_bounded(int, 0, 2**31 - 1), default=0, help="light draw seed")
+    p.add_argument("--lights", type=bounded(int, 0, 4_194_304), help="light count (default: the scene's)")
+    p.add_argument("--seed", type=bounded(int, 0, 2**31 - 1), default=0, help="light draw seed")
     p.add_argument("--distribution", choices=("uniform", "geometry"),
                    help="builtin scenes: lights in the bounding box or on geometry")
     p.add_argument("--size", type=parse_size, help="WxH (default: the scene's resolution)")
 
 
+def _option_type(spec):
+    def parse(text):
+        try:
+            return spec.check(spec.kind(text))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {spec.kind.__name__}, got '{text}'") from None
+        except UserError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+    return parse
+
+
 def add_option_args(p: argparse.ArgumentParser) -> None:
-    d = Options()
-    p.add_argument("--tile", type=_bounded(int, 4, 256), default=d.tile, help="tile size in pixels")
-    p.add_argument("--slices", type=_bounded(int, 2, 64), default=d.slices, help="depth slices")
-    p.add_argument("--lights-per-leaf", type=_bounded(int, 1, 4096), default=d.lights_per_leaf)
-    p.add_argument("--max-leaves", type=_bounded(int, 1, 4096), default=d.max_leaves,
-                   help="power of two")
-    p.add_argument("--sort-buckets", type=_bounded(int, 0, 32768), default=d.sort_buckets,
-                   help="0 exact depth sort, else approximate bucket sort")
-    p.add_argument("--radius-scale", type=_bounded(float, 1e-3, 1e3), default=d.radius_scale,
-                   help="hybrid heuristic: cell.radius = scale x half the cell depth")
-    p.add_argument("--duplicated", action="store_true", help="lists hold copies of the lights")
-    p.add_argument("--native-wave", action="store_true", help="use native subgroup ops if present")
+    """Every option of every registered technique, once, as declared; a flag not given
+    stays absent from the namespace (the technique's default applies)."""
+    from .techniques import REGISTRY
+    from .techniques.options import all_specs
+    specs = all_specs(t.Options for t in REGISTRY.values())
+    owners = {n: [t.name for t in REGISTRY.values() if n in t.Options.names()] for n in specs}
+    g = p.add_argument_group("technique options (an option the technique does not take is an error)")
+    for name, s in specs.items():
+        who = f" [{', '.join(owners[name])}; default {s.default}]"
+        if s.kind is bool:
+            g.add_argument(s.flag, dest=name, action=argparse.BooleanOptionalAction,
+                           default=argparse.SUPPRESS, help=s.help + who)
+        else:
+            g.add_argument(s.flag, dest=name, type=_option_type(s), default=argparse.SUPPRESS,
+                           metavar=s.kind.__name__.upper(), help=s.help + who)
 
 
-def options_from(args) -> Options:
-    if args.max_leaves & (args.max_leaves - 1):
-        raise UserError(f"--max-leaves must be a power of two (got {args.max_leaves})")
-    return Options(tile=args.tile, slices=args.slices, lights_per_leaf=args.lights_per_leaf,
-                   max_leaves=args.max_leaves, sort_buckets=args.sort_buckets,
-                   radius_scale=args.radius_scale, duplicated=args.duplicated,
-                   native_wave=args.native_wave)
+def given_options(args) -> dict:
+    """{option name: value} of the technique flags given on the command line."""
+    from .techniques import REGISTRY
+    from .techniques.options import all_specs
+    return {n: getattr(args, n) for n in all_specs(t.Options for t in REGISTRY.values())
+            if hasattr(args, n)}
+
+
+def options_for(technique, args):
+    """The technique's Options from the flags given; one it does not take is an error."""
+    return technique.Options.make(given_options(args), technique.name)
 
 
 def load_scene_args(args):

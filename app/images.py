@@ -61,10 +61,10 @@ CASE_COLORS = {0: (40, 40, 40), 1: (60, 110, 230), 2: (60, 200, 90), 3: (245, 24
 CASE_NAMES = {0: "empty", 1: "list", 2: "tree", 3: "mixed"}
 
 
-def save_classification(wave: np.ndarray, size: tuple[int, int], path, title: str = "") -> dict:
-    """Per 8x8 group: list (blue), tree (green), mixed (white), empty (grey), as in the tree
-    paper's figure 3.  Returns the share of groups of each kind."""
-    bits = wave[..., 1] & 3
+def save_classification(case_bits: np.ndarray, size: tuple[int, int], path, title: str = "") -> dict:
+    """Per 8x8 group (its WAVE_STATS case_bits): list (blue), tree (green), mixed (white),
+    empty (grey), as in the tree paper's figure 3.  Returns the share of groups of each kind."""
+    bits = case_bits & 3
     rgb = np.zeros(bits.shape + (3,), np.uint8)
     for k, c in CASE_COLORS.items():
         rgb[bits == k] = c

@@ -7,11 +7,19 @@ two to each other (and a GL test round-trips a buffer through a shader).
     lights (GpuLight, 64 B, visible lights sorted by depth)  <- light index lists (uint)
     bounds (vec4, 16 B per light: culling sphere, view space, margins included)
     tree nodes (TreeNode, 16 B)  -> firstLightIndex into the index list
+    out_stats (PixelStats, 16 B per pixel), wave_stats (WaveStats, 16 B per 8x8 group),
+    view_stats (ViewStats, 32 B: the window's frame sums)
+
+numba kernels write rows of these structs as flat float32/uint32 words; they index them
+through the word offsets generated here from the dtype (`words()`), never by hand, so that
+reordering a dtype moves the kernels' writes with it.
 """
 from __future__ import annotations
 
 import numba
 import numpy as np
+
+from scenes.model import LIGHT_TYPES
 
 from . import limits
 
@@ -54,8 +62,62 @@ assert TREE_NODE.itemsize == 16
 CELL_RANGE = np.dtype([("offset_count", np.uint32, 2)])
 assert CELL_RANGE.itemsize == 8
 
+# Per-pixel counters of a shading pass (the dump contract's evaluated / contrib_count /
+# contrib_hash, and the tree nodes visited).
+PIXEL_STATS = np.dtype([
+    ("evaluated", np.uint32),
+    ("contrib_count", np.uint32),
+    ("contrib_hash", np.uint32),
+    ("nodes", np.uint32),
+])
+assert PIXEL_STATS.itemsize == 16
+
+# Per 8x8 group (one emulated wave): its longest lane loop (the wave's scalar iterations) and
+# the traversal case bits (1 list, 2 tree, 3 mixed; 4: tree read from shared memory).
+WAVE_STATS = np.dtype([
+    ("iterations", np.uint32),
+    ("case_bits", np.uint32),
+    ("reserved", np.uint32, 2),
+])
+assert WAVE_STATS.itemsize == 16
+
+# The window's frame sums over covered pixels (64-bit sums as lo/hi words).
+VIEW_STATS = np.dtype([
+    ("covered", np.uint32),
+    ("evaluated_lo", np.uint32),
+    ("evaluated_hi", np.uint32),
+    ("max_evaluated", np.uint32),
+    ("exact_lo", np.uint32),
+    ("exact_hi", np.uint32),
+    ("reserved", np.uint32, 2),
+])
+assert VIEW_STATS.itemsize == 32
+
 STRUCTS = {"GpuLight": GPU_LIGHT, "GpuBound": GPU_BOUND, "TreeNode": TREE_NODE,
-           "CellRange": CELL_RANGE}
+           "CellRange": CELL_RANGE, "PixelStats": PIXEL_STATS, "WaveStats": WAVE_STATS,
+           "ViewStats": VIEW_STATS}
+
+
+def words(dtype: np.dtype) -> dict[str, int]:
+    """{field: offset in 4-byte words} of a struct of 4-byte scalars, for kernels that write
+    its rows as flat float32/uint32 arrays."""
+    out = {}
+    for f in dtype.names:
+        base, offset = dtype.fields[f][:2]
+        assert base.base.itemsize == 4 and offset % 4 == 0, f
+        out[f] = offset // 4
+    return out
+
+
+# Word offsets of the rows numba kernels write (cpu_prep.lights, cpu_prep.tree).
+_L = words(GPU_LIGHT)
+LIGHT_POS_RADIUS, LIGHT_COLOR_COS_INNER = _L["pos_radius"], _L["color_cos_inner"]
+LIGHT_DIR_COS_OUTER, LIGHT_ID_TYPE = _L["dir_cos_outer"], _L["id_type"]
+LIGHT_WORDS = GPU_LIGHT.itemsize // 4
+_N = words(TREE_NODE)
+NODE_MIN_DEPTH, NODE_MAX_DEPTH, NODE_FIRST_LIGHT, NODE_BITS = (
+    _N["min_depth"], _N["max_depth"], _N["first_light"], _N["bits"])
+NODE_WORDS = TREE_NODE.itemsize // 4
 
 
 def _member(dtype: np.dtype, name: str):
@@ -86,10 +148,11 @@ def std430_offsets(dtype: np.dtype) -> tuple[dict[str, int], int]:
 
 
 def glsl_declarations() -> str:
-    """All structs plus the limits the shaders need, as one GLSL text."""
+    """All structs plus the limits and light type ids the shaders need, as one GLSL text."""
     out = [glsl_struct(n, d) for n, d in STRUCTS.items()]
     out += [f"#define NODE_COUNT_BITS {limits.NODE_COUNT_BITS}u",
             f"#define NODE_SKIP_BITS {limits.NODE_SKIP_BITS}u"]
+    out += [f"#define LIGHT_{name.upper()} {i}u" for i, name in enumerate(LIGHT_TYPES)]
     return "\n".join(out) + "\n"
 
 

@@ -13,13 +13,15 @@ import math
 import numba
 import numpy as np
 
+from scenes.model import LIGHT_SPOT
+
 from . import layouts
 from .arena import Arena, empty
 from .bounds import grow, spot_sphere
 from .camera import FrameCamera
+from .layouts import (LIGHT_COLOR_COS_INNER as COLOR, LIGHT_DIR_COS_OUTER as DIR,
+                      LIGHT_ID_TYPE as ID_TYPE, LIGHT_POS_RADIUS as POS, LIGHT_WORDS)
 from .limits import PIXEL_MARGIN, RADIUS_REL_MARGIN
-
-SPOT = 1
 
 
 @dataclass
@@ -65,7 +67,7 @@ def _view_cull(lights, m, near, far, tan_x, tan_y, rows, rows_u, sphere):
         inv = 1.0 / max(math.sqrt(dx * dx + dy * dy + dz * dz), 1e-30)
         dx, dy, dz = np.float32(dx * inv), np.float32(dy * inv), np.float32(dz * inv)
         cx, cy, cz, r = float(px), float(py), float(pz), float(li.radius)
-        if li.type == SPOT:
+        if li.type == LIGHT_SPOT:
             cx, cy, cz, r = spot_sphere(cx, cy, cz, float(dx), float(dy), float(dz), r, float(li.cos_outer))
         r = grow(r, cx, cy, cz)
         depth = -cz
@@ -75,13 +77,14 @@ def _view_cull(lights, m, near, far, tan_x, tan_y, rows, rows_u, sphere):
             continue
         if (cy + tan_y * depth) / norm_y < -r or (-cy + tan_y * depth) / norm_y < -r:
             continue
-        # GPU_LIGHT: pos_radius, color_cos_inner, dir_cos_outer, id_type
-        rows[k, 0], rows[k, 1], rows[k, 2], rows[k, 3] = px, py, pz, li.radius
+        # GPU_LIGHT, field by field through the word offsets generated from its dtype
+        rows[k, POS], rows[k, POS + 1], rows[k, POS + 2], rows[k, POS + 3] = px, py, pz, li.radius
         for a in range(3):
-            rows[k, 4 + a] = li.color[a] * li.intensity
-        rows[k, 7] = li.cos_inner
-        rows[k, 8], rows[k, 9], rows[k, 10], rows[k, 11] = dx, dy, dz, li.cos_outer
-        rows_u[k, 12], rows_u[k, 13], rows_u[k, 14], rows_u[k, 15] = i, li.type, 0, 0
+            rows[k, COLOR + a] = li.color[a] * li.intensity
+        rows[k, COLOR + 3] = li.cos_inner
+        rows[k, DIR], rows[k, DIR + 1], rows[k, DIR + 2], rows[k, DIR + 3] = dx, dy, dz, li.cos_outer
+        rows_u[k, ID_TYPE], rows_u[k, ID_TYPE + 1] = i, li.type
+        rows_u[k, ID_TYPE + 2], rows_u[k, ID_TYPE + 3] = 0, 0
         sphere[k, 0], sphere[k, 1], sphere[k, 2], sphere[k, 3] = cx, cy, cz, r
         k += 1
     return k
@@ -93,7 +96,7 @@ def view_and_cull(lights: np.ndarray, cam: FrameCamera, arena: Arena | None = No
     tx = cam.tan_half_x * (1.0 + 2.0 * PIXEL_MARGIN / cam.width)
     ty = cam.tan_half_y * (1.0 + 2.0 * PIXEL_MARGIN / cam.height)
     n = len(lights)
-    rows = empty(arena, "visible_rows", (n, 16), np.float32)
+    rows = empty(arena, "visible_rows", (n, LIGHT_WORDS), np.float32)
     sphere = empty(arena, "visible_spheres", (n, 4), np.float64)
     k = _view_cull(lights, cam.view_from_world, cam.near, cam.far, tx, ty, rows, rows.view(np.uint32), sphere)
     return rows[:k], sphere[:k]
@@ -161,7 +164,7 @@ def depth_order(depth: np.ndarray, buckets: int = 0) -> np.ndarray:
 def _pack(order, rows, sphere, gpu, spheres_out, bound, lo, hi):
     for j in numba.prange(order.shape[0]):
         i = order[j]
-        for a in range(16):
+        for a in range(rows.shape[1]):
             gpu[j, a] = rows[i, a]
         for a in range(4):
             spheres_out[j, a] = sphere[i, a]
@@ -178,12 +181,12 @@ def _pack(order, rows, sphere, gpu, spheres_out, bound, lo, hi):
 def pack(rows, sphere, order, arena: Arena | None = None) -> PreparedLights:
     """GPU_LIGHT / GPU_BOUND and the float32 depth ranges, in depth order."""
     n = len(order)
-    gpu = empty(arena, "gpu_lights", (n, 16), np.float32)
+    gpu = empty(arena, "gpu_lights", (n, LIGHT_WORDS), np.float32)
     spheres = empty(arena, "sorted_spheres", (n, 4), np.float64)
     bound = empty(arena, "gpu_bounds", (n, 4), np.float32)
     lo, hi = empty(arena, "depth_lo", n, np.float32), empty(arena, "depth_hi", n, np.float32)
     _pack(order, rows, sphere, gpu, spheres, bound, lo, hi)
-    meta = gpu.view(np.uint32)
-    return PreparedLights(ids=meta[:, 12], type=meta[:, 13].astype(np.uint8), center=spheres[:, :3],
-                          bound_radius=spheres[:, 3], gpu=gpu.view(layouts.GPU_LIGHT).reshape(n),
+    rec = gpu.view(layouts.GPU_LIGHT).reshape(n)
+    return PreparedLights(ids=rec["id_type"][:, 0], type=rec["id_type"][:, 1].astype(np.uint8),
+                          center=spheres[:, :3], bound_radius=spheres[:, 3], gpu=rec,
                           bounds=bound.view(layouts.GPU_BOUND).reshape(n), depth_lo=lo, depth_hi=hi)

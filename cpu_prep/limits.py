@@ -20,6 +20,15 @@ NODE_MAX_SKIP = (1 << NODE_SKIP_BITS) - 1        # 32,767 nodes in one subtree
 WAVE_SIZE = 64
 WAVE_DIM = 8
 
+# A software rasterizer (Mesa llvmpipe) silently stops every loop of a shader invocation once
+# their iterations together pass 65,535 (LP_MAX_TGSI_LOOP_ITERATIONS; measured here: the
+# budget is shared by all loops of the invocation, nested iterations counted).  On such a
+# driver a pass whose pixels may meet more lights runs as dispatch windows of DISPATCH_WINDOW
+# lights each (glsl/pixel.glsl), leaving room for a tree's nodes (at most 32,767 = 15 bits).
+SOFTWARE_LOOP_BUDGET = 65535
+DISPATCH_WINDOW = 16384
+WINDOW_ALL = 0xFFFFFFFF            # one window holding every position
+
 # Largest storage block a buffer may be (GL_MAX_SHADER_STORAGE_BLOCK_SIZE on llvmpipe: 128 MiB;
 # the app also checks the context's own value before allocating).
 MAX_STORAGE_BYTES = 128 << 20

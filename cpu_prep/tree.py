@@ -21,7 +21,7 @@ import numpy as np
 
 from . import layouts
 from .arena import Arena, empty
-from .layouts import node_bits
+from .layouts import NODE_BITS, NODE_FIRST_LIGHT, NODE_MAX_DEPTH, NODE_MIN_DEPTH, NODE_WORDS, node_bits
 from .limits import LimitError, NODE_MAX_LIGHTS, NODE_MAX_SKIP
 
 
@@ -115,10 +115,10 @@ def _build_cells(offsets, entries, depth_lo, depth_hi, leaves, node_start,
         base = node_start[c]
         for q in range(2 * L - 1):
             src, skip = tab_order[t + q], tab_skip[t + q]
-            nodes_f[base + q, 0] = bf_min[src]
-            nodes_f[base + q, 1] = bf_max[src]
-            nodes_u[base + q, 2] = bf_first[src]
-            nodes_u[base + q, 3] = node_bits(1 if skip == 1 else 0, bf_count[src], skip)
+            nodes_f[base + q, NODE_MIN_DEPTH] = bf_min[src]
+            nodes_f[base + q, NODE_MAX_DEPTH] = bf_max[src]
+            nodes_u[base + q, NODE_FIRST_LIGHT] = bf_first[src]
+            nodes_u[base + q, NODE_BITS] = node_bits(1 if skip == 1 else 0, bf_count[src], skip)
 
 
 def build_trees(offsets, entries, depth_lo, depth_hi, is_tree,
@@ -133,7 +133,7 @@ def build_trees(offsets, entries, depth_lo, depth_hi, is_tree,
     node_counts = np.where(leaves > 0, 2 * leaves - 1, 0)
     node_start = np.zeros(len(counts) + 1, np.int64)
     np.cumsum(node_counts, out=node_start[1:])
-    raw = empty(arena, "nodes", (int(node_start[-1]), 4), np.float32)   # every node is written
+    raw = empty(arena, "nodes", (int(node_start[-1]), NODE_WORDS), np.float32)   # all written
     tab_order, tab_skip, tab_off = _all_tables(int(max(leaves.max(initial=1), 1)))
     _build(offsets, entries, depth_lo, depth_hi, leaves, node_start, tab_order, tab_skip,
            tab_off, raw, raw.view(np.uint32), 8 * numba.get_num_threads())

@@ -30,6 +30,8 @@ uint cell_of(PixelState s) {
     return (uint(t.y) * uint(u_tiles.x) + uint(t.x)) * uint(u_slices) + sl;   // tile-major (cpu_prep.grid)
 }
 
+// The entries [first, first + count) that fall in this dispatch's window (pixel.glsl).
 void evaluate_list(inout PixelState s, uint first, uint count) {
-    for (uint k = first; k < first + count; ++k) evaluate_light(s, LIST_LIGHT(k));
+    uvec2 w = window_part(s, count);
+    for (uint k = first + w.x; k < first + w.y; ++k) evaluate_light(s, LIST_LIGHT(k));
 }

@@ -1,4 +1,4 @@
-// The perfect culler (app/perfect.py): every pixel's exact list of affecting lights, built
+// The perfect culler (app/techniques/perfect.py): every pixel's exact list of affecting lights, built
 // outside the timed region, so that its shading pass times nothing but the shading loop.
 //
 //   perfect_counts[pixel]           lights affecting the pixel (count pass, whole image)
@@ -7,7 +7,6 @@
 //
 // The image is processed in horizontal bands of whole 8x8 groups (u_row0 = first GL row of
 // the band, a multiple of 8) so that the entry list of a band fits one storage block.
-// Its buffers' binding points (B_PERFECT_*) are in app.features.BINDINGS, like every other.
 
 uniform int u_row0;
 

@@ -4,14 +4,16 @@
 // lists built from it are exact by construction.
 #include "generated.glsl"
 #include "wave.glsl"
-#include "common.glsl"
+#include "pixel.glsl"
 #include "perfect_common.glsl"
 
-layout(std430, binding = B_PERFECT_COUNTS) writeonly buffer PerfectCounts { uint perfect_counts[]; };
+layout(std430, binding = B_PERFECT_COUNTS) buffer PerfectCounts { uint perfect_counts[]; };
 
 void main() {
     PixelState s = perfect_load_pixel();
-    if (s.shading)
-        for (uint i = 0u; i < u_light_count; ++i) evaluate_light(s, lights[i]);
-    if (s.inside) perfect_counts[uint(s.pixel.y * u_size.x + s.pixel.x)] = s.count;
+    if (s.shading) evaluate_all_lights(s);        // this dispatch window's lights
+    if (s.inside) {
+        uint i = uint(s.pixel.y * u_size.x + s.pixel.x);
+        perfect_counts[i] = (first_window() ? 0u : perfect_counts[i]) + s.count;
+    }
 }

@@ -6,8 +6,7 @@
 
 void main() {
     PixelState s = load_pixel();
-    if (s.shading)
-        for (uint i = 0u; i < u_light_count; ++i) evaluate_light(s, lights[i]);
+    if (s.shading) evaluate_all_lights(s);
     store_pixel(s);
     write_wave_stats(s.evaluated, 1u);
 }

@@ -11,12 +11,16 @@ layout(std430, binding = B_PERFECT_RANGES) readonly buffer PerfectRanges { uvec2
 layout(std430, binding = B_PERFECT_ENTRIES) readonly buffer PerfectEntries { uint perfect_entries[]; };
 
 void main() {
-    PixelState s = perfect_load_pixel();
+    PixelState s = resume_pixel(perfect_load_pixel());
     if (s.shading) {
         uvec2 r = perfect_ranges[perfect_band_index(s)];
-        for (uint k = r.x; k < r.x + r.y; ++k) evaluate_light(s, lights[perfect_entries[k]]);
+        uvec2 w = window_part(s, r.y);
+        for (uint k = r.x + w.x; k < r.x + w.y; ++k) evaluate_light(s, lights[perfect_entries[k]]);
     }
     store_pixel(s);
     uint longest = groupAllMax(s.evaluated);
-    if (gl_LocalInvocationIndex == 0u) wave_stats[perfect_group_index()] = uvec4(longest, 1u, 0u, 0u);
+    if (gl_LocalInvocationIndex == 0u) {   // a plain store: every band writes only its groups
+        wave_stats[perfect_group_index()].iterations = longest;
+        wave_stats[perfect_group_index()].case_bits = 1u;
+    }
 }

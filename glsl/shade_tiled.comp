@@ -11,7 +11,7 @@ void main() {
     if (s.shading) {
         uvec2 r = ranges[cell_of(s)].offset_count;
         if (r.y == 0xFFFFFFFFu)
-            for (uint i = 0u; i < u_light_count; ++i) evaluate_light(s, lights[i]);
+            evaluate_all_lights(s);
         else
             evaluate_list(s, r.x, r.y);
     }

@@ -10,7 +10,7 @@ uint node_skip(uint bits) { return bits >> (1u + NODE_COUNT_BITS); }
 bool node_hit(TreeNode n, float depth) { return depth >= n.min_depth && depth <= n.max_depth; }
 
 void visit_node(inout PixelState s, TreeNode n, inout uint i) {
-    s.nodes++;
+    if (first_window()) s.nodes++;      // every window walks the same nodes: count them once
     if (node_hit(n, s.depth)) {
         if (node_is_leaf(n.bits)) evaluate_list(s, n.first_light, node_light_count(n.bits));
         i++;

@@ -13,7 +13,7 @@ import numpy as np
 
 from .geometry import box_mesh, max_depth_for, merge_meshes, ramp_mesh
 from .lights import on_geometry, sample_on_geometry, spot_lights, uniform_in_box
-from .loader import MAX_LIGHTS, SceneError
+from .errors import MAX_LIGHTS, SceneError
 from .model import Camera, Mesh, Scene, make_lights
 
 DISTRIBUTIONS = ("uniform", "geometry")

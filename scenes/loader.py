@@ -14,22 +14,19 @@ from pathlib import Path
 
 import numpy as np
 
+from .builtin import BUILTIN_SCENES
+from .errors import MAX_LIGHTS, SceneError
 from .geometry import box_mesh, max_depth_for
-from .model import LIGHT_DTYPE, LIGHT_POINT, LIGHT_SPOT, Camera, Mesh, Scene, make_lights
+from .model import LIGHT_DTYPE, LIGHT_SPOT, LIGHT_TYPES as TYPE_NAMES, Camera, Mesh, Scene, make_lights
 
-MAX_LIGHTS = 4_194_304
 MAX_RESOLUTION = 16384
 MAX_RADIUS = 1e7
 MAX_FAR_NEAR = 1e9
 FLOAT32_MAX = float(np.finfo(np.float32).max)
 NPZ_ARRAYS = ("type", "position", "radius", "color", "intensity", "direction",
               "cos_inner", "cos_outer")
-LIGHT_TYPES = {"point": LIGHT_POINT, "spot": LIGHT_SPOT}
+LIGHT_TYPES = {name: i for i, name in enumerate(TYPE_NAMES)}
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)
-
-
-class SceneError(ValueError):
-    """A scene that cannot be built or loaded; the message is one line naming file and field."""
 
 
 def _one_line(s) -> str:
@@ -400,7 +397,6 @@ def load_scene(name_or_path: str, lights: int | None = None, seed: int = 0,
                distribution: str | None = None) -> Scene:
     """A builtin scene by name, or a JSON scene file.  For a file, `lights=N` keeps the first
     N lights and `seed` / `distribution` are ignored."""
-    from .builtin import BUILTIN_SCENES
     src = str(name_or_path)
     if src in BUILTIN_SCENES:
         return BUILTIN_SCENES[src](lights, seed, distribution)

@@ -13,9 +13,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-LIGHT_POINT = 0
-LIGHT_SPOT = 1
-LIGHT_TYPE_NAMES = {LIGHT_POINT: "point", LIGHT_SPOT: "spot"}
+# The light type ids of the scene contract (DESIGN "Contract: scene files"), defined here
+# once: index = type id.  The CPU stage, the loader and the generated GLSL (LIGHT_SPOT ...)
+# all read this tuple.
+LIGHT_TYPES = ("point", "spot")
+LIGHT_POINT = LIGHT_TYPES.index("point")
+LIGHT_SPOT = LIGHT_TYPES.index("spot")
+LIGHT_TYPE_NAMES = dict(enumerate(LIGHT_TYPES))
 
 LIGHT_DTYPE = np.dtype([
     ("type", np.uint8),

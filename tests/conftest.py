@@ -15,7 +15,7 @@ settings.load_profile("ci" if os.environ.get("CI") else "lab")
 
 @pytest.fixture(scope="session")
 def gl():
-    from app import gl as glmod
+    from app.pipeline import gl as glmod
     from app.errors import UserError
     try:
         return glmod.context()

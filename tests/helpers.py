@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.dump import exactness
-from app.techniques import REGISTRY, Options
+from app.techniques import REGISTRY, with_role
 from scenes.geometry import box_mesh
 from scenes.model import Camera, Scene, make_lights
 
@@ -42,13 +42,25 @@ def make_scene(lights, meshes=None, size=(96, 64), camera=None, max_depth=150.0,
                  lights, max_depth=max_depth)
 
 
-def render_all(scene, opts: Options | None = None, techniques=None):
-    """{technique name: FrameResult} for every registered technique (or those named)."""
-    from app.renderer import Renderer
+def options(name: str, **values):
+    """The technique's Options from those of `values` it declares (tests set one option
+    for every technique that has it; the CLI instead rejects an option a technique lacks)."""
+    t = REGISTRY[name]
+    return t.Options.make({k: v for k, v in values.items() if k in t.Options.names()})
+
+
+def takes(name: str, *option_names: str) -> bool:
+    return set(option_names) <= set(REGISTRY[name].Options.names())
+
+
+def render_all(scene, opts: dict | None = None, techniques=None, **kw):
+    """{technique name: FrameResult} for every registered technique (or those named), each
+    with the options of `opts` it declares."""
+    from app.pipeline.renderer import Renderer
     r = Renderer(scene)
     try:
         names = techniques or list(REGISTRY)
-        return {n: r.render(REGISTRY[n], 0, opts or Options()) for n in names}
+        return {n: r.render(REGISTRY[n], 0, options(n, **(opts or {})), **kw) for n in names}
     finally:
         r.release()
 
@@ -56,7 +68,7 @@ def render_all(scene, opts: Options | None = None, techniques=None):
 def assert_exact(results: dict, where: str = "") -> None:
     """Every technique gives brute's contrib_count and contrib_hash at every pixel, and
     every output is finite."""
-    ref = results["brute"]
+    ref = results[with_role("reference").name]
     assert np.isfinite(ref.image).all(), f"{where}: brute image not finite"
     bad = {}
     for name, res in results.items():

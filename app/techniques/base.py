@@ -1,78 +1,64 @@
 """The technique interface: what every culling technique module provides.
 
-    name        id used by capture, the window, the benchmark and the tests
-    shader      the shading compute pass (glsl/), 8x8 groups over the image
-    prepasses   GPU passes that run before shading (name, shader, output buffers)
-    build()     the CPU stage: numpy in, numpy GPU-layout buffers out, timed by stage
+    name          id used by capture, the window, the benchmark and the tests
+    summary       one line for --list and the report
+    role          "technique"; "reference" (brute: the exactness check's reference) or
+                  "floor" (perfect: the shading floor no technique can beat)
+    Options       its own frozen dataclass of declared options (app.techniques.options)
+    glsl          shader texts of its own by file name, beside glsl/ (usually empty: its
+                  shaders are files in glsl/)
+    build()       the CPU stage: numpy in, GPU-layout arrays out, timed by step
+    passes()      its GPU passes in order, the shading pass last (app.pipeline.passes)
 
-The renderer binds every buffer by its name in app.features.BINDINGS.
+A technique is one module and one line in the registry (app/techniques/__init__.py); the
+renderer, capture, window, benchmark and report need no edit for it.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
-
-import numpy as np
-
 from cpu_prep import frame as cpuframe, grid as gridmod, limits
-from cpu_prep.arena import Arena
-from cpu_prep.camera import FrameCamera
 
+from ..pipeline.passes import Build, FrameInput, Pass, frame_outputs, image_groups
+from .options import TechniqueOptions
 
-@dataclass
-class Options:
-    """Knobs of the CPU stage and the shaders; every field is recorded in the dump's meta."""
-    tile: int = limits.DEFAULT_TILE
-    slices: int = limits.DEFAULT_SLICES
-    near_slice_depth: float = limits.DEFAULT_NEAR_SLICE_DEPTH
-    lights_per_leaf: int = limits.DEFAULT_LIGHTS_PER_LEAF
-    max_leaves: int = limits.DEFAULT_MAX_LEAVES
-    sort_buckets: int = 0          # 0: exact sort; >0: approximate bucket sort (testbed: 512)
-    radius_scale: float = 1.0      # hybrid: cell.radius = radius_scale * half the cell depth
-    duplicated: bool = False       # lists hold copies of the light data (paper figure 5)
-    native_wave: bool = False      # native subgroup ops where the driver has them
-
-    def as_dict(self) -> dict:
-        return {f.name: getattr(self, f.name) for f in fields(self)}
-
-
-@dataclass
-class FrameInput:
-    lights: np.ndarray        # scenes LIGHT_DTYPE, world space
-    camera: FrameCamera
-    max_depth: float
-    arena: Arena | None = None   # reuse output arrays across frames (None: fresh arrays)
-
-
-@dataclass
-class Build:
-    """What a technique's CPU stage hands the renderer."""
-    lights: cpuframe.PreparedLights
-    buffers: dict[str, np.ndarray] = field(default_factory=dict)
-    uniforms: dict[str, object] = field(default_factory=dict)
-    defines: dict[str, object] = field(default_factory=dict)
-    times: cpuframe.StageTimes = field(default_factory=cpuframe.StageTimes)
-    stats: dict[str, object] = field(default_factory=dict)
-    grid: gridmod.Grid | None = None
-
-
-@dataclass(frozen=True)
-class PrePass:
-    name: str
-    shader: str
-    groups: object               # callable(build) -> (x, y, z)
-    outputs: object              # callable(build) -> {buffer name: bytes}
-    zeroed: tuple[str, ...] = ()  # outputs cleared to zero before the pass
+ROLES = ("technique", "reference", "floor")
 
 
 class Technique:
     name: str = ""
     summary: str = ""
-    shader: str = ""
-    prepasses: tuple[PrePass, ...] = ()
-    shader_defines: tuple[str, ...] = ()   # defines this technique's shader declares
+    role: str = "technique"
+    Options: type[TechniqueOptions] = TechniqueOptions
+    glsl: dict[str, str] = {}
 
-    def build(self, frame: FrameInput, opts: Options) -> Build:
+    def resolve_options(self, opts=None) -> TechniqueOptions:
+        """This technique's Options from None (defaults), a dict {name: value} (checked,
+        unknown names an error) or an Options instance of this technique."""
+        if opts is None:
+            return self.Options()
+        if isinstance(opts, dict):
+            return self.Options.make(opts, self.name)
+        if type(opts) is not self.Options:
+            raise TypeError(f"{self.name}: options of type {type(opts).__name__}, "
+                            f"expected {self.name}'s own ({self.Options.__qualname__})")
+        return opts
+
+    def build(self, frame: FrameInput, opts) -> Build:
         raise NotImplementedError
+
+    def passes(self, build: Build, opts) -> list:
+        raise NotImplementedError
+
+
+# ---- steps and passes several techniques share ------------------------------------------
+
+def prepare(frame: FrameInput, sort_buckets: int = 0) -> Build:
+    """The steps every technique shares: cull, sort, pack the visible lights."""
+    times = cpuframe.StageTimes()
+    pl = cpuframe.prepare_lights(frame.lights, frame.camera, times, sort_buckets, frame.arena)
+    b = Build(frame=frame, lights=pl, times=times)
+    b.buffers["lights"] = pl.gpu
+    b.stats["visible_lights"] = len(pl.gpu)
+    return b
 
 
 def grid_uniforms(grid: gridmod.Grid) -> dict[str, object]:
@@ -81,23 +67,49 @@ def grid_uniforms(grid: gridmod.Grid) -> dict[str, object]:
             "u_slice_bias": float(grid.slice_bias)}
 
 
-def prepare_binned(frame: FrameInput, opts: Options, slices: int):
-    """prepare() plus the grid (slices = 1: 2D tiles) and the CSR binning of the lights."""
-    b = prepare(frame, opts)
-    cam = frame.camera
-    b.grid = gridmod.make_grid(cam, opts.tile, slices, frame.max_depth, opts.near_slice_depth)
-    offsets, entries = cpuframe.bin_cells(b.lights, cam, b.grid, b.times, frame.arena)
-    b.uniforms.update(grid_uniforms(b.grid))
+def make_grid(frame: FrameInput, opts, slices: int) -> gridmod.Grid:
+    """The technique's grid: its tile option, `slices` depth slices (1: 2D tiles)."""
+    near = getattr(opts, "near_slice_depth", limits.DEFAULT_NEAR_SLICE_DEPTH)
+    return gridmod.make_grid(frame.camera, opts.tile, slices, frame.max_depth, near)
+
+
+def prepare_binned(frame: FrameInput, opts, slices: int, sort_buckets: int = 0):
+    """prepare() plus the grid and the CSR binning of the lights over its cells."""
+    b = prepare(frame, sort_buckets)
+    b.grid = make_grid(frame, opts, slices)
+    offsets, entries = cpuframe.bin_cells(b.lights, frame.camera, b.grid, b.times, frame.arena)
     b.stats["cells"] = b.grid.cells
     return b, offsets, entries
 
 
-def prepare(frame: FrameInput, opts: Options) -> Build:
-    """The steps every technique shares: cull, sort, pack the visible lights."""
-    times = cpuframe.StageTimes()
-    pl = cpuframe.prepare_lights(frame.lights, frame.camera, times, opts.sort_buckets, frame.arena)
-    b = Build(lights=pl, times=times)
-    b.buffers["lights"] = pl.gpu
-    b.buffers["bounds"] = pl.bounds
-    b.stats["visible_lights"] = len(pl.gpu)
-    return b
+def windows(frame: FrameInput, longest: int) -> list[tuple[int, int]]:
+    """Dispatch windows [lo, hi) of a pass whose pixels meet at most `longest` lights: one
+    window on a driver without a loop limit, else windows of limits.DISPATCH_WINDOW lights
+    (glsl/pixel.glsl: the same lights in the same order, carried over between dispatches)."""
+    size = limits.DISPATCH_WINDOW
+    if frame.loop_budget is None or longest <= size:
+        return [(0, limits.WINDOW_ALL)]
+    k = -(-int(longest) // size)
+    return [(i * size, (i + 1) * size if i < k - 1 else limits.WINDOW_ALL) for i in range(k)]
+
+
+def shading_pass(build: Build, shader: str, reads: tuple[str, ...] = (), defines=None,
+                 uniforms=None, native_wave: bool = False, name: str = "shade",
+                 groups=None, waves_cleared: bool = True, **kw) -> Pass:
+    """The technique's shading pass: one 8x8 group per image block (or `groups`), reading
+    the lights and `reads`, writing the frame's outputs (colour, per-pixel counters, wave
+    statistics)."""
+    w, h = build.frame.size
+    return Pass(name, shader, reads=("lights",) + tuple(reads),
+                writes=frame_outputs(w, h, waves_cleared), groups=groups or image_groups(w, h),
+                defines=dict(defines or {}), uniforms=dict(uniforms or {}),
+                native_wave=native_wave, **kw)
+
+
+def shading_passes(build: Build, shader: str, reads: tuple[str, ...] = (), longest: int = 0,
+                   uniforms=None, waves_cleared: bool = True, **kw) -> list[Pass]:
+    """shading_pass() as one dispatch per window of `longest` (the most lights a pixel's
+    loops can meet); later windows carry the earlier ones' outputs over."""
+    return [shading_pass(build, shader, reads, uniforms=dict(uniforms or {}, u_window=win),
+                         waves_cleared=waves_cleared and k == 0, **kw)
+            for k, win in enumerate(windows(build.frame, longest))]

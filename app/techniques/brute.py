@@ -2,13 +2,16 @@
 
     lights[] (GpuLight, visible, depth-sorted)  <-  every pixel loops over all of them
 """
-from .base import Technique, prepare
+from .base import Technique, prepare, shading_passes
 
 
 class Brute(Technique):
     name = "brute"
     summary = "every visible light at every pixel (reference)"
-    shader = "shade_brute.comp"
+    role = "reference"
 
     def build(self, frame, opts):
-        return prepare(frame, opts)
+        return prepare(frame)
+
+    def passes(self, build, opts):
+        return shading_passes(build, "shade_brute.comp", longest=len(build.lights))

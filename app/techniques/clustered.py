@@ -5,34 +5,51 @@ cell an index list of the lights whose conservative box of cells contains it.
     ranges[cell] = (first entry, count) -> entries[] (uint) -> lights[] (GpuLight)
     cell = (ty * tiles_x + tx) * slices + slice;   960x540 at 48 px, 16 slices: 3,520 cells
 """
+from dataclasses import dataclass
+
 import numpy as np
 
 from cpu_prep import frame as cpuframe, layouts
 
-from .base import Technique, prepare_binned
+from .base import Technique, grid_uniforms, prepare_binned, shading_passes
+from .options import ListOptions, SliceOptions
 
 
-def list_buffers(b, offsets, entries, opts):
+def list_buffers(b, offsets, entries, duplicated: bool) -> None:
     """ranges + entries (+ duplicated light copies) of a CSR binning."""
     ranges = np.zeros(len(offsets) - 1, layouts.CELL_RANGE)
     ranges["offset_count"][:, 0] = offsets[:-1]
     ranges["offset_count"][:, 1] = np.diff(offsets)
     b.buffers["ranges"] = ranges
     b.buffers["entries"] = entries
-    if opts.duplicated:
+    if duplicated:
         b.buffers["dup_lights"] = b.lights.gpu[entries]
         cpuframe.check_buffer("duplicated light lists", b.buffers["dup_lights"].nbytes)
-    b.defines["LIGHTS_DUPLICATED"] = int(opts.duplicated)
+    b.stats["list_entries"] = len(entries)
+    b.data["longest_list"] = int(np.diff(offsets).max(initial=0))
+
+
+def list_reads(duplicated: bool) -> tuple[str, ...]:
+    """The buffers a shading pass over CSR lists reads (lists.glsl)."""
+    return ("ranges", "entries") + (("dup_lights",) if duplicated else ())
 
 
 class Clustered(Technique):
     name = "clustered"
     summary = "2.5D grid of index lists (Persson 2013)"
-    shader = "shade_clustered.comp"
+
+    @dataclass(frozen=True)
+    class Options(SliceOptions, ListOptions):
+        pass
 
     def build(self, frame, opts):
         b, offsets, entries = prepare_binned(frame, opts, opts.slices)
         with b.times.stage("pack"):
-            list_buffers(b, offsets, entries, opts)
-        b.stats["list_entries"] = len(entries)
+            list_buffers(b, offsets, entries, opts.duplicated)
         return b
+
+    def passes(self, build, opts):
+        return shading_passes(build, "shade_clustered.comp", list_reads(opts.duplicated),
+                              build.data["longest_list"],
+                              defines={"LIGHTS_DUPLICATED": int(opts.duplicated)},
+                              uniforms=grid_uniforms(build.grid))

@@ -5,34 +5,54 @@ GPU from the G-buffer; lights culled per tile on the GPU (glsl/tile_cull.comp).
     shade:      entries -> lights[];  count 0xFFFFFFFF = pool overflow, shade every light
     pool: min(tiles x lights, 8M) entries (32 MiB at most)
 """
-from cpu_prep import grid as gridmod
+from dataclasses import dataclass
 
-from .base import PrePass, Technique, grid_uniforms, prepare
+from cpu_prep import layouts
 
-CULL_TILE = 16
+from ..pipeline.passes import Buffer, Pass
+from ..errors import UserError
+from .base import Technique, grid_uniforms, make_grid, prepare, shading_passes
+from .options import TileOptions
+
 POOL_MAX_ENTRIES = 8 << 20
 
 
-def _pool_entries(b) -> int:
+def pool_entries(b) -> int:
     return max(1, min(b.grid.cells * max(len(b.lights.gpu), 1), POOL_MAX_ENTRIES))
 
 
 class Tiled(Technique):
     name = "tiled"
     summary = "2D tiles, min/max depth and light lists on the GPU (Andersson, Harada)"
-    shader = "shade_tiled.comp"
-    prepasses = (PrePass(
-        name="tile_cull", shader="tile_cull.comp",
-        groups=lambda b: (b.grid.tiles_x, b.grid.tiles_y, 1),
-        outputs=lambda b: {"ranges": b.grid.cells * 8, "entries": _pool_entries(b) * 4, "counter": 4},
-        zeroed=("counter",)),)
+
+    @dataclass(frozen=True)
+    class Options(TileOptions):
+        pass
 
     def build(self, frame, opts):
-        b = prepare(frame, opts)
-        cam = frame.camera
-        b.grid = gridmod.make_grid(cam, opts.tile, 1, frame.max_depth, opts.near_slice_depth)
-        b.uniforms.update(grid_uniforms(b.grid))
-        b.uniforms.update(u_capacity=_pool_entries(b), u_tan_half=(cam.tan_half_x, cam.tan_half_y))
-        b.defines["LIGHTS_DUPLICATED"] = 0
+        b = prepare(frame)
+        b.buffers["bounds"] = b.lights.bounds
+        b.grid = make_grid(frame, opts, 1)
         b.stats["cells"] = b.grid.cells
         return b
+
+    def passes(self, build, opts):
+        g, cam = build.grid, build.frame.camera
+        n = len(build.lights)
+        # tile_cull.comp: each invocation loops over n / 256 lights twice, 9 iterations a
+        # chunk in the second loop
+        if build.frame.loop_budget and (n + 255) // 256 * 10 > build.frame.loop_budget:
+            raise UserError(f"tiled: culling {n} visible lights needs more loop iterations per "
+                            f"invocation than this driver runs ({build.frame.loop_budget}); its "
+                            f"lists would be truncated: use fewer lights or a GPU driver")
+        cull = Pass(
+            "tile_cull", "tile_cull.comp", reads=("bounds",),
+            writes={"ranges": Buffer(g.cells * layouts.CELL_RANGE.itemsize, layouts.CELL_RANGE),
+                    "entries": Buffer(pool_entries(build) * 4),
+                    "counter": Buffer(4, cleared=True)},
+            groups=(g.tiles_x, g.tiles_y, 1),
+            uniforms={"u_tile": g.tile, "u_capacity": pool_entries(build),
+                      "u_tan_half": (cam.tan_half_x, cam.tan_half_y)})
+        # a tile's list holds at most every light (an overflowed tile shades every light)
+        return [cull] + shading_passes(build, "shade_tiled.comp", ("ranges", "entries"), n,
+                                       defines={"LIGHTS_DUPLICATED": 0}, uniforms=grid_uniforms(g))

@@ -4,12 +4,15 @@
     leaf node -> entries[first .. first+count] -> lights[]
     1920x1080 at 48 px: 920 tiles; a tree of 64 leaves is 127 nodes = 2 KiB
 """
+from dataclasses import dataclass
+
 import numpy as np
 
 from cpu_prep import frame as cpuframe, tree as treemod
 
-from .base import Technique, prepare_binned
-from .clustered import list_buffers
+from .base import Technique, grid_uniforms, prepare_binned, shading_passes
+from .clustered import list_buffers, list_reads
+from .options import ListOptions, TileOptions, TreeOptions
 
 SHARED_TREE_NODES = 128   # shared-memory copy of one tree: 128 x 16 B = 2 KiB
 
@@ -20,22 +23,37 @@ def tree_buffers(b, offsets, entries, is_tree, opts, arena=None):
             offsets, entries, b.lights.depth_lo, b.lights.depth_hi, is_tree,
             opts.lights_per_leaf, opts.max_leaves, arena)
     with b.times.stage("pack"):
-        list_buffers(b, offsets, entries, opts)
+        list_buffers(b, offsets, entries, opts.duplicated)
         b.buffers["ranges"] = ranges
         b.buffers["nodes"] = nodes
         cpuframe.check_buffer("tree nodes", nodes.nbytes)
-    b.defines["SHARED_TREE_NODES"] = SHARED_TREE_NODES
     b.stats.update(nodes=len(nodes), trees=int((leaves > 1).sum()),
-                   lists=int((leaves == 1).sum()), list_entries=len(entries))
+                   lists=int((leaves == 1).sum()))
     return leaves
+
+
+def tree_passes(build, opts, shader: str, native_wave: bool = False):
+    """The shading pass of a technique whose cells hold trees (tree.glsl); a pixel meets at
+    most its cell's lights (the leaves split the cell's list)."""
+    return shading_passes(build, shader, list_reads(opts.duplicated) + ("nodes",),
+                          build.data["longest_list"],
+                          defines={"LIGHTS_DUPLICATED": int(opts.duplicated),
+                                   "SHARED_TREE_NODES": SHARED_TREE_NODES},
+                          uniforms=grid_uniforms(build.grid), native_wave=native_wave)
 
 
 class Tree(Technique):
     name = "tree"
     summary = "a light tree per 2D tile (O'Donnell & Chajdas 2017)"
-    shader = "shade_tree.comp"
+
+    @dataclass(frozen=True)
+    class Options(TileOptions, ListOptions, TreeOptions):
+        pass
 
     def build(self, frame, opts):
-        b, offsets, entries = prepare_binned(frame, opts, 1)
+        b, offsets, entries = prepare_binned(frame, opts, 1, opts.sort_buckets)
         tree_buffers(b, offsets, entries, np.ones(b.grid.cells, bool), opts, frame.arena)
         return b
+
+    def passes(self, build, opts):
+        return tree_passes(build, opts, "shade_tree.comp")

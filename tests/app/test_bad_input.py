@@ -315,7 +315,7 @@ def test_output_buffers_over_storage_block_refused_before_allocation(gl, monkeyp
     """A resolution whose per-pixel output buffers pass GL_MAX_SHADER_STORAGE_BLOCK_SIZE
     (though each side is within GL_MAX_TEXTURE_SIZE) is refused, naming the limit, before
     the G-buffer or any buffer is allocated."""
-    from app import gl as glmod, renderer as rmod
+    from app.pipeline import gl as glmod, renderer as rmod
     from app.errors import UserError
     lim = glmod.limits()
     w = min(4096, lim.max_texture_size)
@@ -337,7 +337,7 @@ def test_output_buffers_over_storage_block_refused_before_allocation(gl, monkeyp
 
 
 def test_texture_size_limit_refused(gl, monkeypatch):
-    from app import gl as glmod, renderer as rmod
+    from app.pipeline import gl as glmod, renderer as rmod
     from app.errors import UserError
     lim = glmod.limits()
     monkeypatch.setattr(rmod, "GBuffer", lambda *a, **k: pytest.fail("G-buffer allocated"))
@@ -349,9 +349,9 @@ def test_texture_size_limit_refused(gl, monkeypatch):
 def test_storage_limit_boundary_and_named_buffer(gl):
     """Exactly at the storage-block limit is allowed (no allocation: the check alone); one
     byte over it for a named buffer is refused naming the buffer, and nothing is kept."""
-    from app import gl as glmod
+    from app.pipeline import gl as glmod
     from app.errors import UserError
-    from app.renderer import Renderer
+    from app.pipeline.renderer import Renderer
     lim = glmod.limits()
     r = Renderer(_tiny_scene())
     try:

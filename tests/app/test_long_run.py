@@ -25,8 +25,8 @@ import numpy as np
 import pytest
 
 from app.dump import FIELDS, exactness, read_dump
-from app.renderer import Renderer
-from app.techniques import REGISTRY, Options
+from app.pipeline.renderer import Renderer
+from app.techniques import REGISTRY
 from scenes import load_scene
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -35,7 +35,7 @@ FRAMES = 500
 PATH_FRAMES = 60           # camera loop; a multiple of len(REGISTRY) would align, 60 covers both
 WARMUP = 120               # two full loops of (camera frame, technique) pairs
 RSS_TOLERANCE = 8 << 20
-TIMING_KEYS = ("cpu_ms", "gpu_ms", "wall_s")
+TIMING_KEYS = ("cpu_ms", "gpu_ms", "setup_ms", "wall_s")
 
 
 def rss_bytes() -> int:
@@ -72,8 +72,8 @@ def test_500_frames_keep_memory_and_gl_objects_flat(gl):
         names_before = live_before = rss_before = None
         for f in range(FRAMES):
             t = REGISTRY[names[f % len(names)]]
-            r.render(t, f, Options(), frames=PATH_FRAMES, readback=False)
-            assert r.last_meta is not None and r.last_meta["frame"] == f
+            out = r.render(t, f, frames=PATH_FRAMES, readback=False)
+            assert out.meta["frame"] == f and out.image is None
             if f == WARMUP - 1:
                 gc.collect()
                 live_before, rss_before = live_objects(r), rss_bytes()
@@ -82,7 +82,7 @@ def test_500_frames_keep_memory_and_gl_objects_flat(gl):
                 probe_cost = {k: names_before[k] - p1[k] for k in p1}   # names one probe uses
             if f % 100 == 50:
                 # now and then read every technique back at this frame: still exact
-                res = {n: r.render(REGISTRY[n], f, Options(), frames=PATH_FRAMES) for n in names}
+                res = {n: r.render(REGISTRY[n], f, frames=PATH_FRAMES) for n in names}
                 bad = {n: exactness(x, res["brute"]) for n, x in res.items()
                        if exactness(x, res["brute"]) != (0, 0)}
                 assert not bad, f"frame {f}: differs from brute {bad}"
@@ -111,7 +111,7 @@ def test_renderer_create_release_cycles_keep_memory_flat(gl):
         r = Renderer(scene, SIZE)
         try:
             for t in REGISTRY.values():
-                r.render(t, 0, Options(), readback=False)
+                r.render(t, 0, readback=False)
         finally:
             r.release()
         del r
@@ -134,8 +134,8 @@ def test_repeated_renders_are_bit_identical_in_process(gl):
     for _ in range(2):
         r = Renderer(scene, (48, 32))
         try:
-            runs.append({n: r.render(t, 7, Options()) for n, t in REGISTRY.items()})
-            again = {n: r.render(t, 7, Options()) for n, t in REGISTRY.items()}
+            runs.append({n: r.render(t, 7) for n, t in REGISTRY.items()})
+            again = {n: r.render(t, 7) for n, t in REGISTRY.items()}
         finally:
             r.release()
         for n in REGISTRY:

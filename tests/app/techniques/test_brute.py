@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from app.dump import mix
-from app.renderer import Renderer
+from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY
 from cpu_prep.camera import look_at
 from tests.helpers import make_scene, random_lights

@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from app.techniques import Options
 from scenes import BUILTIN_SCENES, load_scene
 from scenes.model import Camera
 from tests.helpers import assert_exact, make_scene, random_lights, render_all
@@ -24,9 +23,9 @@ def test_builtin_scenes_are_exact(gl, name, distribution):
 
 
 @pytest.mark.parametrize("opts", [
-    Options(tile=16, slices=8), Options(tile=64, slices=24), Options(duplicated=True),
-    Options(sort_buckets=512), Options(lights_per_leaf=1, max_leaves=8), Options(radius_scale=8.0),
-    Options(native_wave=True), Options(tile=20, slices=4)],
+    dict(tile=16, slices=8), dict(tile=64, slices=24), dict(duplicated=True),
+    dict(sort_buckets=512), dict(lights_per_leaf=1, max_leaves=8), dict(radius_scale=8.0),
+    dict(native_wave=True), dict(tile=20, slices=4)],
     ids=["t16s8", "t64s24", "duplicated", "buckets", "tiny-leaves", "tree-heavy", "native-wave", "t20"])
 def test_options_keep_exactness(gl, opts):
     scene = load_scene("arena", lights=4096, seed=3)
@@ -37,7 +36,7 @@ def test_options_keep_exactness(gl, opts):
 def test_camera_path_frames_are_exact(gl):
     scene = load_scene("city", lights=4096, seed=2)
     scene.resolution = (160, 90)
-    from app.renderer import Renderer
+    from app.pipeline.renderer import Renderer
     from app.techniques import REGISTRY
     r = Renderer(scene)
     try:
@@ -56,7 +55,7 @@ def test_random_scenes_are_exact(gl, seed, n, fov, w, h, tile, near):
     lights = random_lights(rng, n, (-25, -2, -45), (25, 10, 12), radius=(0.05, 12.0))
     cam = Camera((0.0, 2.0, 8.0), (rng.uniform(-3, 3), 1.0, -20.0), fov_y_deg=fov, near=near, far=300.0)
     scene = make_scene(lights, size=(w, h), camera=cam)
-    assert_exact(render_all(scene, Options(tile=tile, slices=int(rng.integers(2, 24)))), f"seed {seed}")
+    assert_exact(render_all(scene, dict(tile=tile, slices=int(rng.integers(2, 24)))), f"seed {seed}")
 
 
 def test_tiled_pool_overflow_shades_every_light(gl, monkeypatch):
@@ -65,7 +64,7 @@ def test_tiled_pool_overflow_shades_every_light(gl, monkeypatch):
     monkeypatch.setattr(tiled, "POOL_MAX_ENTRIES", 1500)
     scene = load_scene("hangar", lights=512, seed=5)
     scene.resolution = (96, 64)
-    results = render_all(scene, Options(tile=16), techniques=["brute", "tiled"])
+    results = render_all(scene, dict(tile=16), techniques=["brute", "tiled"])
     assert_exact(results, "pool overflow")
     shaded = results["brute"].depth > 0
     every = (results["tiled"].evaluated == results["brute"].evaluated)[shaded]

@@ -25,18 +25,26 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, assume, given, settings, strategies as st
 
 from app.dump import mix
 from app.errors import UserError
-from app.renderer import Renderer
-from app.techniques import REGISTRY, FrameInput, Options
-from cpu_prep import grid as gridmod, layouts
+from app.pipeline.passes import FrameInput
+from app.pipeline.renderer import Renderer
+from app.techniques import REGISTRY
+from cpu_prep import grid as gridmod, layouts, limits
 from cpu_prep.camera import frame_camera
 from cpu_prep.limits import NODE_MAX_LIGHTS, NODE_MAX_SKIP
 from scenes.geometry import box_mesh
 from scenes.model import Camera, Scene, make_lights
-from tests.helpers import assert_exact, floor_and_boxes, random_lights
+from tests.helpers import assert_exact, floor_and_boxes, options, random_lights
+
+
+def Options(**values) -> dict:
+    """One set of option values for every technique of a case (each technique takes those
+    it declares: tests.helpers.options), with the grid defaults the cases slice with."""
+    return {"tile": limits.DEFAULT_TILE, "slices": limits.DEFAULT_SLICES,
+            "near_slice_depth": limits.DEFAULT_NEAR_SLICE_DEPTH, **values}
 
 F32_EPS = float(np.finfo(np.float32).eps)
 
@@ -80,7 +88,7 @@ class Frame:
     def __init__(self, scene: Scene):
         self.scene = scene
         self.renderer = Renderer(scene)
-        self.renderer.gbuffer.draw(self.renderer.camera(0, 64))
+        self.renderer.render(REGISTRY["brute"], 0, lights=make_lights(0), readback=False)
         # (H, W, 4) row 0 = top: view-space xyz, w = linear depth (0 = no geometry)
         self.pos = np.ascontiguousarray(self.renderer.gbuffer.read_position()[::-1])
         self.cam = frame_camera(scene.camera, *scene.resolution)
@@ -139,12 +147,12 @@ class Frame:
         return L
 
     # -- rendering and checks ----------------------------------------------------------
-    def render(self, lights, opts: Options | None = None, techniques=None) -> dict:
+    def render(self, lights, opts: dict | None = None, techniques=None) -> dict:
         names = techniques or list(REGISTRY)
-        return {n: self.renderer.render(REGISTRY[n], 0, opts or Options(), lights=lights)
+        return {n: self.renderer.render(REGISTRY[n], 0, options(n, **(opts or {})), lights=lights)
                 for n in names}
 
-    def check(self, lights, opts: Options | None = None, where: str = "",
+    def check(self, lights, opts: dict | None = None, where: str = "",
               must_light: bool = True, results: dict | None = None) -> dict:
         res = results or self.render(lights, opts)
         assert_exact(res, where)
@@ -226,7 +234,7 @@ def view_space(lights, cam):
 
 def visible_count(f, lights, opts=None) -> int:
     """Lights the CPU stage keeps (frustum cull) for this frame."""
-    b = REGISTRY["brute"].build(FrameInput(lights, f.cam, f.scene.max_depth), opts or Options())
+    b = REGISTRY["brute"].build(FrameInput(lights, f.cam, f.scene.max_depth), None)
     return int(b.stats["visible_lights"])
 
 
@@ -441,7 +449,7 @@ def test_lights_on_tile_boundaries(gl, seed, tile, depth, size):
     with Frame(scene_of([wall(depth), floor], cam, size=size, max_depth=150.0)) as f:
         w, h = size
         tx, ty = f.cam.tan_half_x, f.cam.tan_half_y
-        grid = gridmod.make_grid(f.cam, tile, opts.slices, 150.0, opts.near_slice_depth)
+        grid = gridmod.make_grid(f.cam, tile, opts["slices"], 150.0, opts["near_slice_depth"])
         assert grid.tiles_x > 1 or grid.tiles_y > 1
         centres, radii, aims = [], [], []
         for axis, count, size_px, tan in ((0, grid.tiles_x, w, tx), (1, grid.tiles_y, h, ty)):
@@ -474,12 +482,12 @@ def test_lights_on_tile_boundaries(gl, seed, tile, depth, size):
         f.check(L, opts, where=f"tile edges tile={tile} depth={depth} size={size}")
 
 
-def _max_depth_for_boundary(cam, opts: Options, k: int, target: float) -> float | None:
+def _max_depth_for_boundary(cam, opts: dict, k: int, target: float) -> float | None:
     """The scene max_depth (<= 1e5) that puts the lower bound of depth slice k of the grid
     exactly at `target` (bisection on make_grid(...).slice_bounds(): no copy of the slicing
     formula), or None if no such max_depth exists."""
     def bound(md):
-        g = gridmod.make_grid(cam, opts.tile, opts.slices, md, opts.near_slice_depth)
+        g = gridmod.make_grid(cam, opts["tile"], opts["slices"], md, opts["near_slice_depth"])
         return float(g.slice_bounds()[0][k])
     lo, hi = target * 1.0001, 1e5
     if not bound(lo) <= target <= bound(hi):
@@ -533,11 +541,11 @@ def test_lights_on_depth_slice_boundaries(gl, seed, slices, depth, pick):
         B["radius"] = rb
         L = concat(A, B)
         ks = [k for k in range(2, slices) if _max_depth_for_boundary(fc, opts, k, b) is not None]
-        assert ks, f"no slice boundary can be put at {b}"
+        assume(ks)     # e.g. 3 slices: no max_depth <= 1e5 puts a boundary past ~707 m
         k = ks[int(pick * len(ks) * 0.999)]
         # The GPU's float32 log() moves a slice boundary by up to ~1e-6 of the depth (measured
         # on llvmpipe); sweep the boundary over +-1.3e-6 around the wall's pixel depth.
-        lo_b, _ = gridmod.make_grid(fc, opts.tile, slices, 1e4, opts.near_slice_depth).slice_bounds()
+        lo_b, _ = gridmod.make_grid(fc, opts["tile"], slices, 1e4, opts["near_slice_depth"]).slice_bounds()
         C = make_lights(len(lo_b) - 1)             # on the floor, at boundary depths
         C["position"] = np.column_stack([rng.uniform(-0.3, 0.3, len(C)) * lo_b[1:],
                                          np.full(len(C), -2.0), -lo_b[1:]])
@@ -751,8 +759,8 @@ def _packed_frame() -> "Frame":
     single-tile screen: every light near the wall falls in one cell."""
     cam = axis_camera(fov=60.0, near=0.1, far=300.0)
     opts = Options()
-    grid = gridmod.make_grid(frame_camera(cam, *PACKED_SIZE), opts.tile, opts.slices,
-                             PACKED_MAX_DEPTH, opts.near_slice_depth)
+    grid = gridmod.make_grid(frame_camera(cam, *PACKED_SIZE), opts["tile"], opts["slices"],
+                             PACKED_MAX_DEPTH, opts["near_slice_depth"])
     assert grid.tiles_x == grid.tiles_y == 1
     lo_b, hi_b = grid.slice_bounds()
     k = int(grid.slice_of(20.0))
@@ -801,7 +809,7 @@ def test_cell_light_counts_at_16_bit_width(gl, n):
         fi = FrameInput(L, f.cam, PACKED_MAX_DEPTH)
         for opts in all_opts:
             for name, t in REGISTRY.items():
-                b = t.build(fi, opts)
+                b = t.build(fi, options(name, **opts))
                 assert b.stats["visible_lights"] == n
                 if "list_entries" in b.stats:
                     assert b.stats["list_entries"] == n, f"{name}: lights not all in one cell"
@@ -824,7 +832,7 @@ def test_tree_skip_count_at_15_bit_width(gl, max_leaves, ok):
         res, refused = {}, {}
         for name in REGISTRY:
             try:
-                res[name] = f.renderer.render(REGISTRY[name], 0, opts, lights=L)
+                res[name] = f.renderer.render(REGISTRY[name], 0, options(name, **opts), lights=L)
             except UserError as exc:
                 refused[name] = str(exc)
         assert "brute" in res
@@ -834,7 +842,7 @@ def test_tree_skip_count_at_15_bit_width(gl, max_leaves, ok):
         if ok:
             assert not refused, f"refused at the exact 15-bit limit: {refused}"
             for name in REGISTRY:
-                b = REGISTRY[name].build(FrameInput(L, f.cam, PACKED_MAX_DEPTH), opts)
+                b = REGISTRY[name].build(FrameInput(L, f.cam, PACKED_MAX_DEPTH), options(name, **opts))
                 if "nodes" in b.buffers:
                     _, _, skip = layouts.unpack_node_bits(b.buffers["nodes"]["bits"])
                     assert skip.max() == NODE_MAX_SKIP, f"{name}: tree not at the skip width"

@@ -2,8 +2,8 @@
 compile errors that name the file and line; the program cache."""
 import pytest
 
-from app import shaders
-from app.shaders import ProgramCache, ShaderError, Source
+from app.pipeline import shaders
+from app.pipeline.shaders import ProgramCache, ShaderError, Source
 
 MAIN = '#version 430\n// define: N\nlayout(local_size_x = 1) in;\n#include "inc.glsl"\nvoid main() { f(); }\n'
 
@@ -56,7 +56,7 @@ def test_cache_reuses_programs_and_recompiles_on_define_change(gl):
 def test_every_glsl_file_is_reachable():
     used = set()
     for comp in shaders.GLSL_DIR.glob("*.comp"):
-        from app import features
+        from app.pipeline import features
         used |= set(Source(comp.name, features.virtual_files(("point", "spot"))).files)
     missing = {p.name for p in shaders.GLSL_DIR.glob("*.glsl")} - used
     assert not missing, f"unused shader files: {missing}"

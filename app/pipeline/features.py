@@ -5,8 +5,8 @@ generates `features.glsl`, the only light-type code the shading passes compile: 
 without spot lights compiles no cone test, a scene of spots only tests no type.  The
 same set goes into the dump's meta.
 
-Also generates `generated.glsl`: the GPU structs (from cpu_prep.layouts) and the storage
-buffer binding points (BINDINGS, the one table the renderer binds by).
+Also generates `generated.glsl`: the GPU structs, limits and light type ids (from
+cpu_prep.layouts).  Binding points are not here: the renderer numbers each pass's buffers.
 """
 from __future__ import annotations
 
@@ -15,21 +15,12 @@ from functools import lru_cache
 import numpy as np
 
 from cpu_prep import layouts
-
-BINDINGS = {
-    "lights": 0, "out_color": 1, "out_stats": 2, "wave_stats": 3, "ranges": 4,
-    "entries": 5, "nodes": 6, "dup_lights": 7, "bounds": 8, "counter": 9,
-    # the benchmark's perfect culler (app.perfect) and the window's frame sums (app.window)
-    "perfect_counts": 10, "perfect_ranges": 11, "perfect_entries": 12, "view_stats": 13,
-}
-
-LIGHT_TYPES = ("point", "spot")   # index = type id of LIGHT_DTYPE
+from scenes.model import LIGHT_TYPES
 
 
 @lru_cache(maxsize=None)
 def generated_glsl() -> str:
-    binds = "\n".join(f"#define B_{k.upper()} {v}" for k, v in BINDINGS.items())
-    return layouts.glsl_declarations() + binds + "\n"
+    return layouts.glsl_declarations()
 
 
 def feature_set(light_types: np.ndarray) -> tuple[str, ...]:
@@ -52,13 +43,13 @@ def features_glsl(features: tuple[str, ...]) -> str:
     out.append("    if (!(d2 < L.pos_radius.w * L.pos_radius.w)) return false;")
     out.append("#endif")
     if spot and point:
-        out.append("    if (L.id_type.y == 1u) return spot_cone_contains(L, d, d2);")
+        out.append("    if (L.id_type.y == LIGHT_SPOT) return spot_cone_contains(L, d, d2);")
     elif spot:
         out.append("    return spot_cone_contains(L, d, d2);")
     out.append("    return true;\n}")
     out.append("vec3 light_radiance(GpuLight L, vec3 d, float d2, vec3 N) {")
     if spot and point:
-        out.append("    float f = L.id_type.y == 1u ? spot_falloff(L, d, d2) : 1.0;")
+        out.append("    float f = L.id_type.y == LIGHT_SPOT ? spot_falloff(L, d, d2) : 1.0;")
         out.append("    return lambert(L, d, d2, N) * f;\n}")
     elif spot:
         out.append("    return lambert(L, d, d2, N) * spot_falloff(L, d, d2);\n}")

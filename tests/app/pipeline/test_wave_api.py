@@ -3,8 +3,8 @@ native subgroup path per subgroup (whatever size the driver reports)."""
 import numpy as np
 import pytest
 
-from app import gl as glmod
-from app.shaders import Source
+from app.pipeline import gl as glmod
+from app.pipeline.shaders import Source
 
 LANES = 64
 MAIN = """#version 430

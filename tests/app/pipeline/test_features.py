@@ -2,8 +2,8 @@
 code and renders identically to the general program."""
 import numpy as np
 
-from app import features
-from app.renderer import Renderer
+from app.pipeline import features
+from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY
 from tests.helpers import make_scene, random_lights
 

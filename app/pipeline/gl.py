@@ -10,7 +10,9 @@ import time
 
 import moderngl
 
-from .errors import UserError
+from cpu_prep.limits import SOFTWARE_LOOP_BUDGET
+
+from ..errors import UserError
 
 _CTX: moderngl.Context | None = None
 
@@ -31,6 +33,12 @@ class Limits:
     def software(self) -> bool:
         r = self.renderer.lower()
         return "llvmpipe" in r or "softpipe" in r or "swrast" in r
+
+    @property
+    def loop_budget(self) -> int | None:
+        """Loop iterations one shader invocation may run before the driver silently stops
+        its loops (software rasterizers), None where there is no such limit."""
+        return SOFTWARE_LOOP_BUDGET if self.software else None
 
 
 def context() -> moderngl.Context:

@@ -1,0 +1,155 @@
+"""The frame graph's vocabulary: what a technique (or the frame itself) declares, and what
+the renderer executes from those declarations alone.
+
+    FrameInput --technique.build()--> Build (numpy arrays, CPU stage timed by step)
+    Build --technique.passes()--> [Pass | HostStep, ...]   (the shading pass last)
+
+A Pass is one GPU step: a compute dispatch or a raster draw, its shader and defines, the
+buffers it reads and the buffers it writes (size, element struct, cleared before the pass
+or not), and whether it is timed.  Binding points are not written anywhere: the renderer
+numbers the buffers a pass declares, per program, and defines `B_<SLOT>` for each; a shader
+that binds a buffer its pass did not declare fails to compile with one line naming the
+pass, the buffer and the file.
+
+A HostStep runs on the CPU between passes (untimed): it reads buffers back and returns
+arrays to upload and further steps to run (the perfect culler plans its bands this way).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Mapping
+
+import numpy as np
+
+from cpu_prep import frame as cpuframe, grid as gridmod, layouts
+from cpu_prep.arena import Arena
+from cpu_prep.camera import FrameCamera
+
+# The frame's outputs, written by every technique's shading pass and read back by capture,
+# the benchmark and the window: per pixel (GL row order) and per 8x8 group.
+OUT_COLOR, OUT_STATS, WAVE_STATS = "out_color", "out_stats", "wave_stats"
+FRAME_OUTPUTS = (OUT_COLOR, OUT_STATS, WAVE_STATS)
+WAVE_DIM = 8          # one emulated 64-lane wave = one 8x8 group (cpu_prep.limits.WAVE_DIM)
+
+
+@dataclass
+class FrameInput:
+    """What the CPU stage of a frame sees: world-space lights, the camera, the depth worth
+    slicing, and the arena its outputs reuse from frame to frame (None: fresh arrays)."""
+    lights: np.ndarray        # scenes LIGHT_DTYPE, world space
+    camera: FrameCamera
+    max_depth: float
+    arena: Arena | None = None
+    loop_budget: int | None = None   # the driver's loop limit per invocation (None: none)
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return self.camera.width, self.camera.height
+
+
+@dataclass
+class Build:
+    """What a technique's CPU stage hands the renderer: arrays to upload (by buffer name),
+    the visible lights, timings by step, figures for the meta, and the technique's own data
+    for its passes (`data`; e.g. the grid)."""
+    frame: FrameInput
+    lights: cpuframe.PreparedLights
+    buffers: dict[str, np.ndarray] = field(default_factory=dict)
+    times: cpuframe.StageTimes = field(default_factory=cpuframe.StageTimes)
+    stats: dict[str, object] = field(default_factory=dict)
+    grid: gridmod.Grid | None = None
+    data: dict[str, object] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Buffer:
+    """A buffer a pass writes: its size, the struct of its elements (a cpu_prep.layouts
+    dtype; None: uint32 words) and whether it is zeroed before the pass."""
+    nbytes: int
+    struct: np.dtype | None = None
+    cleared: bool = False
+
+
+@dataclass(frozen=True)
+class Draw:
+    """A raster pass's draw.  Vertex attributes come from `vertices` ((V, n) float32, laid
+    out by `format`, named by `attributes`), or from gl_VertexID alone (vertices None).
+
+    target: "gbuffer"        the G-buffer's colour targets and depth
+            "gbuffer_depth"  the G-buffer's depth only (test it; colour writes go nowhere)
+            "none"           no colour or depth target, only storage writes (frame size)
+            a moderngl Framebuffer (the window's screen)"""
+    vertices: np.ndarray | None = None
+    format: str = ""
+    attributes: tuple[str, ...] = ()
+    count: int | None = None              # vertices per instance (default: all of them)
+    instances: int = 1
+    mode: str = "triangles"               # "triangles" | "triangle_strip"
+    target: object = "none"
+    depth_test: str | None = None         # "less" | "less_equal" | "greater" | None
+    depth_write: bool = False
+    cull: str | None = None               # "back" | "front" | None
+    clear: bool = False
+    blend: bool = False
+    viewport: tuple[int, int, int, int] | None = None   # default: the whole target
+
+
+@dataclass(frozen=True)
+class Pass:
+    """One GPU step.  `reads` and `writes` name the shader's buffer slots (its B_<SLOT>
+    bindings); `sources` backs a slot with a differently named frame buffer (e.g. one band's
+    list).  Compute passes give `groups`, raster passes a `draw`."""
+    name: str
+    shader: str | tuple[str, str]                  # compute file, or (vertex, fragment)
+    reads: tuple[str, ...] = ()
+    writes: Mapping[str, Buffer] = field(default_factory=dict)
+    groups: tuple[int, int, int] | None = None
+    draw: Draw | None = None
+    defines: Mapping[str, object] = field(default_factory=dict)
+    uniforms: Mapping[str, object] = field(default_factory=dict)
+    timed: bool = True
+    native_wave: bool = False                      # ask for native subgroup ops (WAVE_NATIVE)
+    sources: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self):
+        if (self.groups is None) == (self.draw is None):
+            raise ValueError(f"pass '{self.name}': give exactly one of groups (compute) or draw (raster)")
+        clash = set(self.reads) & set(self.writes)
+        if clash:
+            raise ValueError(f"pass '{self.name}': {sorted(clash)} both read and written: "
+                             f"declare a read-modify-write buffer in writes only")
+
+    @property
+    def kind(self) -> str:
+        return "compute" if self.draw is None else "raster"
+
+    def slots(self) -> tuple[str, ...]:
+        return tuple(self.reads) + tuple(self.writes)
+
+    def buffer_of(self, slot: str) -> str:
+        return self.sources.get(slot, slot)
+
+
+@dataclass(frozen=True)
+class HostStep:
+    """A CPU step between passes (untimed): `run({buffer: array read back})` returns
+    ({buffer: array to upload}, [further Pass | HostStep to run next])."""
+    name: str
+    reads: tuple[str, ...]
+    run: Callable[[dict[str, np.ndarray]], tuple[dict[str, np.ndarray], list]]
+
+
+def frame_outputs(width: int, height: int, waves_cleared: bool = True) -> dict[str, Buffer]:
+    """The writes every shading pass declares: colour and counters per pixel, wave
+    statistics per 8x8 group (zeroed: the shaders accumulate them with atomics, unless a
+    pass stores them and says waves_cleared=False)."""
+    groups = -(-width // WAVE_DIM) * -(-height // WAVE_DIM)
+    return {OUT_COLOR: Buffer(width * height * 16, np.dtype((np.float32, 4))),
+            OUT_STATS: Buffer(width * height * layouts.PIXEL_STATS.itemsize, layouts.PIXEL_STATS),
+            WAVE_STATS: Buffer(groups * layouts.WAVE_STATS.itemsize, layouts.WAVE_STATS,
+                               cleared=waves_cleared)}
+
+
+def image_groups(width: int, height: int) -> tuple[int, int, int]:
+    """Dispatch of one 8x8 group per image block."""
+    return -(-width // WAVE_DIM), -(-height // WAVE_DIM), 1

@@ -1,0 +1,383 @@
+"""One frame of the pipeline, executed from declarations alone (the renderer draws to no
+window and knows no technique by name):
+
+    gbuffer (raster pass of the frame) -> technique.build (CPU stage, timed by step)
+      -> upload -> technique.passes(): compute / raster passes and host steps, in order
+      -> read back (optional)
+
+Each pass binds only the buffers it declares, at binding points numbered per program; a pass
+that reads a buffer nothing in this frame provided (an upload of the build or an earlier
+pass's write) is an error, so no pass can read a previous frame's or technique's data.
+Storage buffers are kept by name and grown only when a frame needs more, so long runs
+allocate nothing per frame.
+
+`render(..., samples=N)` measures N samples of one frame: the CPU stage, the upload and every
+timed pass run N times; untimed passes and host steps (set-up outside the measured cost, such
+as the perfect culler's list building) run once, and a timed pass may not write what an
+untimed one wrote.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import time
+
+import moderngl
+import numpy as np
+
+from cpu_prep.arena import Arena
+from cpu_prep.camera import frame_camera
+from cpu_prep.limits import WINDOW_ALL, LimitError
+from . import features as feat, gl
+from ..errors import UserError
+from .gbuffer import GBuffer, TEXTURE_UNITS
+from .passes import FRAME_OUTPUTS, Buffer, Build, FrameInput, HostStep, Pass, WAVE_DIM
+from .shaders import ProgramCache
+
+DEPTH_FUNCS = {"less": "<", "less_equal": "<=", "greater": ">", "always": "1"}
+MODES = {"triangles": moderngl.TRIANGLES, "triangle_strip": moderngl.TRIANGLE_STRIP}
+
+
+@dataclass
+class FrameResult:
+    """A rendered frame: its figures (meta), the technique's Build, and, when read back, the
+    per-pixel outputs in image order (row 0 = top)."""
+    meta: dict
+    build: Build | None = None
+    image: np.ndarray | None = None          # (H,W,3) float32 linear radiance
+    depth: np.ndarray | None = None          # (H,W) float32 linear view depth, 0 = no geometry
+    evaluated: np.ndarray | None = None      # (H,W) uint32
+    contrib_count: np.ndarray | None = None  # (H,W) uint32
+    contrib_hash: np.ndarray | None = None   # (H,W) uint32
+    nodes: np.ndarray | None = None          # (H,W) uint32 tree nodes visited
+    wave: np.ndarray | None = None           # (GH,GW) WAVE_STATS per 8x8 group, image order
+
+
+@dataclass
+class _Frame:
+    """What the steps run so far in this frame have provided: buffer -> (bytes, dtype)."""
+    provided: dict = field(default_factory=dict)
+    untimed_writes: set = field(default_factory=set)
+    bytes: dict = field(default_factory=dict)      # culling buffers the passes bound
+    setup_ms: dict = field(default_factory=dict)
+    timed: list = field(default_factory=list)      # timed passes, in order, for later samples
+    native: bool = False
+
+
+class Renderer:
+    def __init__(self, scene, size: tuple[int, int] | None = None):
+        self.ctx = gl.context()
+        self.limits = gl.limits()
+        self.scene = scene
+        self.programs = ProgramCache(self.ctx)
+        self.timer = gl.PassTimer(self.ctx)
+        size = tuple(size or scene.resolution)
+        self._check_size(size)
+        self.gbuffer = GBuffer(self.ctx, scene.meshes, size)
+        self.buffers: dict[str, moderngl.Buffer] = {}
+        self.arena = Arena()     # CPU-stage outputs, reused frame to frame (uploaded at once)
+        self._vbos: dict = {}    # id(vertex array) -> (array, vbo)
+        self._vaos: dict = {}
+        self._blank = None       # colour target of passes that draw to no target
+        self._frame = _Frame()
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return self.gbuffer.size
+
+    def _check_size(self, size) -> None:
+        w, h = size
+        m = self.limits.max_texture_size
+        if not (1 <= w <= m and 1 <= h <= m):
+            raise UserError(f"resolution {w}x{h} is outside 1..{m} (GL_MAX_TEXTURE_SIZE)")
+        if w * h * 16 > self.limits.max_storage_block:
+            raise UserError(f"resolution {w}x{h} needs {w * h * 16 >> 20} MiB output buffers, over "
+                            f"the {self.limits.max_storage_block >> 20} MiB storage-block limit")
+
+    def resize(self, size) -> None:
+        self._check_size(size)
+        self.gbuffer.resize(tuple(size))
+
+    # ---- buffers -------------------------------------------------------------------
+
+    def buffer(self, name: str, nbytes: int) -> moderngl.Buffer:
+        """The named storage buffer, at least nbytes (>= 16), reused across frames."""
+        nbytes = max(int(nbytes), 16)
+        if nbytes > self.limits.max_storage_block:
+            raise UserError(f"buffer '{name}' needs {nbytes / 2**20:.1f} MiB, over the "
+                            f"{self.limits.max_storage_block >> 20} MiB storage-block limit")
+        buf = self.buffers.get(name)
+        if buf is None or buf.size < nbytes:
+            if buf is not None:
+                buf.release()
+            buf = self.ctx.buffer(reserve=max(nbytes, 1 << (nbytes - 1).bit_length()) if nbytes > 4096 else nbytes)
+            self.buffers[name] = buf
+        return buf
+
+    def upload(self, name: str, array: np.ndarray) -> None:
+        buf = self.buffer(name, array.nbytes)
+        if array.nbytes:
+            buf.write(np.ascontiguousarray(array).tobytes())
+        self._frame.provided[name] = (int(array.nbytes), array.dtype)
+
+    def output(self, name: str) -> moderngl.Buffer:
+        """A buffer this frame provided (e.g. out_stats for the window's views)."""
+        if name not in self._frame.provided:
+            raise UserError(f"no buffer '{name}' in the last frame "
+                            f"(it has: {', '.join(sorted(self._frame.provided))})")
+        return self.buffers[name]
+
+    def read(self, name: str) -> np.ndarray:
+        """A buffer of this frame read back, as its declared element type."""
+        nbytes, dtype = self._frame.provided[name]
+        dtype = np.dtype(dtype if dtype is not None else np.uint32)
+        data = self.buffers[name].read(size=nbytes) if nbytes else b""
+        return np.frombuffer(data, dtype, count=len(data) // dtype.itemsize)
+
+    # ---- the frame -----------------------------------------------------------------
+
+    def camera(self, frame: int, frames: int):
+        w, h = self.size
+        return frame_camera(self.scene.camera_at(frame, frames), w, h)
+
+    def frame_input(self, frame: int, frames: int, lights=None, camera=None) -> FrameInput:
+        """The CPU stage's input for a frame: the scene's lights (or `lights`), the path
+        camera of `frame` (or `camera`), the scene's max depth, this renderer's arena."""
+        cam = camera or self.camera(frame, frames)
+        lights = self.scene.lights if lights is None else lights
+        return FrameInput(lights, cam, self.scene.max_depth or cam.far, self.arena,
+                          self.limits.loop_budget)
+
+    def render(self, technique, frame: int = 0, opts=None, frames: int = 64,
+               lights: np.ndarray | None = None, readback: bool = True, camera=None,
+               defines: dict | None = None, samples: int = 1) -> FrameResult:
+        """Render one frame of `technique` (anything with resolve_options, build and
+        passes).  `defines` are frame-wide switches that reach every program declaring them
+        (e.g. UNBOUNDED_FALLOFF=1).  meta['samples'] holds each sample's CPU and GPU ms;
+        meta['cpu_ms'] / ['gpu_ms'] are the last sample's."""
+        opts = technique.resolve_options(opts)
+        fin = self.frame_input(frame, frames, lights, camera)
+        w, h = self.size
+        records, build = [], None
+        for k in range(max(int(samples), 1)):
+            if k == 0:
+                self._frame = _Frame()
+            self.timer.take()
+            self._run_pass(self.gbuffer.pass_for(fin.camera), {"generated.glsl": feat.generated_glsl()},
+                           {}, {}, record=False)
+            self.gbuffer.bind_textures()
+            try:
+                build = technique.build(fin, opts)
+            except LimitError as exc:
+                raise UserError(str(exc)) from None
+            t0 = time.perf_counter()
+            for name, array in build.buffers.items():
+                self.upload(name, array)
+            cpu_ms = dict(build.times.ms, upload=(time.perf_counter() - t0) * 1e3)
+            features = feat.feature_set(build.lights.type)
+            frame_uniforms = {"u_size": (w, h), "u_light_count": len(build.lights.gpu),
+                              "u_window": (0, WINDOW_ALL)}
+            virtual = dict(feat.virtual_files(features), **getattr(technique, "glsl", {}))
+            env = (virtual, dict(defines or {}), frame_uniforms)
+            if k == 0:
+                self.run(technique.passes(build, opts), *env, technique=technique.name)
+                stats = dict(build.stats)       # host steps of the first sample add to them
+            else:
+                for p in self._frame.timed:
+                    self._run_pass(p, *env, technique.name)
+            records.append({"cpu_ms": cpu_ms, "gpu_ms": self.timer.take()})
+        missing = [n for n in FRAME_OUTPUTS if n not in self._frame.provided]
+        if missing:
+            raise UserError(f"technique '{technique.name}': no pass writes {', '.join(missing)}")
+
+        meta = {
+            "technique": technique.name, "options": opts.as_dict(), "features": list(features),
+            "wave": "native" if self._frame.native else "emulated-64",
+            "cpu_ms": records[-1]["cpu_ms"], "gpu_ms": records[-1]["gpu_ms"],
+            "setup_ms": dict(self._frame.setup_ms), "bytes": dict(self._frame.bytes),
+            "stats": stats, "resolution": [w, h], "frame": frame,
+            "renderer": self.limits.renderer,
+        }
+        if samples > 1:
+            meta["samples"] = records
+        result = FrameResult(meta=meta, build=build)
+        if readback:
+            self._read_outputs(result)
+        return result
+
+    # ---- executing steps -----------------------------------------------------------
+
+    def run(self, steps, virtual: dict | None = None, defines: dict | None = None,
+            uniforms: dict | None = None, technique: str = "") -> None:
+        """Run passes and host steps in order (host steps may add steps after themselves).
+        Also the window's way to run its own passes over this frame's buffers."""
+        virtual = virtual or {"generated.glsl": feat.generated_glsl()}
+        queue = list(steps)
+        while queue:
+            step = queue.pop(0)
+            if isinstance(step, HostStep):
+                queue[:0] = self._run_host(step)
+            else:
+                self._run_pass(step, virtual, defines or {}, uniforms or {}, technique)
+
+    def _run_host(self, step: HostStep) -> list:
+        t0 = time.perf_counter()
+        missing = [n for n in step.reads if n not in self._frame.provided]
+        if missing:
+            raise UserError(f"host step '{step.name}' reads {', '.join(missing)}, which nothing "
+                            f"in this frame provides")
+        uploads, more = step.run({n: self.read(n) for n in step.reads})
+        for name, array in uploads.items():
+            self.upload(name, array)
+        self._frame.untimed_writes.update(uploads)
+        self._frame.setup_ms[step.name] = self._frame.setup_ms.get(step.name, 0.0) + \
+            (time.perf_counter() - t0) * 1e3
+        return list(more)
+
+    def _run_pass(self, p: Pass, virtual: dict, defines: dict, uniforms: dict,
+                  technique: str = "", record: bool = True) -> None:
+        """Bind what the pass declares, compile (cached), set uniforms, run; a timed pass is
+        recorded (record=True) for the frame's later samples."""
+        where = f"pass '{p.name}'" + (f" of {technique}" if technique else "")
+        f = self._frame
+        for slot in p.reads:
+            name = p.buffer_of(slot)
+            if name not in f.provided:
+                raise UserError(f"{where} reads buffer '{name}', which nothing in this frame "
+                                f"provides (neither the build's uploads nor an earlier pass)")
+        for slot, spec in p.writes.items():
+            name = p.buffer_of(slot)
+            if p.timed and name in f.untimed_writes:
+                raise UserError(f"{where} is timed but writes '{name}', which an untimed step "
+                                f"wrote: later samples would lose that set-up")
+            buf = self.buffer(name, spec.nbytes)
+            if spec.cleared:
+                buf.clear()
+            f.provided[name] = (int(spec.nbytes), spec.struct)
+            if not p.timed:
+                f.untimed_writes.add(name)
+        bindings = {slot: i for i, slot in enumerate(p.slots())}
+        for slot, i in bindings.items():
+            name = p.buffer_of(slot)
+            self.buffers[name].bind_to_storage_buffer(i)
+            if p.timed and name not in FRAME_OUTPUTS:   # the measured technique's data
+                f.bytes[name] = f.provided[name][0]
+        native = p.native_wave and self.limits.native_ballot
+        f.native |= native
+        optional = dict(defines, WAVE_NATIVE=int(native))
+        if p.kind == "compute":
+            prog = self.programs.compute(p.shader, dict(p.defines), virtual,
+                                         gl.NATIVE_WAVE_EXTENSIONS if native else (),
+                                         bindings, optional, where)
+            work = lambda: prog.run(*p.groups)
+        else:
+            prog = self.programs.program(*p.shader, dict(p.defines), virtual, bindings, optional, where)
+            work = lambda: self._draw(prog, p.draw)
+        self._set_uniforms(prog, dict(uniforms, **p.uniforms))
+        if p.timed:
+            self.timer.run(p.name, work)
+            if record and not any(q is p for q in f.timed):
+                f.timed.append(p)
+        else:
+            t0 = time.perf_counter()
+            work()
+            self.ctx.finish()
+            f.setup_ms[p.name] = f.setup_ms.get(p.name, 0.0) + (time.perf_counter() - t0) * 1e3
+        self.ctx.memory_barrier()   # the next pass reads what this one wrote
+
+    @staticmethod
+    def _set_uniforms(prog, uniforms) -> None:
+        for k, v in uniforms.items():
+            if k in prog:
+                if isinstance(v, np.ndarray):
+                    prog[k].write(np.ascontiguousarray(v).tobytes())
+                else:
+                    prog[k].value = v
+
+    def _target(self, target):
+        if not isinstance(target, str):
+            return target
+        if target != "none":
+            return self.gbuffer.target(target)
+        if self._blank is None or self._blank.size != self.size:
+            if self._blank is not None:
+                self._blank.release()
+            self._blank = self.ctx.framebuffer(self.ctx.renderbuffer(self.size, 1))
+        return self._blank
+
+    def _vertex_array(self, prog, d):
+        vbo = None
+        if d.vertices is not None:
+            key = id(d.vertices)
+            if key not in self._vbos:
+                data = np.ascontiguousarray(d.vertices, np.float32)
+                self._vbos[key] = (d.vertices, self.ctx.buffer(data.tobytes() if data.size else b"\0" * 64))
+            vbo = self._vbos[key][1]
+        key = (id(prog), id(vbo))
+        if key not in self._vaos:
+            content = [(vbo, d.format, *d.attributes)] if vbo is not None else []
+            self._vaos[key] = self.ctx.vertex_array(prog, content, skip_errors=True)
+        return self._vaos[key]
+
+    def _draw(self, prog, d) -> None:
+        ctx = self.ctx
+        fbo = self._target(d.target)
+        fbo.use()
+        ctx.viewport = d.viewport or (0, 0, *fbo.size)
+        if d.clear:
+            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        if d.depth_test:
+            ctx.enable(moderngl.DEPTH_TEST)
+            ctx.depth_func = DEPTH_FUNCS[d.depth_test]
+        else:
+            ctx.disable(moderngl.DEPTH_TEST)
+        fbo.depth_mask = d.depth_write
+        if d.cull:
+            ctx.enable(moderngl.CULL_FACE)
+            ctx.cull_face = d.cull
+        else:
+            ctx.disable(moderngl.CULL_FACE)
+        if d.blend:
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        else:
+            ctx.disable(moderngl.BLEND)
+        count = d.count if d.count is not None else (len(d.vertices) if d.vertices is not None else 0)
+        if count and d.instances:
+            self._vertex_array(prog, d).render(MODES[d.mode], vertices=count, instances=d.instances)
+        fbo.depth_mask = True
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
+
+    # ---- outputs -------------------------------------------------------------------
+
+    def _read_outputs(self, result: FrameResult) -> None:
+        w, h = self.size
+        flip = lambda a: np.ascontiguousarray(a[::-1])
+        color = self.read("out_color").reshape(h, w, 4)
+        stats = self.read("out_stats").reshape(h, w)
+        wave = self.read("wave_stats").reshape(-(-h // WAVE_DIM), -(-w // WAVE_DIM))
+        result.image = flip(color[..., :3])
+        result.depth = flip(self.gbuffer.read_position()[..., 3])
+        result.evaluated = flip(stats["evaluated"])
+        result.contrib_count = flip(stats["contrib_count"])
+        result.contrib_hash = flip(stats["contrib_hash"])
+        result.nodes = flip(stats["nodes"])
+        result.wave = flip(wave)
+
+    def release(self) -> None:
+        for b in self.buffers.values():
+            b.release()
+        self.buffers.clear()
+        for vao in self._vaos.values():
+            vao.release()
+        for _, vbo in self._vbos.values():
+            vbo.release()
+        self._vaos.clear()
+        self._vbos.clear()
+        if self._blank is not None:
+            self._blank.release()
+            self._blank = None
+        self.programs.release()
+        self.gbuffer.release()
+
+
+__all__ = ["Renderer", "FrameResult", "Buffer", "TEXTURE_UNITS"]

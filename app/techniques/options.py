@@ -1,0 +1,162 @@
+"""Technique options, each declared once: its flag, type, range, help and the values a
+benchmark study sweeps.  A technique's Options is a frozen dataclass composed of the groups
+below (or its own fields); capture, the window, the benchmark and the report read the
+declarations, so an option is written in one place only.
+
+    @dataclass(frozen=True)
+    class Options(GridOptions, ListOptions): ...
+
+An option a technique does not declare is an error for that technique, never ignored.
+"""
+from __future__ import annotations
+
+from dataclasses import MISSING, dataclass, field, fields, replace
+import math
+
+from cpu_prep import limits
+
+from ..errors import UserError
+
+
+@dataclass(frozen=True)
+class OptionSpec:
+    name: str                    # field name (dump meta, CSV column)
+    kind: type                   # int | float | bool
+    default: object
+    help: str
+    lo: float | None = None      # inclusive range (numbers)
+    hi: float | None = None
+    study: tuple = ()            # values a benchmark study sweeps (empty: not studied)
+    power_of_two: bool = False
+
+    @property
+    def flag(self) -> str:
+        return "--" + self.name.replace("_", "-")
+
+    def check(self, value, where: str = "") -> object:
+        """The value converted to the option's type, or a one-line UserError."""
+        pre = f"{where}: " if where else ""
+        if self.kind is bool:
+            if not isinstance(value, (bool, int)) or value not in (0, 1):
+                raise UserError(f"{pre}{self.flag} must be true or false (got {value!r})")
+            return bool(value)
+        try:
+            v = self.kind(value)
+        except (TypeError, ValueError):
+            raise UserError(f"{pre}{self.flag} must be {self.kind.__name__} (got {value!r})") from None
+        if isinstance(value, float) and self.kind is int and v != value:
+            raise UserError(f"{pre}{self.flag} must be an integer (got {value!r})")
+        if isinstance(v, float) and not math.isfinite(v):
+            raise UserError(f"{pre}{self.flag} must be finite (got {value!r})")
+        if (self.lo is not None and v < self.lo) or (self.hi is not None and v > self.hi):
+            raise UserError(f"{pre}{self.flag} must be in {self.lo:g}..{self.hi:g} (got {v:g})")
+        if self.power_of_two and (v < 1 or int(v) & (int(v) - 1)):
+            raise UserError(f"{pre}{self.flag} must be a power of two (got {v})")
+        return v
+
+
+_declared = [0]     # declaration order: options list in the order they are written
+
+
+def option(default, help: str, *, lo=None, hi=None, study=(), power_of_two=False):
+    """A dataclass field that declares a technique option."""
+    _declared[0] += 1
+    return field(default=default, metadata={"option": dict(
+        help=help, lo=lo, hi=hi, study=tuple(study), power_of_two=power_of_two),
+        "order": _declared[0]})
+
+
+@dataclass(frozen=True)
+class TechniqueOptions:
+    """Base of every technique's Options (no options of its own)."""
+
+    @classmethod
+    def specs(cls) -> tuple[OptionSpec, ...]:
+        out = []
+        for f in sorted(fields(cls), key=lambda f: f.metadata.get("order", 0)):
+            meta = f.metadata.get("option")
+            if meta is None:
+                continue
+            default = f.default if f.default is not MISSING else f.default_factory()
+            out.append(OptionSpec(f.name, type(default), default, **meta))
+        return tuple(out)
+
+    @classmethod
+    def names(cls) -> tuple[str, ...]:
+        return tuple(s.name for s in cls.specs())
+
+    @classmethod
+    def make(cls, values: dict | None = None, where: str = "") -> "TechniqueOptions":
+        """Options from {name: value}, each checked; a name this technique does not take
+        is a one-line error naming the options it does take."""
+        values = dict(values or {})
+        specs = {s.name: s for s in cls.specs()}
+        unknown = sorted(set(values) - set(specs))
+        if unknown:
+            flags = ", ".join("--" + n.replace("_", "-") for n in unknown)
+            takes = ", ".join(s.flag for s in specs.values()) or "none"
+            raise UserError(f"{where + ': ' if where else ''}{flags} "
+                            f"{'is not an option' if len(unknown) == 1 else 'are not options'} "
+                            f"of this technique (its options: {takes})")
+        return cls(**{k: specs[k].check(v, where) for k, v in values.items()})
+
+    def with_(self, **values) -> "TechniqueOptions":
+        return type(self).make(dict(self.as_dict(), **values))
+
+    def as_dict(self) -> dict:
+        return {s.name: getattr(self, s.name) for s in self.specs()}
+
+
+# ---- option groups shared by several techniques (each option declared here once) ----
+
+@dataclass(frozen=True)
+class TileOptions(TechniqueOptions):
+    tile: int = option(limits.DEFAULT_TILE, "screen tile size in pixels", lo=4, hi=256,
+                       study=(16, 32, 48, 64))
+
+
+@dataclass(frozen=True)
+class SliceOptions(TileOptions):
+    slices: int = option(limits.DEFAULT_SLICES, "depth slices of the 2.5D grid (listing 4)",
+                         lo=2, hi=64)
+    near_slice_depth: float = option(limits.DEFAULT_NEAR_SLICE_DEPTH,
+                                     "far end of the near slice, view depth (Persson: 5 m)",
+                                     lo=1e-3, hi=1e6)
+
+
+@dataclass(frozen=True)
+class ListOptions(TechniqueOptions):
+    duplicated: bool = option(False, "lists hold copies of the light data instead of indices "
+                                     "(tree paper figure 5)", study=(False, True))
+
+
+@dataclass(frozen=True)
+class TreeOptions(TechniqueOptions):
+    lights_per_leaf: int = option(limits.DEFAULT_LIGHTS_PER_LEAF, "lights per tree leaf", lo=1, hi=4096)
+    # the 15-bit skip count caps a tree at 16,384 leaves; larger caps are refused by the
+    # build with that reason (cpu_prep.tree.leaves_per_cell)
+    max_leaves: int = option(limits.DEFAULT_MAX_LEAVES, "leaf cap of one tree (a power of two)",
+                             lo=1, hi=65536, power_of_two=True)
+    sort_buckets: int = option(0, "0: exact depth sort; >0: the testbed's approximate bucket "
+                                  "sort with this many buckets (512)", lo=0, hi=32768)
+
+
+@dataclass(frozen=True)
+class WaveOptions(TechniqueOptions):
+    native_wave: bool = option(False, "native subgroup ops where the driver has them "
+                                      "(else the emulated 64-lane wave)")
+
+
+def all_specs(option_classes) -> dict[str, OptionSpec]:
+    """{name: spec} over several techniques' Options; one name, one declaration."""
+    out: dict[str, OptionSpec] = {}
+    for cls in option_classes:
+        for s in cls.specs():
+            if s.name in out and out[s.name] != s:
+                raise ValueError(f"option '{s.name}' is declared twice, differently")
+            out[s.name] = s
+    return out
+
+
+__all__ = ["option", "OptionSpec", "TechniqueOptions", "TileOptions", "SliceOptions",
+           "ListOptions", "TreeOptions", "WaveOptions", "all_specs", "replace"]

@@ -1,0 +1,92 @@
+// A pixel of the frame as every pass that evaluates lights sees it: G-buffer fetch, the one
+// light model (evaluate_light, the only place any technique decides "affects"), and the
+// per-pixel counters of the dump contract.  The light-type code comes from the generated
+// "features.glsl" (app.pipeline.features), so a scene compiles only the light types it has.
+//
+// Dispatch windows: a software rasterizer (llvmpipe) silently stops every loop of an
+// invocation once their iterations together pass 65,535 (DESIGN "Platform facts").  So a pass
+// may run as several dispatches, each evaluating the lights at positions [u_window.x,
+// u_window.y) of the pixel's sequence (the order its loops meet lights in, counted by s.seq)
+// and carrying the pixel's sums over from the previous dispatch: the same lights in the same
+// order, so the same counts, hash and image as one dispatch.  One dispatch: (0, 0xFFFFFFFF).
+
+layout(local_size_x = 8, local_size_y = 8) in;   // one emulated 64-lane wave
+
+layout(binding = 0) uniform sampler2D g_position;  // xyz view-space position, w depth (0 = sky)
+layout(binding = 1) uniform sampler2D g_normal;    // xyz view-space normal
+layout(binding = 2) uniform sampler2D g_albedo;
+
+layout(std430, binding = B_LIGHTS) readonly buffer LightBuffer { GpuLight lights[]; };
+
+uniform ivec2 u_size;
+uniform uint u_light_count;
+uniform uvec2 u_window;       // this dispatch's positions [x, y) of each pixel's sequence
+
+// Dump contract: contrib_hash is the XOR over affecting lights of mix(id).
+uint mix_hash(uint x) {
+    x ^= x >> 16; x *= 0x7feb352du; x ^= x >> 15; x *= 0x846ca68bu; x ^= x >> 16;
+    return x;
+}
+
+struct PixelState {
+    ivec2 pixel;
+    bool inside;      // pixel within the image (the 8x8 groups overhang odd sizes)
+    bool shading;     // inside and covered by geometry: shading runs
+    vec3 P;           // view-space position, identical for every technique
+    float depth;      // linear view depth
+    vec3 N;
+    vec3 albedo;
+    vec3 radiance;
+    uint evaluated;   // lights the loop evaluated
+    uint count;       // evaluated lights that affect the pixel
+    uint hash;
+    uint nodes;       // tree nodes visited
+    uint seq;         // position in the pixel's sequence of lights (dispatch windows)
+};
+
+#include "features.glsl"
+
+PixelState load_pixel_at(ivec2 pixel) {
+    PixelState s;
+    s.pixel = pixel;
+    s.inside = all(lessThan(s.pixel, u_size));
+    vec4 pos = s.inside ? texelFetch(g_position, s.pixel, 0) : vec4(0.0);
+    s.P = pos.xyz;
+    s.depth = pos.w;
+    s.shading = s.inside && pos.w > 0.0;
+    s.N = s.inside ? texelFetch(g_normal, s.pixel, 0).xyz : vec3(0.0, 0.0, 1.0);
+    s.albedo = s.inside ? texelFetch(g_albedo, s.pixel, 0).rgb : vec3(0.0);
+    s.radiance = vec3(0.0);
+    s.evaluated = 0u; s.count = 0u; s.hash = 0u; s.nodes = 0u; s.seq = 0u;
+    return s;
+}
+
+// The part [a, b) of the next `count` positions of the pixel's sequence that lies in this
+// dispatch's window; advances the sequence past them.
+uvec2 window_part(inout PixelState s, uint count) {
+    uint a = clamp(u_window.x, s.seq, s.seq + count) - s.seq;
+    uint b = clamp(u_window.y, s.seq, s.seq + count) - s.seq;
+    s.seq += count;
+    return uvec2(a, b);
+}
+
+// The first dispatch of a pass counts the work that every window repeats (tree nodes).
+bool first_window() { return u_window.x == 0u; }
+
+// Evaluate one light for the pixel: the only place any technique decides "affects".
+void evaluate_light(inout PixelState s, GpuLight L) {
+    s.evaluated++;
+    precise vec3 d = s.P - L.pos_radius.xyz;
+    precise float d2 = dot(d, d);
+    if (light_affects(L, d, d2)) {
+        s.count++;
+        s.hash ^= mix_hash(L.id_type.x);
+        s.radiance += light_radiance(L, d, d2, s.N) * s.albedo;
+    }
+}
+
+// Every visible light in this dispatch's window (brute, and tiles whose list overflowed).
+void evaluate_all_lights(inout PixelState s) {
+    uvec2 w = window_part(s, u_light_count);
+    for (uint i = w.x; i < w.y; ++i) evaluate_light(s, lights[i]);
+}

@@ -1,0 +1,247 @@
+"""The frame graph (issue 9): a technique is one module.  A throw-away technique defined here,
+with a compute prepass (its own define, writing a buffer), a raster pass (writing a buffer
+from its fragments) and a shading pass reading both, renders exactly like brute and appears
+in capture, the window and the benchmark with no file outside this test changed.  Also: the
+renderer refuses undeclared buffers, reads of buffers nothing provided, and options a
+technique does not take."""
+from __future__ import annotations
+
+from contextlib import contextmanager
+from dataclasses import dataclass
+import json
+import os
+from pathlib import Path
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from app.errors import UserError
+from app.pipeline.passes import Buffer, Draw, Pass
+from app.pipeline.renderer import Renderer
+from app.pipeline.shaders import ShaderError
+from app.techniques import REGISTRY, register, unregister
+from app.techniques.base import Technique, prepare, shading_pass
+from app.techniques.options import TechniqueOptions, option
+from tests.helpers import assert_exact, make_scene, random_lights, render_all
+
+ROOT = Path(__file__).resolve().parents[3]
+
+KEEP = """#version 430
+// define: KEEP_VALUE
+// Throw-away prepass: keep[i] = KEEP_VALUE for every visible light.
+layout(local_size_x = 64) in;
+layout(std430, binding = B_KEEP) writeonly buffer Keep { uint keep[]; };
+uniform uint u_light_count;
+void main() { if (gl_GlobalInvocationID.x < u_light_count) keep[gl_GlobalInvocationID.x] = KEEP_VALUE; }
+"""
+COVER_VERT = """#version 430
+// A triangle over the whole viewport, from gl_VertexID alone.
+void main() {
+    vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);
+    gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
+}
+"""
+COVER_FRAG = """#version 430
+// Throw-away raster pass: every covered pixel marks itself.
+layout(std430, binding = B_COVERED) writeonly buffer Covered { uint covered[]; };
+uniform ivec2 u_size;
+void main() { ivec2 p = ivec2(gl_FragCoord.xy); covered[p.y * u_size.x + p.x] = 1u; }
+"""
+SHADE = """#version 430
+// define: KEEP_VALUE
+#include "generated.glsl"
+#include "wave.glsl"
+#include "common.glsl"
+layout(std430, binding = B_KEEP) readonly buffer Keep { uint keep[]; };
+layout(std430, binding = B_COVERED) readonly buffer Covered { uint covered[]; };
+void main() {
+    PixelState s = load_pixel();
+    if (s.shading && covered[s.pixel.y * u_size.x + s.pixel.x] == 1u)
+        for (uint i = 0u; i < u_light_count; ++i)
+            if (keep[i] == KEEP_VALUE) evaluate_light(s, lights[i]);
+    store_pixel(s);
+    write_wave_stats(s.evaluated, 1u);
+}
+"""
+
+
+class Throwaway(Technique):
+    name = "throwaway"
+    summary = "test only: compute prepass + raster pass + shading pass"
+    glsl = {"tw_keep.comp": KEEP, "tw_cover.vert": COVER_VERT, "tw_cover.frag": COVER_FRAG,
+            "tw_shade.comp": SHADE}
+
+    @dataclass(frozen=True)
+    class Options(TechniqueOptions):
+        keep_value: int = option(7, "the mark the prepass writes and the shading pass wants",
+                                 lo=1, hi=1000)
+
+    def build(self, frame, opts):
+        return prepare(frame)
+
+    def passes(self, build, opts):
+        w, h = build.frame.size
+        n = len(build.lights.gpu)
+        defines = {"KEEP_VALUE": f"{opts.keep_value}u"}
+        return [
+            Pass("keep", "tw_keep.comp", writes={"keep": Buffer(max(n, 1) * 4)},
+                 groups=(max(1, -(-n // 64)), 1, 1), defines=defines),
+            Pass("cover", ("tw_cover.vert", "tw_cover.frag"),
+                 writes={"covered": Buffer(w * h * 4, cleared=True)},
+                 draw=Draw(count=3, target="none")),
+            shading_pass(build, "tw_shade.comp", ("keep", "covered"), defines=defines),
+        ]
+
+
+@contextmanager
+def registered(technique):
+    register(technique)
+    try:
+        yield technique
+    finally:
+        unregister(technique.name)
+
+
+@pytest.fixture
+def throwaway():
+    with registered(Throwaway()) as t:
+        yield t
+
+
+def _scene(rng, size=(61, 37)):
+    return make_scene(random_lights(rng, 200, (-12, 0, -40), (12, 8, 5)), size=size)
+
+
+def test_throwaway_technique_renders_exactly(gl, rng, throwaway):
+    results = render_all(_scene(rng))
+    assert "throwaway" in results
+    assert_exact(results, "throw-away technique")
+    res = results["throwaway"]
+    assert res.contrib_count.sum() > 0
+    assert set(res.meta["gpu_ms"]) == {"gbuffer", "keep", "cover", "shade"}
+    assert set(res.meta["bytes"]) == {"lights", "keep", "covered"}
+    assert res.meta["options"] == {"keep_value": 7}
+
+
+def test_passes_really_run(gl, rng, throwaway):
+    """Each declared pass matters: a prepass mark the shading pass does not want, or a
+    raster pass that draws nothing, leaves every pixel unlit."""
+    scene = _scene(rng)
+    r = Renderer(scene)
+    try:
+        assert r.render(throwaway).contrib_count.sum() > 0
+
+        class WrongMark(Throwaway):
+            def passes(self, build, opts):
+                ps = super().passes(build, opts)
+                return [Pass(ps[0].name, ps[0].shader, writes=ps[0].writes, groups=ps[0].groups,
+                             defines={"KEEP_VALUE": "3u"})] + ps[1:]
+
+        class NoCover(Throwaway):
+            def passes(self, build, opts):
+                ps = super().passes(build, opts)
+                return [ps[0], Pass("cover", ps[1].shader, writes=ps[1].writes,
+                                    draw=Draw(count=0, target="none")), ps[2]]
+
+        for t in (WrongMark(), NoCover()):
+            res = r.render(t)
+            assert res.contrib_count.sum() == 0 and res.evaluated.sum() == 0, type(t).__name__
+    finally:
+        r.release()
+
+
+def test_undeclared_buffer_fails_to_compile_in_one_line(gl, rng):
+    class Sloppy(Throwaway):
+        name = "sloppy"
+
+        def passes(self, build, opts):
+            ps = super().passes(build, opts)
+            shade = ps[2]
+            return ps[:2] + [Pass("shade", shade.shader, reads=("lights", "keep"),
+                                  writes=shade.writes, groups=shade.groups, defines=shade.defines)]
+
+    r = Renderer(_scene(rng))
+    try:
+        with pytest.raises(ShaderError) as e:
+            r.render(Sloppy())
+    finally:
+        r.release()
+    msg = str(e.value)
+    assert "\n" not in msg
+    assert "pass 'shade'" in msg and "'covered'" in msg and "tw_shade.comp:" in msg, msg
+
+
+def test_reading_a_buffer_nothing_provides_is_an_error(gl, rng):
+    class Stale(Throwaway):
+        name = "stale"
+
+        def passes(self, build, opts):
+            return super().passes(build, opts)[2:]      # no prepass, no raster pass
+
+    r = Renderer(_scene(rng))
+    try:
+        r.render(Throwaway())           # the buffers exist from an earlier frame ...
+        with pytest.raises(UserError, match="reads buffer 'keep', which nothing in this frame"):
+            r.render(Stale())           # ... but this frame provides none of them
+    finally:
+        r.release()
+
+
+def test_options_belong_to_their_technique(throwaway):
+    assert throwaway.resolve_options({"keep_value": 9}).keep_value == 9
+    with pytest.raises(UserError, match="--tile is not an option of this technique"):
+        throwaway.resolve_options({"tile": 16})
+    with pytest.raises(UserError, match="--keep-value must be in 1..1000"):
+        throwaway.resolve_options({"keep_value": 0})
+
+
+def test_throwaway_appears_in_capture_list_and_runs(gl, throwaway, capsys, tmp_path):
+    from app import capture
+    capture.main(["--list"])
+    out = capsys.readouterr().out
+    assert "throwaway" in out and "perfect" in out
+    capture.main(["--scene", "arena", "--lights", "200", "--size", "48x32",
+                  "--technique", "throwaway", "--keep-value", "5", "--dump", str(tmp_path / "t.npz")])
+    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert summary["technique"] == "throwaway" and summary["exact_per_pixel"] > 0
+
+
+def test_capture_rejects_an_option_the_technique_does_not_take():
+    p = subprocess.run([sys.executable, "-m", "app.capture", "--scene", "arena", "--technique",
+                        "tiled", "--duplicated"], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--duplicated is not an option" in lines[0] and "tiled" in lines[0]
+
+
+def test_throwaway_appears_in_the_window():
+    """The window in its own process (one GL context per process): this module registers the
+    technique there, then the window runs it as its 7th technique."""
+    index = list(REGISTRY).index("perfect") + 2          # the key after the builtin ones
+    code = ("import sys; sys.path.insert(0, '.'); "
+            "from tests.app.techniques.test_frame_graph import Throwaway; "
+            "from app.techniques import register; register(Throwaway()); "
+            "from app.window import main; main(sys.argv[1:])")
+    env = dict(os.environ)
+    env.pop("MODERNGL_WINDOW", None)
+    p = subprocess.run([sys.executable, "-c", code, "--window", "headless", "--scene", "arena",
+                        "--lights", "64", "--size", "64x36", "--frames", "2", "--keys", str(index)],
+                       cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-2000:]
+    frames = [json.loads(l) for l in p.stdout.splitlines() if l.startswith("{") and '"frame"' in l]
+    assert frames[0]["technique"] == "throwaway" and frames[0]["exact_per_pixel"] > 0
+
+
+def test_throwaway_appears_in_a_bench_run(gl, throwaway, tmp_path):
+    from app import bench
+    from app.results import read_csv
+    bench.main(["--quick", "--size", "48x27", "--scenes", "arena", "--frames", "1", "--lights",
+                "128", "--repeat", "1", "--cpu-lights", "128", "--cpu-size", "48x27",
+                "--out", str(tmp_path)])
+    rows = [r for r in read_csv(tmp_path / "results.csv") if r["technique"] == "throwaway"]
+    assert {r["study"] for r in rows} >= {"path", "cpu"}
+    assert all(r["mismatch_count"] == 0 and r["mismatch_hash"] == 0
+               for r in rows if r["study"] == "path")
+    assert "throwaway" in (tmp_path / "report.md").read_text()

@@ -1,0 +1,109 @@
+"""No silent truncation (issue 13.1): llvmpipe stops every loop of a shader invocation once
+their iterations together pass 65,535, with no error.  A frame whose pixels meet more lights
+than that runs its passes in dispatch windows (glsl/pixel.glsl), so every technique, brute
+included, stays exact at any light count.
+
+The case: 70,000 lights, all visible, all in one tile and one depth slice.  66,000 decoys float
+above a floor at the depth of the floor's pixels (every technique's structure lists them for
+those pixels, none touches a pixel); 4,000 lights sit on the floor pixels just behind the
+decoys in depth order, so they are the 66,001st to 70,000th light the loops meet: a truncated
+loop never reaches them.  brute is checked against a float64 reference, every technique
+against brute."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.pipeline import gl as glmod
+from app.pipeline.passes import FrameInput
+from app.techniques import REGISTRY
+from cpu_prep import limits
+from scenes.geometry import box_mesh
+from scenes.model import Camera, make_lights
+from tests.app.techniques.test_hard_cases import Frame, concat, scene_of
+
+N_DECOYS, N_LIT = 66_000, 4_000
+DEPTH = 20.5           # view depth of the band of floor pixels the case is about (2 rows)
+
+
+def budget_frame() -> Frame:
+    cam = Camera((0.0, 10.0, 0.0), (0.0, 0.0, -DEPTH), fov_y_deg=40.0, near=0.1, far=300.0)
+    floor = box_mesh((-500.0, -1.0, -500.0), (500.0, 0.0, 500.0))
+    return Frame(scene_of([floor], cam, size=(24, 16), max_depth=60.0))
+
+
+def budget_lights(f: Frame, rng) -> tuple[np.ndarray, np.ndarray]:
+    """(lights, the pixels' band mask): decoys first in depth order, lit lights after."""
+    depth = f.pos[..., 3]
+    band = np.abs(depth - DEPTH) < 1.3
+    assert band.sum() >= 20, "no floor pixels at the case's depth"
+    ys, xs = np.nonzero(band)
+    i = rng.integers(0, len(ys), N_LIT)
+    P = f.pos[ys[i], xs[i], :3].astype(np.float64)          # view space, on the floor
+    lo_d, hi_d = float(depth[band].min()), float(depth[band].max())
+    # decoys: 0.8 m above the floor pixels' band, depth inside it, radius 0.02
+    D = P[rng.integers(0, N_LIT, N_DECOYS)].copy()
+    D[:, 2] = -rng.uniform(lo_d - 0.5, hi_d - 0.05, N_DECOYS)
+    D[:, 1] += 0.8
+    decoys = make_lights(N_DECOYS)
+    decoys["position"] = f.to_world(D)
+    decoys["radius"] = 0.02
+    # lit: on the floor pixels, centre pushed 0.05 m deeper than every decoy centre
+    C = P.copy()
+    C[:, 2] = np.minimum(C[:, 2], -(hi_d - 0.05)) - 0.05
+    lit = make_lights(N_LIT)
+    lit["position"] = f.to_world(C)
+    lit["radius"] = np.linalg.norm(C - P, axis=1) + 0.3
+    lit["color"] = rng.uniform(0.2, 1.0, (N_LIT, 3))
+    return concat(decoys, lit), band
+
+
+def test_lights_past_the_loop_budget_are_shaded_in_every_technique(gl):
+    rng = np.random.default_rng(65_536)
+    with budget_frame() as f:
+        L, band = budget_lights(f, rng)
+        b = REGISTRY["brute"].build(FrameInput(L, f.cam, f.scene.max_depth), None)
+        assert b.stats["visible_lights"] == len(L)
+        order = {int(i): k for k, i in enumerate(b.lights.ids)}
+        assert min(order[i] for i in range(N_DECOYS, len(L))) >= limits.SOFTWARE_LOOP_BUDGET, \
+            "the lit lights must come after the 65,535th light in depth order"
+        res = f.check(L, where="70,000 lights, the lit ones past the loop budget")
+        lit_px = res["brute"].contrib_count > 0
+        assert (lit_px & band).sum() >= 10
+        # brute, and the structures that cannot cull the decoys away from those pixels, loop
+        # over more lights than the budget there (trees skip them by depth; perfect lists
+        # only what lights the pixel)
+        past = {n for n, r in res.items() if r.evaluated[lit_px].max() > limits.SOFTWARE_LOOP_BUDGET}
+        assert {"brute", "tiled", "clustered"} <= past, past
+
+
+def test_without_windows_this_driver_truncates(gl, monkeypatch):
+    """The case is a real one on a driver with a loop limit: with dispatch windows disabled,
+    brute misses the lit lights (on a GPU driver without the limit it stays exact)."""
+    rng = np.random.default_rng(65_536)
+    with budget_frame() as f:
+        L, _ = budget_lights(f, rng)
+        windowed = f.render(L, techniques=["brute"])["brute"]
+        monkeypatch.setattr(limits, "DISPATCH_WINDOW", 1 << 30)
+        single = f.render(L, techniques=["brute"])["brute"]
+    if glmod.limits().loop_budget:
+        assert windowed.contrib_count.sum() > 0
+        assert (single.contrib_count < windowed.contrib_count).any(), \
+            "one dispatch over 70,000 lights was not truncated: the loop limit changed?"
+        assert single.evaluated.max() <= limits.SOFTWARE_LOOP_BUDGET
+    else:
+        assert np.array_equal(single.contrib_hash, windowed.contrib_hash)
+
+
+@pytest.mark.parametrize("longest,expect", [
+    (0, 1), (limits.DISPATCH_WINDOW, 1), (limits.DISPATCH_WINDOW + 1, 2), (70_000, 5)])
+def test_windows_cover_every_position_once(longest, expect):
+    from app.techniques.base import windows
+    from cpu_prep.camera import frame_camera
+    fi = FrameInput(make_lights(0), frame_camera(Camera((0, 0, 0), (0, 0, -1)), 8, 8), 10.0,
+                    loop_budget=limits.SOFTWARE_LOOP_BUDGET)
+    w = windows(fi, longest)
+    assert len(w) == expect and w[0][0] == 0 and w[-1][1] == limits.WINDOW_ALL
+    assert all(a[1] == b[0] for a, b in zip(w, w[1:]))
+    fi.loop_budget = None
+    assert windows(fi, 10**7) == [(0, limits.WINDOW_ALL)]
