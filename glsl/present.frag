@@ -1,18 +1,20 @@
 #version 430
-// The window's present pass: draws one of the views straight from the renderer's storage
-// buffers (no CPU readback), or, with HUD defined, blits the HUD text texture.
+// The window's present and HUD passes (app/window/passes.py): draws one of the views
+// straight from the frame's storage buffers (no CPU readback), or, with HUD = 1, blits the
+// HUD text texture (texture unit HUD_UNIT).  The buffers are bound where the pass declares
+// them (B_<SLOT>, numbered by the renderer):
 //   out_color[y * W + x]   vec4 linear radiance        (GL row order, row 0 = bottom)
-//   out_stats[y * W + x]   uvec4 evaluated, contrib_count, contrib_hash, nodes_visited
-//   wave_stats[group]      uvec4 longest loop, case bits (1 list, 2 tree, 3 mixed, 0 empty)
-//   view_stats             frame sums from present_stats.comp (max evaluated: heat scale)
-// define: HUD
+//   out_stats[y * W + x]   PixelStats: evaluated, contrib_count, contrib_hash, nodes
+//   wave_stats[group]      WaveStats: iterations, case_bits (1 list, 2 tree, 3 mixed, 0 empty)
+//   view_stats             ViewStats: frame sums of present_stats.comp (max_evaluated: heat scale)
+// define: HUD HUD_UNIT
 #include "generated.glsl"
 
 in vec2 v_uv;
 out vec4 frag;
 
 #if HUD
-layout(binding = 3) uniform sampler2D u_hud;
+layout(binding = HUD_UNIT) uniform sampler2D u_hud;
 void main() {
     frag = texture(u_hud, vec2(v_uv.x, 1.0 - v_uv.y));   // the PIL image has row 0 at the top
 }
@@ -26,17 +28,16 @@ void main() {
 
 layout(binding = 0) uniform sampler2D g_position;   // w = linear view depth, 0 = sky
 layout(std430, binding = B_OUT_COLOR) readonly buffer OutColor { vec4 out_color[]; };
-layout(std430, binding = B_OUT_STATS) readonly buffer OutStats { uvec4 out_stats[]; };
-layout(std430, binding = B_WAVE_STATS) readonly buffer WaveStats { uvec4 wave_stats[]; };
-layout(std430, binding = B_VIEW_STATS) readonly buffer ViewStats {
-    uint covered; uint evaluated_lo; uint evaluated_hi; uint max_evaluated;
-    uint exact_lo; uint exact_hi; uint pad0; uint pad1;
-};
+layout(std430, binding = B_OUT_STATS) readonly buffer OutStats { PixelStats out_stats[]; };
+layout(std430, binding = B_WAVE_STATS) readonly buffer WaveStatsBuffer { WaveStats wave_stats[]; };
+layout(std430, binding = B_VIEW_STATS) readonly buffer ViewStatsBuffer { ViewStats view_stats; };
 
 uniform ivec2 u_size;          // render size = viewport size
 uniform int u_view;
-uniform int u_tile;            // tile overlay: tile size in pixels (tiles start bottom-left)
-uniform int u_slices;          // depth slices: tree paper listing 4, scale corrected
+uniform int u_tile;            // the technique's tile size in pixels (tiles start bottom-left);
+                               // 0: it has no tiles, the tiles view shows the shaded image
+uniform int u_slices;          // its depth slices (tree paper listing 4, scale corrected);
+                               // <= 1: none, the slices view shows the shaded image
 uniform float u_slice_scale;
 uniform float u_slice_bias;
 uniform float u_heat_max;      // > 0: fixed heat scale; 0: this frame's max
@@ -85,22 +86,22 @@ void main() {
     float depth = texelFetch(g_position, p, 0).w;
     vec3 c = shaded;
     if (u_view == VIEW_HEAT) {
-        float vmax = u_heat_max > 0.0 ? u_heat_max : max(float(max_evaluated), 1.0);
-        uint e = out_stats[i].x;
+        float vmax = u_heat_max > 0.0 ? u_heat_max : max(float(view_stats.max_evaluated), 1.0);
+        uint e = out_stats[i].evaluated;
         // log ramp: a few hot pixels (near lights) do not flatten the rest of the frame
         c = depth > 0.0 ? turbo(log2(1.0 + float(e)) / log2(1.0 + vmax)) : vec3(0.0);
         if (depth > 0.0 && e == 0u) c = vec3(0.07);
     } else if (u_view == VIEW_CLASSES) {
         int gw = (u_size.x + 7) / 8;
-        uint bits = wave_stats[(p.y / 8) * gw + p.x / 8].y & 3u;
+        uint bits = wave_stats[(p.y / 8) * gw + p.x / 8].case_bits & 3u;
         c = mix(CASE_COLORS[bits], shaded, 0.2);
-    } else if (u_view == VIEW_TILES) {
-        ivec2 q = p % max(u_tile, 1);
+    } else if (u_view == VIEW_TILES && u_tile > 0) {
+        ivec2 q = p % u_tile;
         bool edge = q.x == 0 || q.y == 0;
         c = edge ? mix(shaded, vec3(1.0, 0.85, 0.2), 0.7) : shaded;
-    } else if (u_view == VIEW_SLICES) {
+    } else if (u_view == VIEW_SLICES && u_slices > 1) {
         if (depth > 0.0) {
-            int s = u_slices > 1 ? slice_of(depth) : 0;
+            int s = slice_of(depth);
             float lum = dot(shaded, vec3(0.2126, 0.7152, 0.0722));
             c = slice_color(s) * (0.45 + 0.55 * min(lum * 3.0, 1.0));
         } else {

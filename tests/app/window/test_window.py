@@ -1,8 +1,10 @@
 """The live window (app.window), driven as scripted runs in a subprocess: its GL context must
 not meet the session's EGL context (tests/conftest.py `gl`), one context per process.
 
-Headless (`--window headless`, EGL) for keys, views and screenshots; one run under Xvfb with
-the pyglet window.  A missing xvfb-run fails (CI installs it: LAB_WITH_XVFB=1 scripts/setup.sh).
+Headless (`--window headless`, EGL) for keys, views, options per technique, overlays and
+screenshots; one run under Xvfb with the pyglet window.  A missing xvfb-run fails (CI
+installs it: LAB_WITH_XVFB=1 scripts/setup.sh).  The HUD's text, the overlays and the
+options per technique are also checked without GL.
 """
 from __future__ import annotations
 
@@ -20,7 +22,7 @@ from PIL import Image
 
 from app.techniques import REGISTRY
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SMALL = ["--scene", "city", "--lights", "32", "--size", "160x90"]
 LIT = ["--scene", "city", "--size", "160x90"]        # the default 4096 lights: a lit image
 NAMES = list(REGISTRY)
@@ -119,7 +121,11 @@ def test_hud_drawn_on_screenshot(tmp_path):
 
 @pytest.mark.parametrize("args", [["--frames", "0"], ["--keys", "3,nope"], ["--size", "12"],
                                   ["--technique", "nope"], ["--no-such-flag"],
-                                  ["--window", "nope"], ["--heat-max", "-1"]])
+                                  ["--window", "nope"], ["--heat-max", "-1"],
+                                  ["--technique", "brute", "--tile", "32"],
+                                  ["--tile", "32"],                 # the default start: brute
+                                  ["--technique", "tree", "--slices", "8"],
+                                  ["--technique", "tree", "--tile", "7000"]])
 def test_bad_flags_one_line_exit_2(args):
     proc = run(["app.window", "--window", "headless", *args])
     assert proc.returncode == 2
@@ -142,6 +148,71 @@ def test_pyglet_window_under_xvfb(tmp_path):
                                                             (NAMES[4], "classes")]
     img = load_rgb(shot)
     assert img.shape == (90, 160, 3) and img.var() > 0
+
+
+def key_of(name: str) -> str:
+    """The digit key that selects a technique (REGISTRY order)."""
+    return str(NAMES.index(name) + 1)
+
+
+def test_options_per_technique():
+    # tree starts with both flags; brute takes neither (ignored, named), clustered takes
+    # --tile only, hybrid both; the grid each frame reports is the technique's own
+    keys = ["h", key_of("brute"), key_of("clustered"), key_of("hybrid")]
+    frames, _, _ = run_window(SMALL + ["--technique", "tree", "--tile", "32", "--lights-per-leaf", "2",
+                                       "--frames", "4", "--keys", ",".join(keys)])
+    tree, brute, clustered, hybrid = frames
+    assert tree["technique"] == "tree" and tree["ignored_options"] == []
+    assert tree["options"]["tile"] == 32 and tree["options"]["lights_per_leaf"] == 2
+    assert tree["grid"] == {"tile": 32, "tiles": [5, 3], "slices": 1}
+    assert brute["technique"] == "brute" and brute["options"] == {}
+    assert brute["ignored_options"] == ["lights_per_leaf", "tile"] and brute["grid"] is None
+    assert clustered["options"]["tile"] == 32 and clustered["ignored_options"] == ["lights_per_leaf"]
+    assert clustered["grid"]["tile"] == 32 and clustered["grid"]["slices"] > 1
+    assert hybrid["options"]["tile"] == 32 and hybrid["options"]["lights_per_leaf"] == 2
+    assert hybrid["ignored_options"] == []
+
+
+def test_perfect_is_a_view_too():
+    # the floor technique runs its untimed set-up (count, plan, fill) through the window
+    frames, _, _ = run_window(LIT + ["--frames", "2", "--keys", key_of("perfect")])
+    for f in frames:
+        assert f["technique"] == "perfect" and f["grid"] is None
+        assert f["exact_per_pixel"] > 0 and f["evaluated_per_pixel"] == f["exact_per_pixel"]
+        assert f["setup_ms"] and "shade" in f["gpu_ms"]
+
+
+def overlay_shots(tmp_path, technique, options=("--tile", "32")):
+    """Shaded, tiles and slices views of one frame (K on frames 0, 4 and 6)."""
+    frames, summary, _ = run_window(SMALL + ["--technique", technique, *options, "--no-hud",
+                                             "--frames", "7", "--keys", "k,v,v,v,k,v,k",
+                                             "--shot-dir", str(tmp_path / technique)])
+    assert [f["view"] for f in frames[::2]] == ["shaded", "classes", "tiles", "slices"]
+    shots = summary["screenshots"]
+    assert [Path(s).name.split("-")[3] for s in shots] == ["shaded", "tiles", "slices"]
+    return [load_rgb(s) for s in shots]
+
+
+def test_tiles_overlay_is_the_techniques_grid(tmp_path):
+    shaded, tiles, slices = overlay_shots(tmp_path, "tree")
+    diff = np.abs(tiles - shaded).sum(2) > 0
+    rows, cols = np.nonzero(diff)
+    h = shaded.shape[0]
+    on_line = ((h - 1 - rows) % 32 == 0) | (cols % 32 == 0)   # tiles start at the bottom left
+    assert diff.sum() > 100 and on_line.all()
+    assert {0, 32, 64, 96, 128} <= set(cols.tolist())
+    assert (slices == shaded).all()               # tree has no depth slices: nothing drawn
+
+
+def test_slices_overlay_of_a_2_5d_grid(tmp_path):
+    shaded, tiles, slices = overlay_shots(tmp_path, "hybrid")
+    assert (np.abs(tiles - shaded).sum(2) > 0).sum() > 100
+    assert (np.abs(slices - shaded).sum(2) > 0).mean() > 0.3
+
+
+def test_no_overlay_for_a_technique_without_a_grid(tmp_path):
+    shaded, tiles, slices = overlay_shots(tmp_path, "brute", options=())
+    assert (tiles == shaded).all() and (slices == shaded).all()
 
 
 # ---- no GL: key names and the fly camera --------------------------------------------------
@@ -173,3 +244,36 @@ def test_fly_camera():
     fly.turn(math.pi / 2, 0.0)                        # quarter turn right: looks along +x
     f2 = np.array(fly.forward())
     assert f2[0] > 0.99 and abs(f2[2]) < 0.2
+
+
+def test_hud_text_names_missing_overlays_and_ignored_options():
+    from types import SimpleNamespace
+    from app.window.hud import hud_lines
+    from app.window.options import WindowOptions
+    from app.window.views import Overlay, view_note
+    none = Overlay.of(None)
+    assert view_note("tiles", "brute", none, 1).startswith("no tiles for brute")
+    assert view_note("slices", "perfect", none, 1).startswith("no depth slices for perfect")
+    grid = SimpleNamespace(tile=32, tiles_x=5, tiles_y=3, slices=1, slice_scale=0.0, slice_bias=0.0)
+    tiles = Overlay.of(grid)
+    assert view_note("tiles", "tree", tiles, 1) == "tiles: 32 px, 5x3 (tree's grid)"
+    assert view_note("slices", "tree", tiles, 1).startswith("no depth slices for tree: 2D tiles")
+    assert view_note("shaded", "tree", tiles, 1) is None
+
+    opts = WindowOptions({"tile": 32, "lights_per_leaf": 2})
+    tree, ignored = opts.for_technique(REGISTRY["tree"])
+    assert type(tree) is REGISTRY["tree"].Options and tree.tile == 32 and ignored == ()
+    brute, ignored = opts.for_technique(REGISTRY["brute"])
+    assert brute.as_dict() == {} and ignored == ("lights_per_leaf", "tile")
+    assert opts.hud_line(REGISTRY["tree"]) == "options: --tile 32  --lights-per-leaf 2"
+    line = opts.hud_line(REGISTRY["brute"])
+    assert line == "options: defaults   (not taken by brute: --tile 32  --lights-per-leaf 2)"
+    assert WindowOptions({}).hud_line(REGISTRY["hybrid"]) == "options: defaults"
+
+    f = {"technique": "brute", "view": "tiles", "size": [160, 90], "lights": 32, "visible_lights": 31,
+         "evaluated_per_pixel": 31.0, "exact_per_pixel": 0.5, "cpu_ms": {"cull": 1.0},
+         "gpu_ms": {"shade": 2.0}, "setup_ms": {}}
+    lines = hud_lines(f, position="1/6", role="reference", software=True, playing=False,
+                      options=line, note=view_note("tiles", "brute", none, 1))
+    assert lines[0].startswith("brute [reference] (1/6)   view: tiles")
+    assert line in lines and any(l.startswith("no tiles for brute") for l in lines)
