@@ -1,0 +1,42 @@
+"""Benchmark: what each culling technique costs and what it gains (DESIGN "Measuring").
+
+    python -m app.bench cpu --scene S --technique T [--lights N] [--size WxH] [--tile 48]
+                            [--slices 16] [--repeat R] [--threads 1] [--json]
+        The CPU stage alone (no GL context at all; app.bench.cpu): technique.build R times
+        after a warm-up (numba JIT), median/min/max ms of each stage and total.  An option
+        flag the technique does not take is an error.
+
+    python -m app.bench [--quick|--full] --out DIR [--size WxH] [--scenes a,b] [--lights 1024,4096]
+                        [--frames K] [--repeat R] [--threads 1] [--cpu-lights ...] [--cpu-size WxH]
+        The sweep (app.bench.sweep): scenes x every technique of the registry x light counts x
+        camera-path frames; one study per technique option with declared study values, over
+        the techniques that declare it; the light cutoff; a CPU-only light-count series.
+        Writes DIR/results.csv (columns and studies: app.results), DIR/maps.npz (per-block
+        maps of the figures), DIR/run.json and DIR/report.md with its PNG plots (app.report).
+
+Modules: presets (the --quick/--full configurations), plan (the jobs), measure (one row from
+a frame), sweep (running it all), cpu (the `cpu` subcommand), cutoff (the light cutoff
+rule), machine (run.json's machine figures).  Nothing here names a technique: the exactness
+reference and the floor are found by role (app.techniques.with_role).
+
+CPU threads: the CPU stage runs on `--threads` numba threads, 1 by default as in the tree
+paper's figure 4 ("single threaded").  On small VMs numba's parallel regions can cost more than
+the work (a thread wake-up waits for the scheduler tick), so compare thread counts with care.
+"""
+from __future__ import annotations
+
+import sys
+
+
+def main(argv=None) -> None:
+    """`python -m app.bench ...`: the `cpu` subcommand or the sweep."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["cpu"]:
+        from .cpu import cpu_main          # imports no OpenGL
+        cpu_main(argv[1:])
+    else:
+        from .sweep import sweep_main
+        sweep_main(argv)
+
+
+__all__ = ["main"]

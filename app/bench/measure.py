@@ -1,0 +1,124 @@
+"""One results.csv row from a rendered frame: timings over its samples, hardware-neutral
+figures, bytes, and its error against the reference.  No technique is named here: the
+frame cost of every technique (the floor included) is its CPU stage plus every timed GPU
+pass but the frame's G-buffer; untimed set-up (the floor's list building) is no cost.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..results import FRAME_PASS, STAGES, option_columns, stats
+
+
+def samples_of(meta: dict) -> list[dict]:
+    """Each timing sample {"cpu_ms", "gpu_ms"} of a render (one when samples=1)."""
+    return list(meta.get("samples") or [{"cpu_ms": meta["cpu_ms"], "gpu_ms": meta["gpu_ms"]}])
+
+
+def split_gpu(gpu_ms: dict) -> tuple[float, float, float]:
+    """(gbuffer, cull, shade) ms of one sample: the frame's G-buffer pass; the technique's
+    timed passes before its last; its last timed pass, the shading pass (a technique's
+    passes end with it; passes of one name, e.g. the floor's bands, are summed by the timer)."""
+    own = [v for k, v in gpu_ms.items() if k != FRAME_PASS]
+    return float(gpu_ms.get(FRAME_PASS, 0.0)), float(sum(own[:-1])), float(own[-1] if own else 0.0)
+
+
+def frame_cost(sample: dict) -> float:
+    """CPU stage (upload included) + every timed GPU pass except the G-buffer."""
+    _, cull, shade = split_gpu(sample["gpu_ms"])
+    return float(sum(sample["cpu_ms"].values())) + cull + shade
+
+
+def timing_cells(samples: list[dict]) -> dict:
+    """The timing columns of a row: medians (and min/max) over the samples."""
+    r = {}
+    for k in STAGES:
+        r[f"cpu_{k}_ms"] = stats(float(m["cpu_ms"].get(k, 0.0)) for m in samples)[0]
+    r["cpu_total_ms"], r["cpu_total_min_ms"], r["cpu_total_max_ms"] = \
+        stats(sum(m["cpu_ms"].values()) for m in samples)
+    parts = [split_gpu(m["gpu_ms"]) for m in samples]
+    for i, name in enumerate(("gbuffer", "cull", "shade")):
+        r[f"gpu_{name}_ms"], r[f"gpu_{name}_min_ms"], r[f"gpu_{name}_max_ms"] = stats(p[i] for p in parts)
+    r["gpu_lighting_ms"], r["gpu_lighting_min_ms"], r["gpu_lighting_max_ms"] = \
+        stats(p[1] + p[2] for p in parts)
+    r["frame_cost_ms"], r["frame_cost_min_ms"], r["frame_cost_max_ms"] = \
+        stats(frame_cost(m) for m in samples)
+    names = list(dict.fromkeys(k for m in samples for k in m["gpu_ms"]))
+    r["gpu_passes"] = ";".join(
+        "{}={:.3f}/{:.3f}/{:.3f}".format(k, *stats(m["gpu_ms"].get(k, 0.0) for m in samples))
+        for k in names)
+    r["samples"] = len(samples)
+    return r
+
+
+def option_cells(opts) -> dict:
+    """Every option column: the technique's values, blank where it lacks the option."""
+    cells = {c: "" for c in option_columns()}
+    cells.update(opts.as_dict())
+    return cells
+
+
+def figure_cells(res) -> dict:
+    """Hardware-neutral figures over geometry pixels, and the bytes the technique bound."""
+    mask = res.depth > 0
+    ev = res.evaluated[mask].astype(np.float64)
+    ex = res.contrib_count[mask].astype(np.float64)
+    nbytes = res.meta["bytes"]
+    return {
+        "evaluated_pp": float(ev.mean()) if mask.any() else 0.0,
+        "exact_pp": float(ex.mean()) if mask.any() else 0.0,
+        "waste": float(ev.sum() / ex.sum()) if ex.sum() > 0 else math.nan,
+        "nodes_pp": float(res.nodes[mask].mean()) if mask.any() else 0.0,
+        "wave_iters": float(res.wave["iterations"].mean()),
+        "bytes_lights": int(nbytes.get("lights", 0)),
+        "bytes_culling": int(sum(v for k, v in nbytes.items() if k != "lights")),
+    }
+
+
+def evaluated_per_pixel(res) -> float:
+    mask = res.depth > 0
+    return float(res.evaluated[mask].mean()) if mask.any() else 0.0
+
+
+def image_error(res, ref) -> float:
+    """RMSE of linear radiance over geometry pixels, relative to the reference's mean."""
+    mask = ref.depth > 0
+    if not mask.any():
+        return 0.0
+    a = res.image[mask].astype(np.float64)
+    b = ref.image[mask].astype(np.float64)
+    mean = float(b.mean())
+    rmse = float(np.sqrt(((a - b) ** 2).mean()))
+    return rmse / mean if mean > 0 else rmse
+
+
+def radiance_ratio(res, ref) -> float:
+    """Mean linear radiance over the reference's geometry pixels, relative to the reference."""
+    mask = ref.depth > 0
+    b = float(ref.image[mask].astype(np.float64).mean()) if mask.any() else 0.0
+    return float(res.image[mask].astype(np.float64).mean()) / b if b > 0 else 1.0
+
+
+def mismatches(res, ref) -> tuple[int, int]:
+    """Pixels whose contrib_count, contrib_hash differ from the reference's."""
+    return (int((res.contrib_count != ref.contrib_count).sum()),
+            int((res.contrib_hash != ref.contrib_hash).sum()))
+
+
+def fill_floor_positions(rows: list[dict], reference: str, floor: str) -> None:
+    """Each path row's shading time as a position between the reference (0%) and the
+    floor (100%) on the same frame."""
+    by = {}
+    for r in rows:
+        if r["study"] == "path":
+            by.setdefault((r["scene"], r["lights"], r["frame"]), {})[r["technique"]] = r
+    for group in by.values():
+        b, f = group.get(reference), group.get(floor)
+        if b is None or f is None:
+            continue
+        span = b["gpu_shade_ms"] - f["gpu_shade_ms"]
+        for r in group.values():
+            r["floor_position_pct"] = 100.0 * (b["gpu_shade_ms"] - r["gpu_shade_ms"]) / span \
+                if span > 0 else math.nan

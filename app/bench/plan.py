@@ -1,0 +1,66 @@
+"""What the sweep measures: the jobs (configurations) of a preset, in order.
+
+Which techniques an option study covers comes from the options' declarations
+(app.results.option_studies: every option with study values, over the techniques that
+declare it), and the exactness reference from its role: nothing here names a technique.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from ..results import option_studies
+from ..techniques import REGISTRY, with_role
+from ..techniques.options import TechniqueOptions
+from .presets import Preset
+
+
+@dataclass(frozen=True)
+class Job:
+    study: str                    # "path", "cutoff" or an option's name
+    scene: str
+    lights: int
+    frame: int
+    technique: str                # a REGISTRY id
+    opts: TechniqueOptions        # that technique's own Options
+    cutoff: int = 0               # 0: the scene's own radii; -1: unbounded reference; t = 1/cutoff
+
+    def describe(self) -> str:
+        if self.study == "cutoff":
+            extra = "unbounded" if self.cutoff < 0 else f"t=1/{self.cutoff}"
+        elif self.study in self.opts.as_dict():
+            extra = f"{self.study}={getattr(self.opts, self.study)}"
+        else:
+            extra = ""
+        return f"{self.study} {self.scene} {self.lights} lights f{self.frame} {self.technique} {extra}".strip()
+
+
+def technique_order() -> list[str]:
+    """Every technique, the exactness reference first (the others' checks need its frame)."""
+    ref = with_role("reference").name
+    return [ref] + [t for t in REGISTRY if t != ref]
+
+
+def plan(p: Preset, light_counts: Callable[[str, tuple], tuple[int, ...]]) -> list[Job]:
+    """The preset's rendered jobs; `light_counts(scene, counts)` gives the light counts a
+    scene is run with (a scene file has its own)."""
+    names = technique_order()
+    ref = names[0]
+    default = {t: REGISTRY[t].Options() for t in names}
+    jobs: list[Job] = []
+    for scene in p.scenes:
+        for n in light_counts(scene, p.lights):
+            for f in range(p.frames):
+                jobs += [Job("path", scene, n, f, t, default[t]) for t in names]
+        if scene == p.study_scene:
+            n = light_counts(scene, (p.study_lights,))[0]
+            for study, (spec, techs) in option_studies().items():
+                for v in spec.study:
+                    jobs += [Job(study, scene, n, 0, t, default[t].with_(**{study: v}))
+                             for t in techs]
+        if scene in p.cutoff_scenes:
+            n = light_counts(scene, (p.cutoff_lights,))[0]
+            jobs.append(Job("cutoff", scene, n, 0, ref, default[ref], cutoff=-1))
+            for c in p.cutoffs:
+                jobs += [Job("cutoff", scene, n, 0, t, default[t], cutoff=c) for t in names]
+    return jobs

@@ -1,0 +1,96 @@
+"""The sweep's presets (--quick, --full) and the command-line overrides of them.
+
+Option values are not part of a preset: every technique runs at its declared defaults, and
+the option studies sweep each option's declared study values (app.results.option_studies).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+from ..errors import UserError
+
+
+@dataclass(frozen=True)
+class Preset:
+    name: str
+    size: tuple[int, int]
+    scenes: tuple[str, ...]
+    lights: tuple[int, ...]
+    frames: int                   # frames sampled evenly along the camera-path loop
+    repeat: int                   # timing samples of a configuration
+    heavy_repeat: int             # samples of one evaluating > heavy_eval_pp lights a pixel
+    heavy_eval_pp: float
+    cutoffs: tuple[int, ...]      # light cutoff t = 1 / value, relative to the brightest light
+    cutoff_scenes: tuple[str, ...]
+    cutoff_lights: int
+    study_scene: str              # scene, light count (frame 0) of the option studies
+    study_lights: int
+    heat_scene: str               # the frame of the heat maps and classification (figures 1, 3)
+    cpu_scene: str
+    cpu_size: tuple[int, int]     # the CPU series runs at the paper's resolution even in --quick
+    cpu_lights: tuple[int, ...]
+    cpu_repeat: int
+    seed: int = 0
+    cpu_threads: int = 1          # numba threads of the CPU stage (0: numba's default)
+
+
+QUICK = Preset(
+    name="quick", size=(320, 180), scenes=("arena", "city", "hangar", "gallery"),
+    lights=(1024, 4096), frames=8, repeat=3, heavy_repeat=2, heavy_eval_pp=256.0,
+    cutoffs=(256, 1024, 4096, 16384, 65536), cutoff_scenes=("arena", "city"), cutoff_lights=2048,
+    study_scene="arena", study_lights=4096, heat_scene="city", cpu_scene="arena",
+    cpu_size=(1920, 1080), cpu_lights=(1024, 4096, 16384, 65536), cpu_repeat=5)
+
+FULL = Preset(
+    name="full", size=(1920, 1080), scenes=("arena", "city", "hangar", "gallery"),
+    lights=(8192, 16384, 32768, 65536), frames=64, repeat=5, heavy_repeat=2,
+    heavy_eval_pp=4096.0, cutoffs=(256, 1024, 4096, 16384, 65536), cutoff_scenes=("arena", "city"),
+    cutoff_lights=16384, study_scene="arena", study_lights=32768, heat_scene="city",
+    cpu_scene="arena", cpu_size=(1920, 1080),
+    cpu_lights=(1024, 2048, 4096, 8192, 16384, 32768, 65536), cpu_repeat=9)
+
+PRESETS = {"quick": QUICK, "full": FULL}
+
+
+def int_list(text: str, what: str) -> tuple[int, ...]:
+    try:
+        vals = tuple(int(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise UserError(f"{what} must be comma-separated integers (got '{text}')") from None
+    if not vals or min(vals) < 0:
+        raise UserError(f"{what} must be non-negative integers (got '{text}')")
+    return vals
+
+
+def preset_from_args(args) -> Preset:
+    """The --quick/--full preset with the sweep command's overrides applied."""
+    preset = FULL if args.full else QUICK
+    ch = {}
+    if args.size:
+        ch["size"] = tuple(args.size)
+    if args.scenes:
+        scenes = tuple(s.strip() for s in args.scenes.split(",") if s.strip())
+        if not scenes:
+            raise UserError("--scenes names no scene")
+        ch.update(scenes=scenes, study_scene=scenes[0], heat_scene=scenes[-1],
+                  cpu_scene=scenes[0], cutoff_scenes=scenes[:1])
+    if args.lights:
+        lights = int_list(args.lights, "--lights")
+        ch.update(lights=lights, study_lights=max(lights), cutoff_lights=min(lights))
+    if args.frames is not None:
+        if args.frames < 1:
+            raise UserError("--frames must be >= 1")
+        ch["frames"] = args.frames
+    if args.repeat is not None:
+        if args.repeat < 1:
+            raise UserError("--repeat must be >= 1")
+        ch.update(repeat=args.repeat, heavy_repeat=min(preset.heavy_repeat, args.repeat))
+    if args.cpu_lights:
+        ch["cpu_lights"] = int_list(args.cpu_lights, "--cpu-lights")
+    if args.cpu_size:
+        ch["cpu_size"] = tuple(args.cpu_size)
+    if args.threads is not None:
+        if args.threads < 0:
+            raise UserError("--threads must be >= 0")
+        ch["cpu_threads"] = args.threads
+    return replace(preset, **ch)

@@ -1,0 +1,301 @@
+"""`python -m app.bench [--quick|--full] --out DIR`: the sweep.  Renders every job of the
+plan (app.bench.plan) through Renderer.render like any frame, takes the timing samples with
+render(samples=N), checks every frame against the reference's, runs the CPU-only series, and
+writes DIR/results.csv (app.results), DIR/maps.npz, DIR/run.json and the report.
+
+Timing: every configuration is rendered once with read-back (counters, image); then
+render(samples=N) takes its timing samples.  The first render of a configuration's programs
+in the process is a warm-up (shader and numba compilation) whose timing is discarded; later
+ones count as a sample.  A configuration whose loop evaluates more than `heavy_eval_pp`
+lights a pixel gets `heavy_repeat` samples.  The sample counts depend only on the command.
+"""
+from __future__ import annotations
+
+from dataclasses import fields, replace
+import json
+from pathlib import Path
+import sys
+import time
+
+import numpy as np
+
+from .. import cli
+from ..results import CPU_PREFIX, STAGES, columns, option_studies, read_csv, stats, write_csv
+from ..techniques import REGISTRY, with_role
+from . import measure
+from .cpu import cpu_stage_samples, set_cpu_threads
+from .cutoff import cutoff_lights, unbounded_lights
+from .machine import machine_info
+from .plan import Job, plan
+from .presets import Preset, preset_from_args
+
+
+class Sweep:
+    def __init__(self, preset: Preset, log=sys.stderr):
+        self.p = preset
+        self.log = log
+        self.rows: list[dict] = []
+        self.maps: dict[str, np.ndarray] = {}
+        self.warm: set = set()
+        self.refs: dict = {}          # (scene, lights, frame, cutoff) -> the reference's FrameResult
+        self.light_sets: dict = {}    # (scene, lights, cutoff) -> light array
+        self.scenes: dict = {}
+        self.reference = with_role("reference").name
+        self.floor = with_role("floor").name
+        self.serial = 0               # the renderer in use (its programs are compiled anew)
+        self.t0 = time.perf_counter()
+
+    # ---- scenes and lights ----------------------------------------------------------------
+
+    def scene(self, name: str, lights: int):
+        from scenes import BUILTIN_SCENES, load_scene
+        key = (name, lights)
+        if key not in self.scenes:
+            n = lights if name in BUILTIN_SCENES else None
+            self.scenes[key] = load_scene(name, lights=n, seed=self.p.seed)
+        return self.scenes[key]
+
+    def light_counts(self, name: str, counts) -> tuple[int, ...]:
+        from scenes import BUILTIN_SCENES
+        if name in BUILTIN_SCENES:
+            return tuple(counts)
+        return (len(self.scene(name, 0).lights),)   # a scene file: its own lights
+
+    def lights_for(self, job: Job):
+        sc = self.scene(job.scene, job.lights)
+        if job.cutoff == 0:
+            return sc.lights
+        key = (job.scene, job.lights, job.cutoff)
+        if key not in self.light_sets:
+            self.light_sets[key] = (unbounded_lights(sc.lights, sc) if job.cutoff < 0
+                                    else cutoff_lights(sc.lights, 1.0 / job.cutoff))
+        return self.light_sets[key]
+
+    # ---- measuring -------------------------------------------------------------------------
+
+    def progress(self, i: int, total: int, what: str) -> None:
+        self.log.write(f"[{i}/{total} {time.perf_counter() - self.t0:6.1f}s] {what}\n")
+        self.log.flush()
+
+    def render(self, renderer, job: Job, readback: bool, samples: int = 1):
+        defines = {"UNBOUNDED_FALLOFF": 1} if job.cutoff < 0 else None
+        return renderer.render(REGISTRY[job.technique], job.frame, job.opts, frames=self.p.frames,
+                               lights=self.lights_for(job), readback=readback, defines=defines,
+                               samples=samples)
+
+    def reference_frame(self, renderer, job: Job, cutoff: int):
+        """The reference's frame for the job's scene, lights, frame and `cutoff`."""
+        key = (job.scene, job.lights, job.frame, cutoff)
+        if key not in self.refs:
+            ref = REGISTRY[self.reference]
+            ref_job = replace(job, technique=ref.name, opts=ref.Options(), cutoff=cutoff)
+            self.refs[key] = self.render(renderer, ref_job, True)
+        return self.refs[key]
+
+    def measure(self, renderer, job: Job):
+        """(row, read-back result) of one configuration."""
+        res = self.render(renderer, job, True)
+        types = tuple(np.unique(self.lights_for(job)["type"]).tolist())   # shader features
+        key = (self.serial, job.technique, job.opts, job.cutoff < 0, types)
+        samples = measure.samples_of(res.meta) if key in self.warm else []
+        self.warm.add(key)
+        heavy = measure.evaluated_per_pixel(res) > self.p.heavy_eval_pp
+        want = self.p.heavy_repeat if heavy else self.p.repeat
+        setup = res
+        if len(samples) < want:
+            setup = self.render(renderer, job, False, samples=want - len(samples))
+            samples += measure.samples_of(setup.meta)
+        if job.technique == self.reference:
+            self.refs[(job.scene, job.lights, job.frame, job.cutoff)] = res
+        return self.row(job, res, samples, renderer, setup), res
+
+    def row(self, job: Job, res, samples, renderer, setup) -> dict:
+        w, h = renderer.size
+        tech = REGISTRY[job.technique]
+        r = {"study": job.study, "scene": job.scene, "lights": job.lights,
+             "visible": int(res.meta["stats"].get("visible_lights", 0)), "width": w, "height": h,
+             "frame": job.frame, "frames": self.p.frames, "technique": tech.name,
+             "role": tech.role, "cutoff": job.cutoff}
+        r.update(measure.option_cells(job.opts))
+        r.update(measure.timing_cells(samples))
+        r.update(measure.figure_cells(res))
+        r["setup_ms"] = float(sum(setup.meta.get("setup_ms", {}).values()))   # no cost: untimed
+        # the error of a cutoff job is against the unbounded reference, its exactness against
+        # the reference with the same lights
+        unbounded = job.study == "cutoff"
+        err_ref = self.reference_frame(renderer, job, -1 if unbounded else job.cutoff)
+        r["error_ref"] = "unbounded" if unbounded else self.reference
+        r["image_error"] = measure.image_error(res, err_ref)
+        r["radiance_ratio"] = measure.radiance_ratio(res, err_ref)
+        if job.cutoff < 0:
+            r["mismatch_count"] = r["mismatch_hash"] = 0
+        else:
+            ref = self.reference_frame(renderer, job, job.cutoff)
+            r["mismatch_count"], r["mismatch_hash"] = measure.mismatches(res, ref)
+        r["floor_position_pct"] = float("nan")
+        return r
+
+    def keep_maps(self, job: Job, res) -> None:
+        """Block maps of the heat-map frame (figures 1 and 3)."""
+        from ..images import block_mean
+        p = self.p
+        if not (job.study == "path" and job.scene == p.heat_scene and job.frame == 0
+                and job.lights == max(self.light_counts(job.scene, p.lights))):
+            return
+        block = 8 if res.evaluated.shape[1] < 960 else 16
+        self.maps["block"] = np.array(block)
+        self.maps[f"evaluated/{job.technique}"] = block_mean(res.evaluated.astype(np.float64), block)
+        self.maps[f"cases/{job.technique}"] = (res.wave["case_bits"] & 3).astype(np.uint8)
+        if job.technique == self.reference:
+            self.maps["exact"] = block_mean(res.contrib_count.astype(np.float64), block)
+
+    def run(self) -> list[dict]:
+        from ..pipeline.renderer import Renderer
+        jobs = plan(self.p, self.light_counts)
+        total = len(jobs)
+        studies = option_studies()
+        self.log.write(f"bench: {self.p.name} preset, {total} configurations + CPU series; "
+                       f"option studies: " + "; ".join(f"{k} ({', '.join(v[1])})"
+                                                     for k, v in studies.items()) + "\n")
+        renderer, current = None, None
+        try:
+            for i, job in enumerate(jobs, 1):
+                if job.scene != current:
+                    if renderer is not None:
+                        renderer.release()
+                    self.refs.clear()
+                    self.light_sets.clear()
+                    renderer = Renderer(self.scene(job.scene, job.lights), self.p.size)
+                    self.serial += 1
+                    current = job.scene
+                renderer.scene = self.scene(job.scene, job.lights)   # same geometry, these lights
+                self.progress(i, total, job.describe())
+                row, res = self.measure(renderer, job)
+                self.rows.append(row)
+                self.keep_maps(job, res)
+                del res
+                self._forget(job)
+        finally:
+            if renderer is not None:
+                renderer.release()
+        measure.fill_floor_positions(self.rows, self.reference, self.floor)
+        self.cpu_series()
+        return self.rows
+
+    def _forget(self, job: Job) -> None:
+        """Drop references no later job needs (full-resolution frames are ~50 MB each)."""
+        p = self.p
+        study_n = self.light_counts(p.study_scene, (p.study_lights,))[0]
+        for key in list(self.refs):
+            scene, n, frame, cut = key
+            keep = (scene == job.scene and n == job.lights and frame == job.frame) or \
+                   (scene == p.study_scene and frame == 0 and cut == 0 and n == study_n)
+            if not keep:
+                del self.refs[key]
+
+    # ---- the CPU-only series ---------------------------------------------------------------
+
+    def cpu_jobs(self) -> list[tuple[str, str, int, str, object]]:
+        """(study, scene, lights, technique, options) of the CPU series: every technique over
+        the CPU light counts; and, where the CPU series' resolution is not the rendered one,
+        every option study's values at that resolution (cpu_<option>, never summed with GPU
+        times of the rendered resolution)."""
+        p = self.p
+        out = [("cpu", p.cpu_scene, n, t, REGISTRY[t].Options())
+               for n in self.light_counts(p.cpu_scene, p.cpu_lights) for t in REGISTRY]
+        if tuple(p.cpu_size) != tuple(p.size) and p.study_scene in p.scenes:
+            n = self.light_counts(p.study_scene, (p.study_lights,))[0]
+            for study, (spec, techs) in option_studies().items():
+                out += [(CPU_PREFIX + study, p.study_scene, n, t, REGISTRY[t].Options().with_(**{study: v}))
+                        for v in spec.study for t in techs]
+        return out
+
+    def cpu_series(self) -> None:
+        """Figure 4: technique.build alone at cpu_size; upload timed into GL buffers of the
+        process's context, as the renderer does."""
+        from ..pipeline import gl
+        p = self.p
+        ctx = gl.context()
+        scratch: dict[str, object] = {}
+
+        def upload(b) -> float:
+            t0 = time.perf_counter()
+            for k, a in b.buffers.items():
+                buf = scratch.get(k)
+                if buf is None or buf.size < a.nbytes:
+                    if buf is not None:
+                        buf.release()
+                    buf = scratch[k] = ctx.buffer(reserve=max(a.nbytes, 16))
+                if a.nbytes:
+                    buf.write(np.ascontiguousarray(a).tobytes())
+            ctx.finish()
+            return (time.perf_counter() - t0) * 1e3
+
+        series = self.cpu_jobs()
+        try:
+            for i, (study, scene, n, name, opts) in enumerate(series, 1):
+                tech = REGISTRY[name]
+                sc = self.scene(scene, n)
+                what = "" if study == "cpu" else f" {study[len(CPU_PREFIX):]}=" \
+                                                 f"{getattr(opts, study[len(CPU_PREFIX):])}"
+                self.progress(i, len(series), f"{study} {scene} {n} lights {name}{what} "
+                                              f"at {p.cpu_size[0]}x{p.cpu_size[1]}")
+                s = cpu_stage_samples(tech, sc, p.cpu_size, opts, p.cpu_repeat, 0, p.frames,
+                                      upload=upload)
+                r = {"study": study, "scene": scene, "lights": n, "visible": s["visible"],
+                     "width": p.cpu_size[0], "height": p.cpu_size[1], "frame": 0,
+                     "frames": p.frames, "technique": name, "role": tech.role, "cutoff": 0,
+                     "samples": p.cpu_repeat}
+                r.update(measure.option_cells(opts))
+                for k in STAGES:
+                    r[f"cpu_{k}_ms"] = stats(s[k])[0]
+                r["cpu_total_ms"], r["cpu_total_min_ms"], r["cpu_total_max_ms"] = stats(s["total"])
+                self.rows.append(r)
+        finally:
+            for b in scratch.values():
+                b.release()
+
+
+# ---------------------------------------------------------------------------- the command
+
+def run_sweep(preset: Preset, out: Path, command: str, log=sys.stderr) -> list[dict]:
+    """Measure the preset, write out/results.csv, maps.npz, run.json and the report."""
+    from .. import report
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    threads = set_cpu_threads(preset.cpu_threads)
+    sweep = Sweep(preset, log)
+    rows = sweep.run()
+    write_csv(rows, out / "results.csv", columns())
+    np.savez_compressed(out / "maps.npz", **sweep.maps)
+    elapsed = time.perf_counter() - t0
+    info = dict(machine_info(), command=command, preset=preset.name, elapsed_s=elapsed,
+                cpu_threads=threads,
+                config={f.name: getattr(preset, f.name) for f in fields(preset)})
+    (out / "run.json").write_text(json.dumps(info, indent=1, default=list) + "\n")
+    report.write_report(out, read_csv(out / "results.csv"), dict(np.load(out / "maps.npz")), info)
+    log.write(f"bench: wrote {out / 'results.csv'} ({len(rows)} rows) and {out / 'report.md'} "
+              f"in {time.perf_counter() - t0:.0f} s\n")
+    return rows
+
+
+def sweep_main(argv) -> None:
+    p = cli.Parser(prog="python -m app.bench", description="the benchmark sweep and its report")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--quick", action="store_true", help="reduced resolution and counts (default)")
+    g.add_argument("--full", action="store_true", help="1920x1080, 8192..65536 lights, whole path")
+    p.add_argument("--out", required=True, help="output folder (results.csv, report.md, PNGs)")
+    p.add_argument("--size", type=cli.parse_size, help="override the preset's WxH")
+    p.add_argument("--scenes", help="override: comma-separated builtin names or scene files")
+    p.add_argument("--lights", help="override: comma-separated light counts")
+    p.add_argument("--frames", type=int, help="override: frames along the camera path")
+    p.add_argument("--repeat", type=int, help="override: timing samples per configuration")
+    p.add_argument("--cpu-lights", help="override: light counts of the CPU series")
+    p.add_argument("--cpu-size", type=cli.parse_size, help="override: WxH of the CPU series")
+    p.add_argument("--threads", type=int, help="numba threads of the CPU stage (default 1, "
+                                               "as the paper's figure 4; 0: numba's default)")
+    args = p.parse_args(argv)
+    preset = preset_from_args(args)
+    command = "python -m app.bench " + " ".join(argv)
+    run_sweep(preset, Path(args.out), command)

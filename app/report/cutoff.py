@@ -1,0 +1,82 @@
+"""The light cutoff: image error against the unbounded reference vs frame cost, over the
+threshold t that sets each light's radius (app.bench.cutoff)."""
+from __future__ import annotations
+
+from .common import DPI, log_axes, mean, ms, num, order, panel_style, plt, save, sel, side_legend, times
+from .spread import Spread, lowest
+
+EXPLANATION = (
+    "Each light's radius is set where its unbounded falloff I/(d^2+1) drops to t times the "
+    "brightest light's peak: radius_i = sqrt(I_i / (t I_max) - 1), I_i = intensity x "
+    "brightest colour channel; lights never that bright are dropped.  radius ~ sqrt(I), "
+    "and the builtin scenes draw I ~ r^2, so the many-small-few-large law is kept.  The "
+    "reference renders every light with UNBOUNDED_FALLOFF=1 (attenuation 1/(d^2+1), no "
+    "window).")
+
+
+def fig_cutoff(rows, out, colors, roles) -> tuple[str | None, list[str]]:
+    cut = sel(rows, study="cutoff")
+    if not cut:
+        return None, []
+    scenes = order(cut, "scene")
+    fig, axes = plt().subplots(1, len(scenes), squeeze=False, dpi=DPI,
+                               figsize=(5.6 * len(scenes) + 1.4, 3.6))
+    text = []
+    for ax, sc in zip(axes[0], scenes):
+        sub = sel(cut, scene=sc)
+        ref = [r for r in sub if r["cutoff"] < 0]
+        bounded = [r for r in sub if r["cutoff"] > 0]
+        cutoffs = sorted(set(int(r["cutoff"]) for r in bounded))
+        for t in order(bounded, "technique"):
+            tr = sorted(sel(bounded, technique=t), key=lambda r: r["cutoff"])
+            ax.plot([num(r["frame_cost_ms"]) for r in tr],
+                    [max(num(r["image_error"]), 1e-7) for r in tr],
+                    color=colors(t), label=t, **colors.style(t))
+            if t == roles.reference:
+                for r in tr:
+                    ax.annotate(f"1/{int(r['cutoff'])}", (num(r["frame_cost_ms"]), num(r["image_error"])),
+                                fontsize=7, xytext=(3, 3), textcoords="offset points")
+        if ref:
+            ax.axvline(num(ref[0]["frame_cost_ms"]), color="0.3", ls=":", lw=1,
+                       label=f"unbounded {roles.reference}")
+        log_axes(ax)
+        panel_style(ax, f"light cutoff, {sc}, {int(sub[0]['lights'])} lights", "frame cost (ms)",
+                    "RMSE vs unbounded / mean radiance")
+        if cutoffs:
+            text.append(_finding(sc, bounded, ref, cutoffs, roles))
+    side_legend(axes[0][-1])
+    return save(fig, out, "cutoff.png"), text
+
+
+def _finding(sc, bounded, ref, cutoffs, roles) -> str:
+    at = lambda c: [r for r in bounded if int(r["cutoff"]) == c]
+    errs = {c: mean([r["image_error"] for r in at(c)]) for c in cutoffs}
+    vis = {c: mean([r["visible"] for r in at(c) if r["technique"] == roles.reference]) for c in cutoffs}
+    ratio = {c: mean([r["radiance_ratio"] for r in at(c)]) for c in cutoffs}
+    s = f"**{sc}**: image error against the unbounded reference is " + ", ".join(
+        f"{errs[c]:.2g} at t=1/{c}" for c in cutoffs)
+    s += " (the bounded image holds " + ", ".join(f"{100 * ratio[c]:.0f}%" for c in cutoffs) + \
+         " of the reference's mean radiance"
+    c0 = cutoffs[-1]
+    if errs[c0] > 0 and 1.0 - ratio[c0] >= 0.5 * errs[c0]:
+        s += "; most of the error is energy missing from the cut tails"
+    s += ")"
+    cheapest = {}
+    for c in cutoffs:
+        cands = {r["technique"]: Spread.of(r, "frame_cost") for r in at(c)
+                 if r["technique"] not in (roles.reference, roles.floor)}
+        if cands:
+            best, rivals = lowest(cands)
+            cheapest[c] = (best, cands[best].med, rivals)
+    if cheapest:
+        s += "; the cheapest technique costs " + ", ".join(
+            f"{ms(v[1])} ({v[0]}{', within spread of ' + ', '.join(v[2]) if v[2] else ''}) at 1/{c}"
+            for c, v in cheapest.items())
+    if len(cutoffs) > 1 and cutoffs[0] in cheapest and cutoffs[-1] in cheapest:
+        s += f": {times(cheapest[cutoffs[-1]][1] / cheapest[cutoffs[0]][1])} the cost for " \
+             f"{times(errs[cutoffs[0]] / max(errs[cutoffs[-1]], 1e-12))} less error"
+    if ref:
+        s += f". Visible lights grow from {vis[cutoffs[0]]:.0f} to {vis[cutoffs[-1]]:.0f}; the " \
+             f"unbounded reference ({int(ref[0]['visible'])} lights, no window) costs " \
+             f"{ms(ref[0]['frame_cost_ms'])}"
+    return s + "."

@@ -1,0 +1,87 @@
+"""Per-block maps of one frame (maps.npz): lights evaluated per pixel for every technique
+(tree paper figure 1), and each wave's traversal case, list / tree / mixed (figure 3)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .common import DPI, plt, save, sel, times
+
+
+def fig_heat(maps, out, info, roles) -> tuple[str | None, list[str]]:
+    from matplotlib.colors import LogNorm
+    keys = [k for k in maps if k.startswith("evaluated/")]
+    if not keys:
+        return None, []
+    panels = [(k.split("/", 1)[1], maps[k]) for k in keys]
+    if "exact" in maps and f"evaluated/{roles.floor}" not in maps:
+        panels.append(("exact (lights affecting)", maps["exact"]))
+    vals = np.concatenate([m.ravel() for _, m in panels])
+    pos = vals[vals > 0]
+    vmin = max(float(pos.min()) if len(pos) else 0.1, 0.1)
+    vmax = max(float(vals.max()), vmin * 10)
+    cols = min(3, len(panels))
+    rws = math.ceil(len(panels) / cols)
+    h, w = panels[0][1].shape
+    fig, axes = plt().subplots(rws, cols, squeeze=False, dpi=DPI,
+                               figsize=(cols * 3.4 + 0.8, rws * 3.4 * h / w + 0.6))
+    im = None
+    for ax in axes.ravel():
+        ax.axis("off")
+    for ax, (t, m) in zip(axes.ravel(), panels):
+        im = ax.imshow(np.maximum(m, vmin), cmap="turbo", norm=LogNorm(vmin, vmax),
+                       interpolation="nearest")
+        ax.set_title(f"{t}: {m.mean():.3g}/px", fontsize=8)
+    fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.8).set_label("lights / pixel (log)", fontsize=8)
+    scene = info.get("config", {}).get("heat_scene", "")
+    b = int(maps.get("block", 16))
+    fig.suptitle(f"lights evaluated per pixel, {b}x{b} block means, {scene} frame 0", fontsize=9)
+    name = save(fig, out, "heatmaps.png", tight=False)
+    means = {t: float(m.mean()) for t, m in panels}
+    exact = float(maps["exact"].mean()) if "exact" in maps else math.nan
+    ranked = sorted((t for t, _ in panels[:len(keys)] if t != roles.floor), key=means.get)
+    text = ["On this frame the loop evaluates, per pixel on average: " +
+            ", ".join(f"{t} {means[t]:.3g}" for t in ranked) +
+            (f"; {exact:.3g} lights actually affect a pixel." if not math.isnan(exact) else ".")]
+    if len(ranked) > 1 and not math.isnan(exact) and exact > 0:
+        text.append(f"The tightest structure, {ranked[0]}, evaluates {times(means[ranked[0]] / exact)} "
+                    f"the exact count; {ranked[-1]} evaluates {times(means[ranked[-1]] / exact)}.")
+    return name, text
+
+
+def fig_classification(rows, maps, out) -> tuple[str | None, list[str]]:
+    """Every technique whose waves take more than one path: per 8x8 wave, list (blue),
+    tree (green), mixed (white), empty (grey)."""
+    from matplotlib.patches import Patch
+    from ..images import CASE_COLORS, CASE_NAMES
+    path = sel(rows, study="path")
+    if not path:
+        return None, []
+    w, h = int(path[0]["width"]), int(path[0]["height"])
+    chosen = []
+    for k in [k for k in maps if k.startswith("cases/")]:
+        cases = maps[k]
+        if len(np.unique(cases[cases > 0])) >= 2:
+            chosen.append((k.split("/", 1)[1], cases))
+    if not chosen:
+        return None, []
+    fig, axes = plt().subplots(1, len(chosen), squeeze=False, dpi=DPI,
+                               figsize=(4.2 * len(chosen) + 1.8, 4.2 * h / w + 0.7))
+    text = []
+    for ax, (t, cases) in zip(axes[0], chosen):
+        rgb = np.zeros(cases.shape + (3,), np.uint8)
+        for k, c in CASE_COLORS.items():
+            rgb[cases == k] = c
+        ax.imshow(np.repeat(np.repeat(rgb, 8, 0), 8, 1)[:h, :w], interpolation="nearest")
+        ax.set_xticks([]), ax.set_yticks([])
+        ax.set_title(f"{t}: traversal per 8x8 wave", fontsize=9)
+        shares = {CASE_NAMES[k]: float((cases == k).mean()) for k in CASE_COLORS}
+        busy = 1.0 - shares["empty"]
+        text.append(f"{t}: of the waves that shade, " + ", ".join(
+            f"{shares[n] / busy:.0%} {n}" for n in ("list", "tree", "mixed")) +
+            (f" ({shares['empty']:.0%} of all waves are empty)." if busy > 0 else "."))
+    axes[0][-1].legend(handles=[Patch(facecolor=np.array(CASE_COLORS[k]) / 255, edgecolor="0.5",
+                                      label=CASE_NAMES[k]) for k in (1, 2, 3, 0)],
+                       fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    return save(fig, out, "classification.png"), text

@@ -1,0 +1,36 @@
+"""The option studies come from the options' declarations alone: one study per option with
+study values, over exactly the techniques that declare it (no hand-kept list)."""
+from app.bench.plan import plan, technique_order
+from app.bench.presets import QUICK
+from app.results import option_studies
+from app.techniques import REGISTRY, with_role
+
+
+def test_studies_are_the_options_with_study_values():
+    want = {}
+    for t in REGISTRY.values():
+        for spec in t.Options.specs():
+            if spec.study:
+                want.setdefault(spec.name, set()).add(t.name)
+    got = option_studies()
+    assert set(got) == set(want)
+    for name, (spec, techs) in got.items():
+        assert set(techs) == want[name], name
+        assert spec.study, name
+        # registry order, each technique once
+        assert list(techs) == [t for t in REGISTRY if t in want[name]]
+
+
+def test_plan_covers_each_study_value_and_technique():
+    jobs = plan(QUICK, lambda scene, counts: tuple(counts))
+    assert technique_order()[0] == with_role("reference").name
+    for name, (spec, techs) in option_studies().items():
+        sub = [j for j in jobs if j.study == name]
+        assert sorted((j.technique, getattr(j.opts, name)) for j in sub) == \
+            sorted((t, v) for t in techs for v in spec.study), name
+        for j in sub:     # every other option at the technique's default
+            default = REGISTRY[j.technique].Options().as_dict()
+            assert {k: v for k, v in j.opts.as_dict().items() if k != name} == \
+                {k: v for k, v in default.items() if k != name}
+    path = [j for j in jobs if j.study == "path"]
+    assert len(path) == len(QUICK.scenes) * len(QUICK.lights) * QUICK.frames * len(REGISTRY)

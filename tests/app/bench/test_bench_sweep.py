@@ -1,0 +1,102 @@
+"""The benchmark sweep end to end: a tiny run through the --quick code path (every registered
+technique, every study, every plot, the report), read back through the results schema."""
+import math
+import re
+
+import pytest
+
+from app import bench, report
+from app.results import CPU_PREFIX, columns, option_studies, read_csv
+from app.techniques import REGISTRY, with_role
+
+TINY = ["--quick", "--size", "64x36", "--scenes", "arena", "--frames", "1", "--lights", "256",
+        "--repeat", "1", "--cpu-lights", "256", "--cpu-size", "96x54"]
+# the CPU series at another resolution than the rendered one: the cpu_<option> rows run too
+FIXED_PLOTS = ("accuracy_cost.png", "gpu_path.png", "cpu_stages.png", "heatmaps.png", "cutoff.png")
+
+
+@pytest.fixture(scope="module")
+def sweep(gl, tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench")
+    bench.main(TINY + ["--out", str(out)])
+    return out, read_csv(out / "results.csv")
+
+
+def test_results_columns_and_rows(sweep):
+    out, rows = sweep
+    header = (out / "results.csv").read_text().splitlines()[0].split(",")
+    assert header == columns()
+    for study in ("path", "cutoff", "cpu"):
+        got = {r["technique"] for r in rows if r["study"] == study}
+        assert got == set(REGISTRY), f"{study}: {sorted(got)} != {sorted(REGISTRY)}"
+    studies = option_studies()
+    assert studies, "no option declares study values"
+    assert {r["study"] for r in rows} == {"path", "cutoff", "cpu"} | set(studies) | \
+        {CPU_PREFIX + s for s in studies}
+    for name, (spec, techs) in studies.items():
+        for study in (name, CPU_PREFIX + name):
+            sub = [r for r in rows if r["study"] == study]
+            assert {r["technique"] for r in sub} == set(techs), study
+            assert {r[name] for r in sub} == {float(v) for v in spec.study}, study
+    for r in rows:      # option columns: blank exactly where the technique lacks the option
+        names = REGISTRY[r["technique"]].Options.names()
+        for name in studies:
+            assert math.isnan(r[name]) == (name not in names), (r["technique"], name)
+        assert r["role"] == REGISTRY[r["technique"]].role
+
+
+def test_exactness_waste_and_cost(sweep):
+    _, rows = sweep
+    ref, floor = with_role("reference").name, with_role("floor").name
+    rendered = [r for r in rows if not r["study"].startswith(CPU_PREFIX) and r["study"] != "cpu"]
+    assert rendered
+    for r in rendered:
+        where = f"{r['study']} {r['technique']} cutoff {r['cutoff']}"
+        assert r["mismatch_count"] == 0 and r["mismatch_hash"] == 0, where
+        if r["exact_pp"] > 0:
+            assert r["waste"] >= 1.0, where
+        if r["technique"] == floor:
+            assert r["evaluated_pp"] == r["exact_pp"], where
+            assert r["waste"] == 1.0 or r["exact_pp"] == 0, where
+            assert r["setup_ms"] > 0, where          # its lists: untimed set-up ...
+            assert set(p.split("=")[0] for p in r["gpu_passes"].split(";")) == {"gbuffer", "shade"}
+        if r["error_ref"] == ref:
+            assert r["image_error"] < 1e-5, where
+        assert r["gpu_shade_ms"] > 0 and r["samples"] >= 1, where
+        # ... never part of the cost: CPU stage + every timed pass but the G-buffer (1 sample)
+        assert r["frame_cost_ms"] == pytest.approx(
+            r["cpu_total_ms"] + r["gpu_cull_ms"] + r["gpu_shade_ms"], abs=2e-4), where
+        assert r["gpu_lighting_min_ms"] <= r["gpu_lighting_ms"] <= r["gpu_lighting_max_ms"], where
+    # the unbounded reference lies above every cutoff's error, and error falls as t falls
+    cut = [r for r in rendered if r["study"] == "cutoff" and r["technique"] == ref and r["cutoff"] > 0]
+    errs = [r["image_error"] for r in sorted(cut, key=lambda r: r["cutoff"])]
+    assert all(a >= b for a, b in zip(errs, errs[1:])), errs
+
+
+def test_plots_and_report(sweep):
+    out, _ = sweep
+    text = (out / "report.md").read_text()
+    plots = FIXED_PLOTS + tuple(f"option_{s}.png" for s in option_studies())
+    for name in plots:
+        assert (out / name).stat().st_size > 1000, name
+    for png in out.glob("*.png"):
+        assert f"]({png.name})" in text, f"report.md does not show {png.name}"
+    for t in REGISTRY:
+        assert t in text
+    assert "llvmpipe" not in text.lower() or "only comparable as ratios" in text
+    assert re.search(r"^- command: `python -m app.bench ", text, re.M)
+    # one sample a rendered configuration: no difference of its timings may be called a
+    # finding (the CPU-only series has cpu_repeat samples: it may)
+    assert "one sample" in text
+    assert not re.search(r"fastest over the path|is lowest at|(GPU lighting|frame cost) "
+                         r"[0-9.]+x \((higher|lower) beyond spread", text)
+
+
+def test_report_rebuilds_from_the_folder(sweep):
+    out, _ = sweep
+    before = (out / "report.md").read_text()
+    (out / "report.md").unlink()
+    report.main([str(out)])
+    after = (out / "report.md").read_text()
+    strip = lambda s: re.sub(r"run time: .*", "", s)
+    assert strip(after) == strip(before)
