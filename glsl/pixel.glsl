@@ -22,6 +22,14 @@ uniform ivec2 u_size;
 uniform uint u_light_count;
 uniform uvec2 u_window;       // this dispatch's positions [x, y) of each pixel's sequence
 
+// define: DEBUG_PIXEL
+#if DEBUG_PIXEL
+// The exactness check's explanation (app/exactness.py): the ids of the lights that affect
+// one pixel, as this pass's loop met them.
+layout(std430, binding = B_DEBUG_LIGHTS) buffer DebugLights { uint debug_count; uint debug_ids[]; };
+uniform ivec2 u_debug_pixel;
+#endif
+
 // Dump contract: contrib_hash is the XOR over affecting lights of mix(id).
 uint mix_hash(uint x) {
     x ^= x >> 16; x *= 0x7feb352du; x ^= x >> 15; x *= 0x846ca68bu; x ^= x >> 16;
@@ -79,6 +87,12 @@ void evaluate_light(inout PixelState s, GpuLight L) {
     precise vec3 d = s.P - L.pos_radius.xyz;
     precise float d2 = dot(d, d);
     if (light_affects(L, d, d2)) {
+#if DEBUG_PIXEL
+        if (s.pixel == u_debug_pixel) {
+            uint k = atomicAdd(debug_count, 1u);
+            if (k < uint(debug_ids.length())) debug_ids[k] = L.id_type.x;
+        }
+#endif
         s.count++;
         s.hash ^= mix_hash(L.id_type.x);
         s.radiance += light_radiance(L, d, d2, s.N) * s.albedo;

@@ -1,9 +1,10 @@
 """Scene builders and the exactness check used across the tests."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
-from app.dump import exactness
 from app.techniques import REGISTRY, with_role
 from scenes.geometry import box_mesh
 from scenes.model import Camera, Scene, make_lights
@@ -53,27 +54,66 @@ def takes(name: str, *option_names: str) -> bool:
     return set(option_names) <= set(REGISTRY[name].Options.names())
 
 
-def render_all(scene, opts: dict | None = None, techniques=None, **kw):
+ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts"
+
+
+class Results(dict):
+    """{technique name: FrameResult}; `explained` holds, for each technique that differs
+    from the reference, the exactness check's explanation (app.exactness: the first
+    differing pixel, the lights that differ there, images under test-artifacts/), made
+    while the renderer was still alive."""
+    explained: dict
+
+
+def render_on(renderer, opts: dict | None = None, techniques=None, **kw) -> Results:
+    """render_all() on an open renderer (kw: frame, lights, frames, ... of Renderer.render)."""
+    names = techniques or list(REGISTRY)
+    frame = kw.pop("frame", 0)
+    out = Results({n: renderer.render(REGISTRY[n], frame, options(n, **(opts or {})), **kw)
+                   for n in names})
+    out.explained = explain(out, renderer, opts, dict(kw, frame=frame))
+    return out
+
+
+def render_all(scene, opts: dict | None = None, techniques=None, **kw) -> Results:
     """{technique name: FrameResult} for every registered technique (or those named), each
     with the options of `opts` it declares."""
     from app.pipeline.renderer import Renderer
     r = Renderer(scene)
     try:
-        names = techniques or list(REGISTRY)
-        return {n: r.render(REGISTRY[n], 0, options(n, **(opts or {})), **kw) for n in names}
+        return render_on(r, opts, techniques, **kw)
     finally:
         r.release()
 
 
+def explain(results: dict, renderer, opts: dict | None, render_args: dict) -> dict:
+    from app.exactness import check
+    ref_name = with_role("reference").name
+    if ref_name not in results:
+        return {}
+    out = {}
+    for name, res in results.items():
+        m = check(res, results[ref_name], renderer, REGISTRY[name], REGISTRY[ref_name],
+                  dict(render_args, opts=options(name, **(opts or {}))),
+                  ARTIFACTS / f"{name}-{abs(hash(repr(sorted(render_args))) % 10**8)}")
+        if m is not None:
+            out[name] = m.message()
+    return out
+
+
 def assert_exact(results: dict, where: str = "") -> None:
     """Every technique gives brute's contrib_count and contrib_hash at every pixel, and
-    every output is finite."""
+    every output is finite; on failure the message names the first differing pixel and the
+    lights that differ there (when the results came from render_all / render_on)."""
+    from app.exactness import check
     ref = results[with_role("reference").name]
     assert np.isfinite(ref.image).all(), f"{where}: brute image not finite"
-    bad = {}
+    bad = []
+    explained = getattr(results, "explained", {})
     for name, res in results.items():
         assert np.isfinite(res.image).all(), f"{where}: {name} image not finite"
-        diff = exactness(res, ref)
-        if diff != (0, 0):
-            bad[name] = diff
-    assert not bad, f"{where}: pixels differing from brute (count, hash): {bad}"
+        if name in explained:
+            bad.append(explained[name])
+        elif (m := check(res, ref)) is not None:
+            bad.append(m.message())
+    assert not bad, f"{where}: " + "; ".join(bad)

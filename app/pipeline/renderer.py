@@ -30,9 +30,11 @@ from cpu_prep.limits import WINDOW_ALL, LimitError
 from . import features as feat, gl
 from ..errors import UserError
 from .gbuffer import GBuffer, TEXTURE_UNITS
-from .passes import FRAME_OUTPUTS, Buffer, Build, FrameInput, HostStep, Pass, WAVE_DIM
+from .passes import FRAME_OUTPUTS, OUT_STATS, Buffer, Build, FrameInput, HostStep, Pass, WAVE_DIM
 from .shaders import ProgramCache
 
+DEBUG_SLOT = "debug_lights"    # pixel.glsl DEBUG_PIXEL: ids of the lights affecting one pixel
+DEBUG_MAX_IDS = 1 << 16
 DEPTH_FUNCS = {"less": "<", "less_equal": "<=", "greater": ">", "always": "1"}
 MODES = {"triangles": moderngl.TRIANGLES, "triangle_strip": moderngl.TRIANGLE_STRIP}
 
@@ -50,6 +52,7 @@ class FrameResult:
     contrib_hash: np.ndarray | None = None   # (H,W) uint32
     nodes: np.ndarray | None = None          # (H,W) uint32 tree nodes visited
     wave: np.ndarray | None = None           # (GH,GW) WAVE_STATS per 8x8 group, image order
+    debug_lights: np.ndarray | None = None   # render(debug_pixel=...): ids affecting that pixel
 
 
 @dataclass
@@ -61,6 +64,7 @@ class _Frame:
     setup_ms: dict = field(default_factory=dict)
     timed: list = field(default_factory=list)      # timed passes, in order, for later samples
     native: bool = False
+    debug_pixel: tuple | None = None               # GL coordinates of the explained pixel
 
 
 class Renderer:
@@ -149,11 +153,14 @@ class Renderer:
 
     def render(self, technique, frame: int = 0, opts=None, frames: int = 64,
                lights: np.ndarray | None = None, readback: bool = True, camera=None,
-               defines: dict | None = None, samples: int = 1) -> FrameResult:
+               defines: dict | None = None, samples: int = 1,
+               debug_pixel: tuple[int, int] | None = None) -> FrameResult:
         """Render one frame of `technique` (anything with resolve_options, build and
         passes).  `defines` are frame-wide switches that reach every program declaring them
         (e.g. UNBOUNDED_FALLOFF=1).  meta['samples'] holds each sample's CPU and GPU ms;
-        meta['cpu_ms'] / ['gpu_ms'] are the last sample's."""
+        meta['cpu_ms'] / ['gpu_ms'] are the last sample's.  `debug_pixel` (x, row from the
+        top) records the ids of the lights the shading passes find affecting that pixel
+        (FrameResult.debug_lights, sorted)."""
         opts = technique.resolve_options(opts)
         fin = self.frame_input(frame, frames, lights, camera)
         w, h = self.size
@@ -161,6 +168,10 @@ class Renderer:
         for k in range(max(int(samples), 1)):
             if k == 0:
                 self._frame = _Frame()
+                if debug_pixel is not None:
+                    x, row = debug_pixel
+                    self._frame.debug_pixel = (int(x), h - 1 - int(row))
+                    self.buffer(DEBUG_SLOT, 4 + 4 * DEBUG_MAX_IDS).clear()
             self.timer.take()
             self._run_pass(self.gbuffer.pass_for(fin.camera), {"generated.glsl": feat.generated_glsl()},
                            {}, {}, record=False)
@@ -202,6 +213,9 @@ class Renderer:
         result = FrameResult(meta=meta, build=build)
         if readback:
             self._read_outputs(result)
+        if debug_pixel is not None:
+            raw = np.frombuffer(self.buffers[DEBUG_SLOT].read(), np.uint32)
+            result.debug_lights = np.unique(raw[1:1 + min(int(raw[0]), DEBUG_MAX_IDS)])
         return result
 
     # ---- executing steps -----------------------------------------------------------
@@ -264,6 +278,11 @@ class Renderer:
         native = p.native_wave and self.limits.native_ballot
         f.native |= native
         optional = dict(defines, WAVE_NATIVE=int(native))
+        if f.debug_pixel is not None and OUT_STATS in p.writes:   # shading passes only
+            bindings[DEBUG_SLOT] = len(bindings)
+            self.buffers[DEBUG_SLOT].bind_to_storage_buffer(bindings[DEBUG_SLOT])
+            optional["DEBUG_PIXEL"] = 1
+            uniforms = dict(uniforms, u_debug_pixel=f.debug_pixel)
         if p.kind == "compute":
             prog = self.programs.compute(p.shader, dict(p.defines), virtual,
                                          gl.NATIVE_WAVE_EXTENSIONS if native else (),

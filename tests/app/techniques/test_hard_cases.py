@@ -37,7 +37,7 @@ from cpu_prep.camera import frame_camera
 from cpu_prep.limits import NODE_MAX_LIGHTS, NODE_MAX_SKIP
 from scenes.geometry import box_mesh
 from scenes.model import Camera, Scene, make_lights
-from tests.helpers import assert_exact, floor_and_boxes, options, random_lights
+from tests.helpers import assert_exact, floor_and_boxes, options, random_lights, render_on
 
 
 def Options(**values) -> dict:
@@ -148,9 +148,7 @@ class Frame:
 
     # -- rendering and checks ----------------------------------------------------------
     def render(self, lights, opts: dict | None = None, techniques=None) -> dict:
-        names = techniques or list(REGISTRY)
-        return {n: self.renderer.render(REGISTRY[n], 0, options(n, **(opts or {})), lights=lights)
-                for n in names}
+        return render_on(self.renderer, opts, techniques, lights=lights)
 
     def check(self, lights, opts: dict | None = None, where: str = "",
               must_light: bool = True, results: dict | None = None) -> dict:

@@ -1,0 +1,100 @@
+"""The exactness check of the dump contract, and what it shows when it fails.
+
+A technique is exact when, at every pixel, its contrib_count and contrib_hash equal the
+reference's (brute: role "reference").  When they do not, as Mitsuba's render tests do, the
+check writes the technique's image, the reference's and a difference image (differing pixels
+marked), and names the first differing pixel with the lights that differ there: both frames
+are rendered again recording the ids of the lights their shading passes find affecting that
+pixel (Renderer.render(debug_pixel=...), glsl/pixel.glsl DEBUG_PIXEL).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+MARK = (255, 40, 40)          # differing pixels in the difference image
+FIRST = (255, 230, 0)         # the first differing pixel
+
+
+def differing(result, reference) -> np.ndarray:
+    """(H, W) bool: pixels whose count or hash differs from the reference's."""
+    return (result.contrib_count != reference.contrib_count) | \
+           (result.contrib_hash != reference.contrib_hash)
+
+
+@dataclass
+class Mismatch:
+    technique: str
+    reference: str
+    pixels: int                        # pixels that differ
+    total: int
+    first: tuple[int, int]             # (x, row from the top)
+    count: tuple[int, int]             # (technique's, reference's) count at the first pixel
+    missing: list[int] = field(default_factory=list)   # light ids the technique lacks there
+    extra: list[int] = field(default_factory=list)     # ids it has that the reference lacks
+    images: dict[str, Path] = field(default_factory=dict)
+
+    def message(self) -> str:
+        x, row = self.first
+        s = (f"{self.technique} differs from {self.reference} at {self.pixels} of {self.total} "
+             f"pixels; first at x={x}, row={row} (count {self.count[0]} vs {self.count[1]})")
+        if self.missing or self.extra:
+            s += f": missing lights {_ids(self.missing)}, extra lights {_ids(self.extra)}"
+        if self.images:
+            s += "; images: " + ", ".join(str(p) for p in self.images.values())
+        return s
+
+
+def _ids(ids, most: int = 12) -> str:
+    ids = list(ids)
+    return "[" + ", ".join(map(str, ids[:most])) + (f", ... {len(ids)} in all" if len(ids) > most else "") + "]"
+
+
+def check(result, reference, renderer=None, technique=None, reference_technique=None,
+          render_args: dict | None = None, out_dir=None) -> Mismatch | None:
+    """None when exact; else the Mismatch, explained with the lights that differ when the
+    renderer and both techniques are given (render_args: frame, opts, lights, ... of the
+    frame; opts are the technique's, the reference renders with its defaults) and with
+    images written to out_dir when given."""
+    mask = differing(result, reference)
+    if not mask.any():
+        return None
+    row, x = (int(v) for v in np.argwhere(mask)[0])
+    m = Mismatch(result.meta.get("technique", "?"), reference.meta.get("technique", "?"),
+                 int(mask.sum()), int(mask.size), (x, row),
+                 (int(result.contrib_count[row, x]), int(reference.contrib_count[row, x])))
+    if renderer is not None and technique is not None and reference_technique is not None:
+        args = dict(render_args or {})
+        got = renderer.render(technique, readback=False, debug_pixel=(x, row), **args).debug_lights
+        args.pop("opts", None)
+        want = renderer.render(reference_technique, readback=False, debug_pixel=(x, row),
+                               **args).debug_lights
+        m.missing = sorted(set(want.tolist()) - set(got.tolist()))
+        m.extra = sorted(set(got.tolist()) - set(want.tolist()))
+    if out_dir is not None:
+        m.images = write_images(Path(out_dir), result, reference, mask, m.first)
+    return m
+
+
+def write_images(out: Path, result, reference, mask: np.ndarray, first) -> dict[str, Path]:
+    """The technique's and the reference's tone-mapped images and a difference image (the
+    reference in grey, differing pixels red, the first one yellow), scaled up to be seen."""
+    from PIL import Image
+    from .images import tonemap
+    out.mkdir(parents=True, exist_ok=True)
+    grey = tonemap(reference.image).mean(2, keepdims=True).repeat(3, 2) * 0.5
+    diff = grey.astype(np.uint8)
+    diff[mask] = MARK
+    diff[first[1], first[0]] = FIRST
+    scale = max(1, 512 // max(mask.shape))
+    paths = {}
+    for name, rgb in ((result.meta.get("technique", "technique"), tonemap(result.image)),
+                      (reference.meta.get("technique", "reference"), tonemap(reference.image)),
+                      ("difference", diff)):
+        p = out / f"{name}.png"
+        img = Image.fromarray(np.ascontiguousarray(rgb))
+        img.resize((img.width * scale, img.height * scale), Image.NEAREST).save(p)
+        paths[name] = p
+    return paths
