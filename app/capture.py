@@ -5,8 +5,13 @@
                           [--heatmap heat.png]
 
 plus the chosen technique's own options (--tile, --slices, ...: an option it does not take
-is an error), --classify PNG (hybrid list/tree/mixed map) and --list (builtin scenes and
-techniques).
+is an error), --classify PNG (hybrid list/tree/mixed map), --check DIR (the exactness check
+against the reference technique: on a difference, images in DIR, one line naming the first
+differing pixel and its lights, exit status 1) and --list (builtin scenes and techniques).
+
+The CPU stage is built once before the measured frame: the first call of its numba kernels
+loads or compiles them, which the printed `cpu_ms` must not contain; that first build's time
+is printed apart as `cpu_warmup_ms`.
 """
 from __future__ import annotations
 
@@ -14,7 +19,11 @@ import json
 import sys
 import time
 
+from pathlib import Path
+
 from . import cli
+
+IMAGE_SUFFIXES = (".png",)
 
 
 def build_parser():
@@ -27,6 +36,8 @@ def build_parser():
     p.add_argument("--dump", help="npz dump of the contract")
     p.add_argument("--heatmap", help="lights-evaluated heat map PNG (16x16 blocks, legend)")
     p.add_argument("--classify", help="hybrid list/tree/mixed classification PNG")
+    p.add_argument("--check", metavar="DIR", help="compare with the reference technique; on a "
+                   "difference write images to DIR, name the first differing pixel, exit 1")
     p.add_argument("--list", action="store_true", help="print builtin scenes and techniques")
     cli.add_option_args(p)
     return p
@@ -45,6 +56,7 @@ def main(argv=None) -> None:
         return
     if args.frame < 0 or args.frames < 1:
         raise cli.UserError("--frame must be >= 0 and --frames >= 1")
+    check_suffixes(args)
     technique = get(args.technique)
     opts = cli.options_for(technique, args)
     scene = cli.load_scene_args(args)
@@ -52,6 +64,9 @@ def main(argv=None) -> None:
     from . import images, dump
     t0 = time.perf_counter()
     renderer = Renderer(scene, args.size)
+    warm = time.perf_counter()
+    technique.build(renderer.frame_input(args.frame, args.frames), opts)
+    warm_ms = (time.perf_counter() - warm) * 1e3
     result = renderer.render(technique, args.frame, opts, frames=args.frames)
     result.meta.update(scene=args.scene, lights=len(scene.lights), seed=args.seed)
     if args.out:
@@ -72,7 +87,31 @@ def main(argv=None) -> None:
         "exact_per_pixel": round(float(result.contrib_count[result.depth > 0].mean()) if (result.depth > 0).any() else 0.0, 3),
         "cpu_ms": {k: round(v, 2) for k, v in m["cpu_ms"].items()},
         "gpu_ms": {k: round(v, 2) for k, v in m["gpu_ms"].items()},
+        "cpu_warmup_ms": round(warm_ms, 2),
         "wall_s": round(time.perf_counter() - t0, 2)}))
+    if args.check:
+        check_against_reference(renderer, technique, opts, result, args)
+
+
+def check_suffixes(args) -> None:
+    """Output files are what their flag says: never a silently renamed file."""
+    for flag, path, ok in (("--out", args.out, IMAGE_SUFFIXES), ("--heatmap", args.heatmap, IMAGE_SUFFIXES),
+                           ("--classify", args.classify, IMAGE_SUFFIXES), ("--dump", args.dump, (".npz",))):
+        if path and Path(path).suffix.lower() not in ok:
+            raise cli.UserError(f"{flag} {path}: the file must end in {' or '.join(ok)}")
+
+
+def check_against_reference(renderer, technique, opts, result, args) -> None:
+    from .exactness import check
+    from .techniques import with_role
+    ref_t = with_role("reference")
+    ref = result if technique is ref_t else renderer.render(ref_t, args.frame, frames=args.frames)
+    m = check(result, ref, renderer, technique, ref_t,
+              {"frame": args.frame, "frames": args.frames, "opts": opts}, args.check)
+    if m is not None:
+        print(f"not exact: {m.message()}", file=sys.stderr)
+        raise SystemExit(1)
+    print(f"exact: {technique.name} equals {ref_t.name} at every pixel", file=sys.stderr)
 
 
 if __name__ == "__main__":

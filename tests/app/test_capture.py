@@ -76,3 +76,23 @@ def test_bad_scene_file_is_one_line_exit_2(tmp_path):
     r = capture("--scene", str(path), "--technique", "brute")
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and "radius" in r.stderr
+
+
+def test_output_files_keep_their_names(tmp_path):
+    """--dump x.png used to write x.png.npz silently: a file that is not what its flag
+    writes is refused in one line, and nothing is written."""
+    for flag, name in (("--dump", "x.png"), ("--out", "x.npz"), ("--heatmap", "h.jpg")):
+        r = capture("--scene", "arena", "--lights", "10", "--size", "16x16", "--technique",
+                    "brute", flag, str(tmp_path / name))
+        assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+        assert flag in r.stderr
+    assert not list(tmp_path.iterdir())
+
+
+def test_check_against_the_reference_and_warmup_apart(tmp_path):
+    r = capture("--scene", "arena", "--lights", "300", "--size", "48x27", "--technique", "tree",
+                "--check", str(tmp_path / "chk"))
+    assert r.returncode == 0, r.stderr
+    assert "exact: tree equals brute" in r.stderr
+    summary = json.loads(r.stdout)
+    assert summary["cpu_warmup_ms"] >= 0 and "cull" in summary["cpu_ms"]
