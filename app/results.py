@@ -58,7 +58,7 @@ _TAIL = [
     *[f"gpu_{p}{s}_ms" for p in GPU_PARTS for s in ("", "_min", "_max")], "gpu_passes",
     "frame_cost_ms", "frame_cost_min_ms", "frame_cost_max_ms", "setup_ms",
     "evaluated_pp", "exact_pp", "waste", "nodes_pp", "wave_iters",
-    "bytes_lights", "bytes_culling", "error_ref", "image_error", "radiance_ratio",
+    "bytes_lights", "bytes_culling", "error_ref", "image_error", "image_flip", "radiance_ratio",
     "mismatch_count", "mismatch_hash", "floor_position_pct",
 ]
 TEXT_COLUMNS = {"study", "scene", "technique", "role", "gpu_passes", "error_ref"}

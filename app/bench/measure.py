@@ -94,6 +94,18 @@ def image_error(res, ref) -> float:
     return rmse / mean if mean > 0 else rmse
 
 
+def image_flip(res, ref) -> float:
+    """Mean LDR FLIP (NVIDIA's perceptual difference metric, Andersson et al. 2020) between
+    the tone-mapped images a user sees (app.images.tonemap, sRGB), over the whole frame."""
+    import flip_evaluator
+    from ..images import tonemap
+    a = tonemap(ref.image).astype(np.float32) / 255.0
+    b = tonemap(res.image).astype(np.float32) / 255.0
+    if np.array_equal(a, b):
+        return 0.0
+    return float(flip_evaluator.evaluate(a, b, "LDR", inputsRGB=True, applyMagma=False)[1])
+
+
 def radiance_ratio(res, ref) -> float:
     """Mean linear radiance over the reference's geometry pixels, relative to the reference."""
     mask = ref.depth > 0

@@ -126,6 +126,7 @@ class Sweep:
         err_ref = self.reference_frame(renderer, job, -1 if unbounded else job.cutoff)
         r["error_ref"] = "unbounded" if unbounded else self.reference
         r["image_error"] = measure.image_error(res, err_ref)
+        r["image_flip"] = measure.image_flip(res, err_ref)
         r["radiance_ratio"] = measure.radiance_ratio(res, err_ref)
         if job.cutoff < 0:
             r["mismatch_count"] = r["mismatch_hash"] = 0

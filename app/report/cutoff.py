@@ -51,10 +51,12 @@ def fig_cutoff(rows, out, colors, roles) -> tuple[str | None, list[str]]:
 def _finding(sc, bounded, ref, cutoffs, roles) -> str:
     at = lambda c: [r for r in bounded if int(r["cutoff"]) == c]
     errs = {c: mean([r["image_error"] for r in at(c)]) for c in cutoffs}
+    flips = {c: mean([r.get("image_flip", float("nan")) for r in at(c)]) for c in cutoffs}
     vis = {c: mean([r["visible"] for r in at(c) if r["technique"] == roles.reference]) for c in cutoffs}
     ratio = {c: mean([r["radiance_ratio"] for r in at(c)]) for c in cutoffs}
-    s = f"**{sc}**: image error against the unbounded reference is " + ", ".join(
-        f"{errs[c]:.2g} at t=1/{c}" for c in cutoffs)
+    s = f"**{sc}**: image error against the unbounded reference (relative RMSE of radiance; " \
+        f"mean FLIP of the tone-mapped images) is " + ", ".join(
+            f"{errs[c]:.2g}; {flips[c]:.2g} at t=1/{c}" for c in cutoffs)
     s += " (the bounded image holds " + ", ".join(f"{100 * ratio[c]:.0f}%" for c in cutoffs) + \
          " of the reference's mean radiance"
     c0 = cutoffs[-1]
