@@ -12,6 +12,8 @@ import math
 import numba
 import numpy as np
 
+from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_SPOT
+
 from .camera import FrameCamera
 from .limits import PIXEL_MARGIN, RADIUS_REL_MARGIN
 
@@ -112,3 +114,131 @@ def spot_bounding_spheres(pos, direction, radius, cos_outer):
     s = _spheres(np.ascontiguousarray(pos, np.float64), np.ascontiguousarray(direction, np.float64),
                  np.ascontiguousarray(radius, np.float64), np.ascontiguousarray(cos_outer, np.float64))
     return s[:, :3], s[:, 3]
+
+
+# ---- the other light shapes: tight conservative screen rectangles and depth ranges ------
+# A rectangle (x0, x1, y0, y1) in pixels (GL, y up) and a depth range (d_lo, d_hi) of the
+# part of a light's volume a pixel could see: the whole volume's bounding sphere first, then,
+# per shape, a tighter cover intersected with it (both are conservative, so is the overlap).
+
+SHAPE_PIECES = 4              # spheres covering a capsule's segment
+WIDE_CONE_COS = 0.2           # past ~78 degrees a cone's pyramid is wider than its sphere
+
+
+@numba.njit(inline="always")
+def spot_pyramid(px, py, pz, dx, dy, dz, radius, cos_outer, near, tan_x, tan_y, width, height):
+    """Bounds of the square pyramid around a spot's volume (the cone of half-angle a cut by
+    the sphere): apex at the light, axis `radius` long, half side radius * tan(a) at its
+    base.  Every point of the volume lies at axial distance t <= radius and lateral distance
+    <= t tan(a), so inside it."""
+    cos_a = min(max(cos_outer, WIDE_CONE_COS), 1.0)
+    w = radius * math.sqrt(1.0 - cos_a * cos_a) / cos_a
+    # a unit vector across the axis: from the view axis least aligned with it
+    if abs(dx) < 0.6:
+        rx, ry, rz = 0.0, -dz, dy                   # x cross d
+    else:
+        rx, ry, rz = dz, 0.0, -dx                   # y cross d
+    n = math.sqrt(rx * rx + ry * ry + rz * rz)
+    rx, ry, rz = rx / n, ry / n, rz / n
+    h = 0.5 * radius
+    return box_bounds(px + dx * h, py + dy * h, pz + dz * h, dx, dy, dz, rx, ry, rz, w, w, h,
+                      near, tan_x, tan_y, width, height, 0.0)
+
+
+@numba.njit(inline="always")
+def _cover(x0, x1, y0, y1, d0, d1, cx, cy, cz, r, near, tan_x, tan_y, width, height):
+    """Union of the running bounds with a sphere's (rect and depth range)."""
+    a0, a1, b0, b1 = pixel_rect(cx, cy, cz, r, near, tan_x, tan_y, width, height)
+    return (min(x0, a0), max(x1, a1), min(y0, b0), max(y1, b1),
+            min(d0, -cz - r), max(d1, -cz + r))
+
+
+@numba.njit(inline="always")
+def capsule_pieces(px, py, pz, dx, dy, dz, radius, length, near, tan_x, tan_y, width, height):
+    """Bounds of SHAPE_PIECES spheres along the segment, each of the capsule radius plus half
+    its piece of the segment (so it holds the capsule around that piece)."""
+    x0 = y0 = d0 = math.inf
+    x1 = y1 = d1 = -math.inf
+    piece = length / SHAPE_PIECES
+    for k in range(SHAPE_PIECES):
+        t = -0.5 * length + piece * (k + 0.5)
+        cx, cy, cz = px + dx * t, py + dy * t, pz + dz * t
+        r = grow(radius + 0.5 * piece, cx, cy, cz)
+        x0, x1, y0, y1, d0, d1 = _cover(x0, x1, y0, y1, d0, d1, cx, cy, cz, r, near, tan_x, tan_y, width, height)
+    return x0, x1, y0, y1, d0, d1
+
+
+@numba.njit(inline="always")
+def _box_point(x0, x1, y0, y1, d0, d1, x, y, z, tan_x, tan_y, width, height):
+    """Add a point in front of the eye (z < 0) to the bounds."""
+    sx = (x / (-z * tan_x) * 0.5 + 0.5) * width
+    sy = (y / (-z * tan_y) * 0.5 + 0.5) * height
+    return min(x0, sx), max(x1, sx), min(y0, sy), max(y1, sy), min(d0, -z), max(d1, -z)
+
+
+@numba.njit(inline="always")
+def _corner(k, px, py, pz, rx, ry, rz, ux, uy, uz, dx, dy, dz, ex, ey, ez, back):
+    """Corner k (bits: +right, +up', +direction) of an oriented box whose face on the
+    -direction side is scaled by `back` (1: a box; 0: a pyramid with its apex there)."""
+    f = 1.0 if k & 4 else back
+    sx = ex * f if k & 1 else -ex * f
+    sy = ey * f if k & 2 else -ey * f
+    sz = ez if k & 4 else -ez
+    return (px + rx * sx + ux * sy + dx * sz, py + ry * sx + uy * sy + dy * sz,
+            pz + rz * sx + uz * sy + dz * sz)
+
+
+@numba.njit(inline="always")
+def box_bounds(px, py, pz, dx, dy, dz, rx, ry, rz, ex, ey, ez, near, tan_x, tan_y, width, height,
+               back=1.0):
+    """Bounds of the oriented box's part in front of the near plane: its corners in front, and
+    where its 12 edges cross the plane z = -near (the section of a convex polytope by a plane
+    is the hull of those crossings), projected; empty (x0 > x1) when nothing is in front.
+    Half extents grow by the float32 margin of the GPU test.  `back` < 1 shrinks the
+    -direction face (Mikkelsen's OBB with a scaled face, for cones)."""
+    ux, uy, uz = ry * dz - rz * dy, rz * dx - rx * dz, rx * dy - ry * dx      # up' = right x dir
+    # the GPU's float32 dot products err by a few ulp of |P - position| (up to the largest
+    # extent) and of the stored centre: grow every extent by a margin of both
+    pad = (RADIUS_REL_MARGIN + 8.0 * F32_EPS) * max(ex, ey, ez) + \
+        4.0 * F32_EPS * math.sqrt(px * px + py * py + pz * pz)
+    ex, ey, ez = ex + pad, ey + pad, ez + pad
+    x0 = y0 = d0 = math.inf
+    x1 = y1 = d1 = -math.inf
+    zn = -near
+    for k in range(8):
+        ax, ay, az = _corner(k, px, py, pz, rx, ry, rz, ux, uy, uz, dx, dy, dz, ex, ey, ez, back)
+        if az <= zn:
+            x0, x1, y0, y1, d0, d1 = _box_point(x0, x1, y0, y1, d0, d1, ax, ay, az,
+                                                tan_x, tan_y, width, height)
+        for bit in (1, 2, 4):          # the edges from corner k along each axis, once each
+            j = k | bit
+            if j == k:
+                continue
+            bx, by, bz = _corner(j, px, py, pz, rx, ry, rz, ux, uy, uz, dx, dy, dz, ex, ey, ez, back)
+            if (az - zn) * (bz - zn) < 0.0:
+                t = (zn - az) / (bz - az)
+                x0, x1, y0, y1, d0, d1 = _box_point(x0, x1, y0, y1, d0, d1, ax + (bx - ax) * t,
+                                                    ay + (by - ay) * t, zn, tan_x, tan_y, width, height)
+    return (x0 - PIXEL_MARGIN, x1 + PIXEL_MARGIN, y0 - PIXEL_MARGIN, y1 + PIXEL_MARGIN, d0, d1)
+
+
+@numba.njit(inline="always")
+def shape_bounds(t, px, py, pz, dx, dy, dz, rx, ry, rz, radius, cos_outer, length, ex, ey, ez,
+                 cx, cy, cz, r, near, tan_x, tan_y, width, height):
+    """(x0, x1, y0, y1, d_lo, d_hi) of a light: its culling sphere's rectangle and depth
+    range, tightened by its shape's own cover (a spot's cone, a capsule's swept sphere, a
+    box's corners)."""
+    x0, x1, y0, y1 = pixel_rect(cx, cy, cz, r, near, tan_x, tan_y, width, height)
+    d0, d1 = -cz - r, -cz + r
+    if t == LIGHT_SPOT and cos_outer >= WIDE_CONE_COS:
+        a0, a1, b0, b1, e0, e1 = spot_pyramid(px, py, pz, dx, dy, dz, radius, cos_outer,
+                                              near, tan_x, tan_y, width, height)
+    elif t == LIGHT_CAPSULE and length > 0.0:
+        a0, a1, b0, b1, e0, e1 = capsule_pieces(px, py, pz, dx, dy, dz, radius, length,
+                                                near, tan_x, tan_y, width, height)
+    elif t == LIGHT_BOX:
+        a0, a1, b0, b1, e0, e1 = box_bounds(px, py, pz, dx, dy, dz, rx, ry, rz, ex, ey, ez,
+                                            near, tan_x, tan_y, width, height)
+    else:
+        return x0, x1, y0, y1, d0, d1
+    return max(x0, a0), min(x1, a1), max(y0, b0), min(y1, b1), max(d0, e0), min(d1, e1)

@@ -35,11 +35,11 @@ class StageTimes:
 def prepare_lights(scene_lights: np.ndarray, cam: FrameCamera, times: StageTimes,
                    sort_buckets: int = 0, arena: Arena | None = None) -> PreparedLights:
     with times.stage("cull"):
-        rows, spheres = lightsmod.view_and_cull(scene_lights, cam, arena)
+        rows, spheres, shapes = lightsmod.view_and_cull(scene_lights, cam, arena)
     with times.stage("sort"):
         order = lightsmod.depth_order(-spheres[:, 2], sort_buckets)
     with times.stage("pack"):
-        pl = lightsmod.pack(rows, spheres, order, arena)
+        pl = lightsmod.pack(rows, spheres, shapes, order, arena)
     check_buffer("light buffer", pl.gpu.nbytes)
     return pl
 
@@ -48,7 +48,7 @@ def bin_cells(pl: PreparedLights, cam: FrameCamera, grid: gridmod.Grid, times: S
               arena: Arena | None = None):
     """CSR (offsets, entries) of the depth-sorted visible lights over the grid's cells."""
     with times.stage("bin"):
-        boxes = gridmod.light_boxes(grid, cam, pl.center, pl.bound_radius, arena)
+        boxes = gridmod.rect_boxes(grid, pl.rect, pl.depth_lo, pl.depth_hi, arena)
         offsets, entries = gridmod.scatter(grid, boxes, arena)
     check_buffer("light index list", entries.nbytes)
     return offsets, entries

@@ -142,6 +142,24 @@ def cell_boxes(grid: Grid, rect, depth_lo, depth_hi) -> np.ndarray:
                              np.ascontiguousarray(depth_hi, np.float64), *_grid_args(grid))
 
 
+def rect_boxes(grid: Grid, rect, depth_lo, depth_hi, arena: Arena | None = None) -> np.ndarray:
+    """(N, 6) boxes of lights from their conservative pixel rectangles (N, 4) and depth
+    ranges (cpu_prep.lights: each shape's own bounds)."""
+    out = empty(arena, "boxes", (len(rect), 6), np.int32)
+    _rect_boxes(rect, depth_lo, depth_hi, *_grid_args(grid), out)
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _rect_boxes(rect, d_lo, d_hi, tile, tiles_x, tiles_y, slices, scale, bias, out):
+    for i in range(rect.shape[0]):
+        x0, x1, y0, y1, lo, hi = rect[i, 0], rect[i, 1], rect[i, 2], rect[i, 3], float(d_lo[i]), float(d_hi[i])
+        if not (x0 <= x1 and y0 <= y1 and lo <= hi):     # nothing of the light can be seen
+            out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = 1, 0, 1, 0, 1, 0
+            continue
+        out[i] = _box(x0, x1, y0, y1, lo, hi, tile, tiles_x, tiles_y, slices, scale, bias)
+
+
 def light_boxes(grid: Grid, cam: FrameCamera, center, radius, arena: Arena | None = None) -> np.ndarray:
     """(N, 6) boxes of culling spheres: Mara-McGuire rectangle and depth range per light."""
     out = empty(arena, "boxes", (len(center), 6), np.int32)

@@ -40,8 +40,10 @@ GPU_LIGHT = np.dtype([
     ("color_cos_inner", np.float32, 4),  # rgb color * intensity, w cos(inner angle)
     ("dir_cos_outer", np.float32, 4),    # xyz view-space unit direction, w cos(outer angle)
     ("id_type", np.uint32, 4),           # x light id (scene order), y type, zw unused
+    ("extent_length", np.float32, 4),    # xyz box half extents, w capsule segment length
+    ("right", np.float32, 4),            # xyz box right axis (view space), w unused
 ])
-assert GPU_LIGHT.itemsize == 64
+assert GPU_LIGHT.itemsize == 96
 
 # Culling bound of one light: bounding sphere of its volume (spot: of the cone), view space,
 # radius already grown by limits.RADIUS_REL_MARGIN.
@@ -113,6 +115,7 @@ def words(dtype: np.dtype) -> dict[str, int]:
 _L = words(GPU_LIGHT)
 LIGHT_POS_RADIUS, LIGHT_COLOR_COS_INNER = _L["pos_radius"], _L["color_cos_inner"]
 LIGHT_DIR_COS_OUTER, LIGHT_ID_TYPE = _L["dir_cos_outer"], _L["id_type"]
+LIGHT_EXTENT_LENGTH, LIGHT_RIGHT = _L["extent_length"], _L["right"]
 LIGHT_WORDS = GPU_LIGHT.itemsize // 4
 _N = words(TREE_NODE)
 NODE_MIN_DEPTH, NODE_MAX_DEPTH, NODE_FIRST_LIGHT, NODE_BITS = (

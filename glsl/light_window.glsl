@@ -16,3 +16,12 @@ vec3 lambert(GpuLight L, vec3 d, float d2, vec3 N) {
     vec3 l = -d * inversesqrt(max(d2, 1e-30));
     return L.color_cos_inner.rgb * max(dot(N, l), 0.0) * window_attenuation(d2, L.pos_radius.w);
 }
+
+// Inside the light's sphere (point and spot lights; every point with UNBOUNDED_FALLOFF).
+bool sphere_reaches(GpuLight L, float d2) {
+#if defined(UNBOUNDED_FALLOFF) && UNBOUNDED_FALLOFF
+    return true;
+#else
+    return d2 < L.pos_radius.w * L.pos_radius.w;
+#endif
+}

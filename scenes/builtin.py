@@ -12,9 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from .geometry import box_mesh, max_depth_for, merge_meshes, ramp_mesh
-from .lights import on_geometry, sample_on_geometry, spot_lights, uniform_in_box
+from .lights import _fill_common, on_geometry, sample_on_geometry, sample_radii, spot_lights, uniform_in_box
 from .errors import MAX_LIGHTS, SceneError
-from .model import Camera, Mesh, Scene, make_lights
+from .model import LIGHT_BOX, LIGHT_CAPSULE, Camera, Mesh, Scene, make_lights
 
 DISTRIBUTIONS = ("uniform", "geometry")
 RESOLUTION = (960, 540)
@@ -311,9 +311,86 @@ def build_gallery(lights: int | None = None, seed: int = 0, distribution: str | 
     return _finish("gallery", cams, meshes, ls)
 
 
+CORRIDOR_LO = (-4.0, 0.0, -120.0)
+CORRIDOR_HI = (4.0, 4.0, 8.0)
+WINDOW_EVERY = 6.0              # a window in the left wall every 6 m
+WINDOW = (2.0, 2.2, 1.0)        # its width (along z), height, sill height (m)
+
+
+def _corridor_geometry() -> list[Mesh]:
+    """A long corridor: floor, ceiling, a right wall with piers, a left wall with windows
+    (the openings are gaps between wall pieces) and a few crates."""
+    lo, hi = np.array(CORRIDOR_LO), np.array(CORRIDOR_HI)
+    wall, floor, crate = (0.8, 0.78, 0.74), (0.55, 0.55, 0.58), (0.6, 0.45, 0.3)
+    ms = [box_mesh((lo[0], -0.2, lo[2]), (hi[0], 0.0, hi[2]), floor),
+          box_mesh((lo[0], hi[1], lo[2]), (hi[0], hi[1] + 0.2, hi[2]), wall),
+          box_mesh((hi[0], 0.0, lo[2]), (hi[0] + 0.3, hi[1], hi[2]), wall),
+          box_mesh((lo[0], 0.0, lo[2] - 0.3), (hi[0], hi[1], lo[2]), wall),
+          box_mesh((lo[0], 0.0, hi[2]), (hi[0], hi[1], hi[2] + 0.3), wall)]
+    w, h, sill = WINDOW
+    z = hi[2]
+    for zc in np.arange(hi[2] - WINDOW_EVERY / 2, lo[2], -WINDOW_EVERY):
+        x0, x1 = lo[0] - 0.3, lo[0]
+        ms.append(box_mesh((x0, 0.0, zc + w / 2), (x1, hi[1], z), wall))          # wall piece
+        ms.append(box_mesh((x0, 0.0, zc - w / 2), (x1, sill, zc + w / 2), wall))  # below
+        ms.append(box_mesh((x0, sill + h, zc - w / 2), (x1, hi[1], zc + w / 2), wall))
+        z = zc - w / 2
+    ms.append(box_mesh((lo[0] - 0.3, 0.0, lo[2]), (lo[0], hi[1], z), wall))
+    for zc in np.arange(-10.0, lo[2], -17.0):                                    # piers, crates
+        ms.append(box_mesh((hi[0] - 0.6, 0.0, zc - 0.4), (hi[0], hi[1], zc + 0.4), wall, bottom=False))
+        ms.append(box_mesh((-1.5, 0.0, zc - 6.0), (-0.3, 1.0, zc - 4.8), crate, bottom=False))
+    return ms
+
+
+def build_corridor(lights: int | None = None, seed: int = 0, distribution: str | None = None) -> Scene:
+    """All four light shapes (issue 11): tube lights (capsules) along the ceiling, light
+    shafts (boxes) in the windows of the left wall, spots washing the right wall, and point
+    lights (uniform in the corridor or on its geometry).  `lights=N`: 40% capsules, 20%
+    boxes, 20% spots, the rest points; default 512."""
+    n, rng, dist = _check_args("corridor", lights, seed, distribution, 512, "uniform")
+    meshes = _corridor_geometry()
+    lo, hi = np.array(CORRIDOR_LO), np.array(CORRIDOR_HI)
+    n_cap, n_box, n_spot = int(0.4 * n), int(0.2 * n), int(0.2 * n)
+    n_point = n - n_cap - n_box - n_spot
+    caps = make_lights(n_cap)                   # tubes below the ceiling, along the corridor
+    caps["type"] = LIGHT_CAPSULE
+    caps["position"] = np.column_stack([rng.uniform(-2.5, 2.5, n_cap), np.full(n_cap, hi[1] - 0.3),
+                                        rng.uniform(lo[2], hi[2], n_cap)])
+    caps["direction"] = (0.0, 0.0, 1.0)
+    caps["length"] = rng.uniform(1.0, 3.0, n_cap)
+    _fill_common(caps, sample_radii(n_cap, rng, (1.0, 6.0)), rng)
+    boxes = make_lights(n_box)                  # shafts through the windows, into the corridor
+    boxes["type"] = LIGHT_BOX
+    windows = np.arange(hi[2] - WINDOW_EVERY / 2, lo[2], -WINDOW_EVERY)
+    zc = rng.choice(windows, n_box) + rng.uniform(-0.3, 0.3, n_box)
+    depth = rng.uniform(1.5, 4.0, n_box)        # how far the shaft reaches into the room
+    tilt = np.radians(rng.uniform(-35.0, -10.0, n_box))
+    d = np.column_stack([np.cos(tilt), np.sin(tilt), np.zeros(n_box)])
+    boxes["direction"] = d
+    boxes["up"] = (0.0, 0.0, 1.0)
+    boxes["extent"] = np.column_stack([rng.uniform(0.6, 1.0, n_box), np.full(n_box, WINDOW[1] / 2), depth])
+    boxes["position"] = np.column_stack([np.full(n_box, lo[0]), np.full(n_box, WINDOW[2] + WINDOW[1] / 2),
+                                         zc]) + d * depth[:, None]
+    _fill_common(boxes, sample_radii(n_box, rng, (1.0, 3.0)), rng)
+    boxes["intensity"] = rng.uniform(0.3, 1.0, n_box)
+    pos = np.column_stack([np.full(n_spot, lo[0] + 0.5), rng.uniform(2.5, 3.8, n_spot),
+                           rng.uniform(lo[2], hi[2], n_spot)])
+    aim = np.column_stack([np.full(n_spot, hi[0]), rng.uniform(0.0, 2.0, n_spot), pos[:, 2] + rng.uniform(-3, 3, n_spot)])
+    spots = spot_lights(pos, aim - pos, rng, (4.0, 12.0), outer_deg_range=(15.0, 40.0))
+    points = _distribute(n_point, dist, meshes, lo, hi, rng, (0.3, 2.0))
+    cams = _cams([((0.0, 1.7, 6.0), (0.0, 1.6, -40.0)),          # down the corridor
+                  ((2.5, 2.0, -30.0), (-4.0, 1.5, -34.0)),        # at the windows' shafts
+                  ((-1.0, 3.0, -70.0), (1.0, 1.0, -100.0)),       # under the tubes, looking down
+                  ((3.0, 1.2, -90.0), (-4.0, 2.5, -92.0)),        # up at a window
+                  ((0.0, 1.7, -115.0), (0.0, 1.7, 0.0))],         # back along the corridor
+                 near=0.1, far=200.0)
+    return _finish("corridor", cams, meshes, np.concatenate([caps, boxes, spots, points]))
+
+
 BUILTIN_SCENES = {
     "city": build_city,
     "arena": build_arena,
     "hangar": build_hangar,
     "gallery": build_gallery,
+    "corridor": build_corridor,
 }

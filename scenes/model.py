@@ -4,8 +4,15 @@
 
 Lights are one structured numpy array (LIGHT_DTYPE), one row per light; a light's
 id is its row index.  The light model (DESIGN.md "Light model"): a light affects
-a point only inside its finite volume, a sphere of `radius`, cut by the cone of
-`cos_outer` for spot lights.
+a point only inside its finite volume:
+
+    point    distance(P, position) < radius
+    spot     the point's sphere, cut by the cone of half-angle acos(cos_outer) around direction
+    capsule  distance(P, segment) < radius; the segment is centred at position, along
+             direction, `length` long (0: a point light)
+    box      P strictly inside the oriented box centred at position, axes
+             right = normalize(cross(direction, up)), up' = cross(right, direction), direction,
+             half extents `extent` (along right, up', direction); radius is ignored
 """
 from __future__ import annotations
 
@@ -16,9 +23,11 @@ import numpy as np
 # The light type ids of the scene contract (DESIGN "Contract: scene files"), defined here
 # once: index = type id.  The CPU stage, the loader and the generated GLSL (LIGHT_SPOT ...)
 # all read this tuple.
-LIGHT_TYPES = ("point", "spot")
+LIGHT_TYPES = ("point", "spot", "capsule", "box")
 LIGHT_POINT = LIGHT_TYPES.index("point")
 LIGHT_SPOT = LIGHT_TYPES.index("spot")
+LIGHT_CAPSULE = LIGHT_TYPES.index("capsule")
+LIGHT_BOX = LIGHT_TYPES.index("box")
 LIGHT_TYPE_NAMES = dict(enumerate(LIGHT_TYPES))
 
 LIGHT_DTYPE = np.dtype([
@@ -27,9 +36,12 @@ LIGHT_DTYPE = np.dtype([
     ("radius", np.float32),
     ("color", np.float32, 3),
     ("intensity", np.float32),
-    ("direction", np.float32, 3),   # unit vector, spot lights only
+    ("direction", np.float32, 3),   # unit vector: spot axis, capsule segment, box light direction
     ("cos_inner", np.float32),
     ("cos_outer", np.float32),
+    ("length", np.float32),         # capsule segment length
+    ("up", np.float32, 3),          # box: with direction, the box's orientation
+    ("extent", np.float32, 3),      # box half extents along right, up', direction
 ], align=True)   # aligned fields: the CPU stage's numba kernels read records directly
 
 
@@ -41,6 +53,7 @@ def make_lights(n: int) -> np.ndarray:
     lights["direction"] = (0.0, -1.0, 0.0)
     lights["cos_inner"] = 1.0
     lights["cos_outer"] = 1.0
+    lights["up"] = (0.0, 0.0, -1.0)
     return lights
 
 

@@ -37,6 +37,67 @@ def random_lights(rng, n: int, lo, hi, radius=(0.3, 6.0), spot_share: float = 0.
     return lights
 
 
+def random_shapes(rng, n: int, lo, hi, radius=(0.2, 5.0), length=(0.0, 12.0), extent=(0.05, 6.0),
+                  shares=(0.25, 0.25, 0.25, 0.25), outer_deg=(0.5, 90.0)):
+    """n lights of the four shapes (point, spot, capsule, box) in `shares`, each with its own
+    random parameters: spot angles up to 90 and inner 0, capsules of length 0, flat boxes."""
+    from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_SPOT
+    lights = random_lights(rng, n, lo, hi, radius, spot_share=0.0)
+    kind = rng.choice(4, n, p=np.asarray(shares) / np.sum(shares))
+    lights["type"] = kind
+    spot, cap, box = kind == LIGHT_SPOT, kind == LIGHT_CAPSULE, kind == LIGHT_BOX
+    outer = rng.uniform(*outer_deg, n)
+    inner = np.where(rng.random(n) < 0.3, 0.0, outer * rng.uniform(0.0, 1.0, n))
+    lights["cos_outer"][spot] = np.cos(np.radians(outer[spot]))
+    lights["cos_inner"][spot] = np.cos(np.radians(inner[spot]))
+    lights["length"][cap] = np.where(rng.random(cap.sum()) < 0.2, 0.0, rng.uniform(*length, cap.sum()))
+    up = rng.normal(size=(n, 3))
+    lights["up"] = up / np.linalg.norm(up, axis=1, keepdims=True)
+    lights["extent"][box] = rng.uniform(*extent, (box.sum(), 3))
+    return lights
+
+
+def affects64(P: np.ndarray, lights: np.ndarray, view_from_world: np.ndarray, rel: float = 1e-4):
+    """(inside, near) (N_points, N_lights) bools in float64: whether each light's volume
+    (DESIGN "Light model") holds each view-space point, and whether the point lies within
+    `rel` of the volume's boundary (where float32 may decide either way)."""
+    from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_SPOT
+    m = np.asarray(view_from_world, np.float64)
+    rot = lambda v: np.asarray(v, np.float64) @ m[:3, :3].T
+    unit = lambda v: v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
+    L = rot(lights["position"]) + m[:3, 3]
+    D = unit(rot(lights["direction"]))
+    r = lights["radius"].astype(np.float64)
+    t = lights["type"]
+    v = P[:, None, :] - L[None]                                     # (N, L, 3)
+    dist = np.linalg.norm(v, axis=2)
+    # point (and the sphere of a spot): margin relative to the radius
+    inside, near = dist < r, np.abs(dist - r) < rel * r
+    # spot: also inside the cone
+    along = np.einsum("plk,lk->pl", v, D) / np.maximum(dist, 1e-300)
+    cos_o = lights["cos_outer"].astype(np.float64)
+    spot = t == LIGHT_SPOT
+    inside = np.where(spot, inside & (along > cos_o), inside)
+    near = np.where(spot, near | (np.abs(along - cos_o) < rel), near)
+    # capsule: distance to the segment
+    h = 0.5 * lights["length"].astype(np.float64)
+    s = np.clip(np.einsum("plk,lk->pl", v, D), -h, h)
+    q = np.linalg.norm(v - s[..., None] * D[None], axis=2)
+    cap = t == LIGHT_CAPSULE
+    inside = np.where(cap, q < r, inside)
+    near = np.where(cap, np.abs(q - r) < rel * (r + h), near)
+    # box: local coordinates inside the half extents
+    R = unit(np.cross(D, unit(rot(lights["up"]))))
+    U = np.cross(R, D)
+    loc = np.stack([np.einsum("plk,lk->pl", v, A) for A in (R, U, D)], -1)
+    ext = lights["extent"].astype(np.float64)
+    box = t == LIGHT_BOX
+    rel_box = rel * ext.max(1)[None, :, None]
+    inside = np.where(box, (np.abs(loc) < ext[None]).all(-1), inside)
+    near = np.where(box, (np.abs(np.abs(loc) - ext[None]) < rel_box).any(-1), near)
+    return inside, near
+
+
 def make_scene(lights, meshes=None, size=(96, 64), camera=None, max_depth=150.0, name="test"):
     camera = camera or Camera((0.0, 3.0, 10.0), (0.0, 1.0, -20.0), near=0.1, far=200.0)
     return Scene(name, tuple(size), camera, meshes if meshes is not None else floor_and_boxes(),

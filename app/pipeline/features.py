@@ -31,30 +31,31 @@ def feature_set(light_types: np.ndarray) -> tuple[str, ...]:
     return names or ("point",)
 
 
+# Per light shape: the include its code lives in, its "affects" test and its radiance, as
+# GLSL expressions of (GpuLight L, vec3 d = P - position, float d2 = dot(d, d), vec3 N).
+SHAPES = {
+    "point": ("", "sphere_reaches(L, d2)", "lambert(L, d, d2, N)"),
+    "spot": ("light_spot.glsl", "sphere_reaches(L, d2) && spot_cone_contains(L, d, d2)",
+             "lambert(L, d, d2, N) * spot_falloff(L, d, d2)"),
+    "capsule": ("light_capsule.glsl", "capsule_contains(L, d)", "capsule_radiance(L, d, N)"),
+    "box": ("light_box.glsl", "box_contains(L, d)", "box_radiance(L, d, N)"),
+}
+assert tuple(SHAPES) == LIGHT_TYPES
+
+
 @lru_cache(maxsize=None)   # the same text objects every frame: cache keys hash once
 def features_glsl(features: tuple[str, ...]) -> str:
-    spot, point = "spot" in features, "point" in features
+    """light_affects / light_radiance for exactly the shapes present: one type test per
+    shape but the last (a scene of one shape tests no type)."""
+    present = [t for t in LIGHT_TYPES if t in features]
     out = ['#include "light_window.glsl"']
-    if spot:
-        out.append('#include "light_spot.glsl"')
-    # light_affects: inside the sphere, and for spots inside the cone.
-    out.append("bool light_affects(GpuLight L, vec3 d, float d2) {")
-    out.append("#if !(defined(UNBOUNDED_FALLOFF) && UNBOUNDED_FALLOFF)")
-    out.append("    if (!(d2 < L.pos_radius.w * L.pos_radius.w)) return false;")
-    out.append("#endif")
-    if spot and point:
-        out.append("    if (L.id_type.y == LIGHT_SPOT) return spot_cone_contains(L, d, d2);")
-    elif spot:
-        out.append("    return spot_cone_contains(L, d, d2);")
-    out.append("    return true;\n}")
-    out.append("vec3 light_radiance(GpuLight L, vec3 d, float d2, vec3 N) {")
-    if spot and point:
-        out.append("    float f = L.id_type.y == LIGHT_SPOT ? spot_falloff(L, d, d2) : 1.0;")
-        out.append("    return lambert(L, d, d2, N) * f;\n}")
-    elif spot:
-        out.append("    return lambert(L, d, d2, N) * spot_falloff(L, d, d2);\n}")
-    else:
-        out.append("    return lambert(L, d, d2, N);\n}")
+    out += [f'#include "{SHAPES[t][0]}"' for t in present if SHAPES[t][0]]
+    for fn, col, ret in (("light_affects", 1, "bool"), ("light_radiance", 2, "vec3")):
+        args = "GpuLight L, vec3 d, float d2" + (", vec3 N" if fn == "light_radiance" else "")
+        out.append(f"{ret} {fn}({args}) {{")
+        for t in present[:-1]:
+            out.append(f"    if (L.id_type.y == LIGHT_{t.upper()}) return {SHAPES[t][col]};")
+        out.append(f"    return {SHAPES[present[-1]][col]};\n}}")
     return "\n".join(out) + "\n"
 
 

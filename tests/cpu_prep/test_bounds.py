@@ -68,3 +68,100 @@ def test_spot_bounding_sphere_contains_cone(angle, r, seed):
     assert rad[0] <= r + 1e-12
     dist = np.linalg.norm(pts[inside] - c[0], axis=1)
     assert dist.size == 0 or dist.max() <= rad[0] * (1 + 1e-9) + 1e-12
+
+
+# ---- the other shapes: every point of the volume in front of the near plane projects inside
+# the rectangle, and its depth lies in the depth range ------------------------------------
+
+def _unit(v):
+    return v / np.linalg.norm(v)
+
+
+def _check_inside(pts, cam, rect):
+    pts = pts[-pts[:, 2] >= cam.near]
+    if len(pts) == 0:
+        return 0
+    x0, x1, y0, y1, d0, d1 = rect
+    x, y = project_px(pts, cam)
+    d = -pts[:, 2]
+    assert x.min() >= x0 and x.max() <= x1 and y.min() >= y0 and y.max() <= y1, (rect, x.min(), x.max(), y.min(), y.max())
+    assert d.min() >= d0 and d.max() <= d1
+    return len(pts)
+
+
+def _bounds_of(t, p, d, right, radius, cos_o, length, ext, cam):
+    """shape_bounds through the same culling sphere the cull kernel would use."""
+    from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_SPOT
+    c, r = p, radius
+    if t == LIGHT_SPOT:
+        (c,), (r,) = bounds.spot_bounding_spheres(p[None], d[None], np.array([radius]), np.array([cos_o]))
+    elif t == LIGHT_CAPSULE:
+        r = radius + length / 2
+    elif t == LIGHT_BOX:
+        r = float(np.linalg.norm(ext))
+    r = r * (1 + 1e-5) + 1e-6 * np.linalg.norm(c)
+    return bounds.shape_bounds(t, *p, *d, *right, radius, cos_o, length, *ext, *c, r,
+                               cam.near, cam.tan_half_x, cam.tan_half_y, float(cam.width), float(cam.height))
+
+
+POS = st.tuples(st.floats(-15, 15), st.floats(-15, 15), st.floats(-40, 3))
+
+
+@settings(max_examples=200, deadline=None)
+@given(POS, st.floats(0.05, 10), st.floats(0.0, 30), st.floats(10, 150), st.integers(0, 2**31))
+def test_capsule_rect_contains_its_volume(pos, r, length, fov, seed):
+    from scenes.model import LIGHT_CAPSULE
+    cam = camera(fov=fov)
+    rng = np.random.default_rng(seed)
+    p, d = np.array(pos), _unit(rng.normal(size=3))
+    rect = _bounds_of(LIGHT_CAPSULE, p, d, np.zeros(3), r, 1.0, length, np.zeros(3), cam)
+    t = rng.uniform(-length / 2, length / 2, 6000)
+    pts = sphere_samples(rng, np.zeros(3), r, 6000) + p + t[:, None] * d
+    _check_inside(pts, cam, rect)
+
+
+@settings(max_examples=200, deadline=None)
+@given(POS, st.tuples(st.floats(0.01, 8), st.floats(0.01, 8), st.floats(0.01, 8)),
+       st.floats(10, 150), st.integers(0, 2**31))
+def test_box_rect_contains_its_volume(pos, ext, fov, seed):
+    """Boxes in front, across the near plane, around the eye and behind it."""
+    from scenes.model import LIGHT_BOX
+    cam = camera(fov=fov)
+    rng = np.random.default_rng(seed)
+    p, ext = np.array(pos), np.array(ext)
+    d = _unit(rng.normal(size=3))
+    right = _unit(np.cross(d, _unit(rng.normal(size=3))))
+    up = np.cross(right, d)
+    rect = _bounds_of(LIGHT_BOX, p, d, right, 1.0, 1.0, 0.0, ext, cam)
+    loc = rng.uniform(-1, 1, (6000, 3)) * ext
+    loc[:64] = np.sign(rng.normal(size=(64, 3))) * ext          # the corners too
+    pts = p + loc[:, :1] * right + loc[:, 1:2] * up + loc[:, 2:] * d
+    _check_inside(pts, cam, rect)
+
+
+@settings(max_examples=200, deadline=None)
+@given(POS, st.floats(0.05, 20), st.floats(0.0, 90.0), st.floats(10, 150), st.integers(0, 2**31))
+def test_spot_cone_rect_contains_its_volume(pos, r, angle, fov, seed):
+    from scenes.model import LIGHT_SPOT
+    cam = camera(fov=fov)
+    rng = np.random.default_rng(seed)
+    p, d = np.array(pos), _unit(rng.normal(size=3))
+    cos_o = math.cos(math.radians(angle))
+    rect = _bounds_of(LIGHT_SPOT, p, d, np.zeros(3), r, cos_o, 0.0, np.zeros(3), cam)
+    v = sphere_samples(rng, np.zeros(3), r, 20000)
+    inside = (v @ d) > cos_o * np.linalg.norm(v, axis=1)
+    _check_inside(p + v[inside], cam, rect)
+
+
+def test_cone_and_box_covers_are_tighter_than_spheres():
+    """A narrow spot seen from the side and a thin box: the shape's own rectangle is much
+    smaller than its bounding sphere's."""
+    from scenes.model import LIGHT_BOX, LIGHT_SPOT
+    cam = camera()
+    p, d = np.array([-3.0, 0.0, -20.0]), np.array([1.0, 0.0, 0.0])
+    spot = _bounds_of(LIGHT_SPOT, p, d, np.zeros(3), 8.0, math.cos(math.radians(5)), 0, np.zeros(3), cam)
+    sphere = bounds.screen_rects(p[None] + d * 4.0, np.array([4.0]), cam)
+    area = lambda x0, x1, y0, y1: (x1 - x0) * (y1 - y0)
+    assert area(*spot[:4]) < 0.3 * area(*(v[0] for v in sphere))
+    box = _bounds_of(LIGHT_BOX, p, d, np.array([0.0, 0.0, 1.0]), 1.0, 1.0, 0, np.array([3.0, 3.0, 0.1]), cam)
+    assert box[1] - box[0] < 0.5 * (box[3] - box[2])      # thin along x on screen

@@ -5,15 +5,16 @@ import trimesh
 
 from scenes import BUILTIN_SCENES, LIGHT_DTYPE, Camera, Scene, SceneError, load_scene
 from scenes.geometry import mesh_triangles
-from scenes.model import LIGHT_POINT, LIGHT_SPOT
+from scenes.model import LIGHT_POINT, LIGHT_SPOT, LIGHT_TYPE_NAMES
 
-DEFAULT_LIGHTS = {"city": 4096, "arena": 4096, "hangar": 512, "gallery": 46}
-DEFAULT_DIST = {"city": "geometry", "arena": "uniform", "hangar": "uniform", "gallery": "geometry"}
+DEFAULT_LIGHTS = {"city": 4096, "arena": 4096, "hangar": 512, "gallery": 46, "corridor": 512}
+DEFAULT_DIST = {"city": "geometry", "arena": "uniform", "hangar": "uniform", "gallery": "geometry",
+                "corridor": "uniform"}
 NAMES = list(BUILTIN_SCENES)
 
 
 def test_registry_order():
-    assert NAMES == ["city", "arena", "hangar", "gallery"]
+    assert NAMES == ["city", "arena", "hangar", "gallery", "corridor"]
 
 
 def _check_scene(s: Scene, n: int):
@@ -26,7 +27,7 @@ def _check_scene(s: Scene, n: int):
             assert np.all(np.isfinite(L[k])), k
     assert np.all(L["radius"] > 0)
     assert np.all(L["color"] >= 0) and np.all(L["intensity"] >= 0)
-    assert set(np.unique(L["type"]).tolist()) <= {LIGHT_POINT, LIGHT_SPOT}
+    assert set(np.unique(L["type"]).tolist()) <= set(range(len(LIGHT_TYPE_NAMES)))
     spot = L["type"] == LIGHT_SPOT
     np.testing.assert_allclose(np.linalg.norm(L["direction"][spot], axis=1), 1.0, atol=1e-5)
     assert np.all(L["cos_inner"] >= L["cos_outer"])
@@ -78,7 +79,11 @@ def test_geometry_distribution_touches_geometry(name):
     tris = mesh_triangles(s.meshes)
     L = s.lights
     d = _min_dist_to_triangles(L["position"].astype(np.float64), tris)
-    assert np.all(d <= L["radius"]), (d - L["radius"]).max()
+    # the reach of each shape's volume from its position (DESIGN "Light model")
+    from scenes.model import LIGHT_BOX, LIGHT_CAPSULE
+    reach = np.where(L["type"] == LIGHT_CAPSULE, L["radius"] + L["length"] / 2, L["radius"])
+    reach = np.where(L["type"] == LIGHT_BOX, np.linalg.norm(L["extent"], axis=1), reach)
+    assert np.all(d <= reach), (d - reach).max()
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -138,6 +143,19 @@ def test_gallery_spots(dist):
     # --lights N changes the count, spots stay the majority
     s2 = BUILTIN_SCENES["gallery"](100, 0, dist)
     assert len(s2.lights) == 100 and (s2.lights["type"] == LIGHT_SPOT).sum() == 94
+
+
+@pytest.mark.parametrize("dist", ["geometry", "uniform"])
+def test_corridor_mixes_all_four_shapes(dist):
+    from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_TYPES
+    L = BUILTIN_SCENES["corridor"](1000, 0, dist).lights
+    counts = np.bincount(L["type"], minlength=len(LIGHT_TYPES))
+    assert counts.tolist() == [200, 200, 400, 200]
+    cap, box = L[L["type"] == LIGHT_CAPSULE], L[L["type"] == LIGHT_BOX]
+    assert (cap["length"] >= 1.0).all() and np.allclose(cap["direction"], (0, 0, 1))
+    assert (box["extent"] > 0).all()
+    # a box's up is never along its direction (its axes are defined)
+    assert (np.abs(np.einsum("ij,ij->i", box["up"], box["direction"])) < 0.99).all()
 
 
 def test_zero_lights_allowed():

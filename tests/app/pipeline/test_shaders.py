@@ -57,7 +57,7 @@ def test_every_glsl_file_is_reachable():
     used = set()
     for comp in shaders.GLSL_DIR.glob("*.comp"):
         from app.pipeline import features
-        used |= set(Source(comp.name, features.virtual_files(("point", "spot"))).files)
+        used |= set(Source(comp.name, features.virtual_files(features.LIGHT_TYPES)).files)
     missing = {p.name for p in shaders.GLSL_DIR.glob("*.glsl")} - used
     assert not missing, f"unused shader files: {missing}"
 
