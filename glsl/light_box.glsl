@@ -15,7 +15,8 @@ bool box_contains(GpuLight L, vec3 d) {
     return all(lessThan(abs(p), L.extent_length.xyz));
 }
 
-vec3 box_radiance(GpuLight L, vec3 d, vec3 N) {
+vec3 box_radiance(GpuLight L, vec3 d, vec3 N, out vec3 l) {
+    l = -L.dir_cos_outer.xyz;
     vec3 m = abs(box_local(L, d)) / max(L.extent_length.xyz, vec3(1e-30));
     float e = max(max(m.x, m.y), m.z);
     float w = clamp(1.0 - e * e * e * e, 0.0, 1.0);

@@ -16,7 +16,7 @@ bool capsule_contains(GpuLight L, vec3 d) {
     return sphere_reaches(L, q2);
 }
 
-vec3 capsule_radiance(GpuLight L, vec3 d, vec3 N) {
+vec3 capsule_radiance(GpuLight L, vec3 d, vec3 N, out vec3 l) {
     vec3 q = capsule_offset(L, d);
-    return lambert(L, q, dot(q, q), N);
+    return lambert(L, q, dot(q, q), N, l);
 }

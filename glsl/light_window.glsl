@@ -12,8 +12,10 @@ float window_attenuation(float d2, float r) {
     return w * w / (d2 + 1.0);
 }
 
-vec3 lambert(GpuLight L, vec3 d, float d2, vec3 N) {
-    vec3 l = -d * inversesqrt(max(d2, 1e-30));
+// Light arriving at the surface from a point at offset -d (times the surface's response,
+// material.glsl); l: the unit direction towards the light.
+vec3 lambert(GpuLight L, vec3 d, float d2, vec3 N, out vec3 l) {
+    l = -d * inversesqrt(max(d2, 1e-30));
     return L.color_cos_inner.rgb * max(dot(N, l), 0.0) * window_attenuation(d2, L.pos_radius.w);
 }
 

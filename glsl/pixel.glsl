@@ -44,6 +44,8 @@ struct PixelState {
     float depth;      // linear view depth
     vec3 N;
     vec3 albedo;
+    float roughness;  // GGX roughness, 0 = matte (Lambert only)
+    float metallic;
     vec3 radiance;
     uint evaluated;   // lights the loop evaluated
     uint count;       // evaluated lights that affect the pixel
@@ -53,6 +55,7 @@ struct PixelState {
 };
 
 #include "features.glsl"
+#include "material.glsl"
 
 PixelState load_pixel_at(ivec2 pixel) {
     PixelState s;
@@ -62,8 +65,12 @@ PixelState load_pixel_at(ivec2 pixel) {
     s.P = pos.xyz;
     s.depth = pos.w;
     s.shading = s.inside && pos.w > 0.0;
-    s.N = s.inside ? texelFetch(g_normal, s.pixel, 0).xyz : vec3(0.0, 0.0, 1.0);
-    s.albedo = s.inside ? texelFetch(g_albedo, s.pixel, 0).rgb : vec3(0.0);
+    vec4 n = s.inside ? texelFetch(g_normal, s.pixel, 0) : vec4(0.0, 0.0, 1.0, 0.0);
+    vec4 a = s.inside ? texelFetch(g_albedo, s.pixel, 0) : vec4(0.0);
+    s.N = n.xyz;
+    s.roughness = n.w;
+    s.albedo = a.rgb;
+    s.metallic = a.a;
     s.radiance = vec3(0.0);
     s.evaluated = 0u; s.count = 0u; s.hash = 0u; s.nodes = 0u; s.seq = 0u;
     return s;
@@ -95,7 +102,9 @@ void evaluate_light(inout PixelState s, GpuLight L) {
 #endif
         s.count++;
         s.hash ^= mix_hash(L.id_type.x);
-        s.radiance += light_radiance(L, d, d2, s.N) * s.albedo;
+        vec3 l;
+        vec3 arriving = light_radiance(L, d, d2, s.N, l);
+        s.radiance += arriving * surface_response(s.N, normalize(-s.P), l, s.albedo, s.roughness, s.metallic);
     }
 }
 

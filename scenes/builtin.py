@@ -68,8 +68,10 @@ def _city_geometry() -> list[Mesh]:
     g = np.random.default_rng(1001)           # fixed layout
     palette = [(0.62, 0.60, 0.56), (0.55, 0.52, 0.50), (0.70, 0.66, 0.58),
                (0.45, 0.47, 0.52), (0.75, 0.72, 0.68)]
-    meshes = [box_mesh((-160, -1, -CITY_LENGTH - 120), (160, 0, 60), (0.35, 0.35, 0.36),
-                       bottom=False)]
+    street = box_mesh((-160, -1, -CITY_LENGTH - 120), (160, 0, 60), (0.35, 0.35, 0.36),
+                      bottom=False)
+    street.roughness = 0.35                   # wet asphalt: GGX highlights of the lights
+    meshes = [street]
     half_street = 12.0
     for side in (-1.0, 1.0):
         for row, (x0, depth, hmin, hmax) in enumerate(((half_street, (18, 32), 8, 70),
@@ -317,12 +319,18 @@ WINDOW_EVERY = 6.0              # a window in the left wall every 6 m
 WINDOW = (2.0, 2.2, 1.0)        # its width (along z), height, sill height (m)
 
 
+def _with(mesh: Mesh, **material) -> Mesh:
+    for k, v in material.items():
+        setattr(mesh, k, v)
+    return mesh
+
+
 def _corridor_geometry() -> list[Mesh]:
     """A long corridor: floor, ceiling, a right wall with piers, a left wall with windows
     (the openings are gaps between wall pieces) and a few crates."""
     lo, hi = np.array(CORRIDOR_LO), np.array(CORRIDOR_HI)
     wall, floor, crate = (0.8, 0.78, 0.74), (0.55, 0.55, 0.58), (0.6, 0.45, 0.3)
-    ms = [box_mesh((lo[0], -0.2, lo[2]), (hi[0], 0.0, hi[2]), floor),
+    ms = [_with(box_mesh((lo[0], -0.2, lo[2]), (hi[0], 0.0, hi[2]), floor), roughness=0.25),
           box_mesh((lo[0], hi[1], lo[2]), (hi[0], hi[1] + 0.2, hi[2]), wall),
           box_mesh((hi[0], 0.0, lo[2]), (hi[0] + 0.3, hi[1], hi[2]), wall),
           box_mesh((lo[0], 0.0, lo[2] - 0.3), (hi[0], hi[1], lo[2]), wall),
@@ -338,7 +346,8 @@ def _corridor_geometry() -> list[Mesh]:
     ms.append(box_mesh((lo[0] - 0.3, 0.0, lo[2]), (lo[0], hi[1], z), wall))
     for zc in np.arange(-10.0, lo[2], -17.0):                                    # piers, crates
         ms.append(box_mesh((hi[0] - 0.6, 0.0, zc - 0.4), (hi[0], hi[1], zc + 0.4), wall, bottom=False))
-        ms.append(box_mesh((-1.5, 0.0, zc - 6.0), (-0.3, 1.0, zc - 4.8), crate, bottom=False))
+        ms.append(_with(box_mesh((-1.5, 0.0, zc - 6.0), (-0.3, 1.0, zc - 4.8), (0.9, 0.7, 0.45),
+                                 bottom=False), roughness=0.4, metallic=1.0))     # brass crates
     return ms
 
 

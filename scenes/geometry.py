@@ -88,19 +88,19 @@ def ramp_mesh(lo, hi, rise_axis: str = "+z", albedo=(0.8, 0.8, 0.8)) -> Mesh:
 
 
 def merge_meshes(meshes: list[Mesh]) -> list[Mesh]:
-    """Merge meshes of equal albedo into one mesh each (fewer draws), first-seen order."""
+    """Merge meshes of equal material into one mesh each (fewer draws), first-seen order."""
     groups: dict[tuple, list[Mesh]] = {}
     for m in meshes:
-        groups.setdefault(tuple(m.albedo), []).append(m)
+        groups.setdefault(m.material, []).append(m)
     out = []
-    for albedo, ms in groups.items():
+    for key, ms in groups.items():
         verts, faces, off = [], [], 0
         for m in ms:
             verts.append(m.vertices)
             faces.append(m.faces + off)
             off += len(m.vertices)
         out.append(Mesh(np.concatenate(verts).astype(np.float32),
-                        np.concatenate(faces).astype(np.int32), albedo))
+                        np.concatenate(faces).astype(np.int32), key[:3], key[3], key[4]))
     return out
 
 

@@ -69,10 +69,17 @@ class Camera:
 
 @dataclass
 class Mesh:
-    """World-space triangles with one albedo."""
+    """World-space triangles with one material: albedo, and GGX specular when roughness > 0
+    (F0 0.04, or the albedo when metallic is 1); roughness 0 is matte (Lambert only)."""
     vertices: np.ndarray          # (V, 3) float32
     faces: np.ndarray             # (F, 3) int32
     albedo: tuple[float, float, float] = (0.8, 0.8, 0.8)
+    roughness: float = 0.0
+    metallic: float = 0.0
+
+    @property
+    def material(self) -> tuple:
+        return tuple(self.albedo) + (float(self.roughness), float(self.metallic))
 
 
 @dataclass

@@ -23,35 +23,38 @@ def generated_glsl() -> str:
     return layouts.glsl_declarations()
 
 
-def feature_set(light_types: np.ndarray) -> tuple[str, ...]:
-    """Light type names present (type-id order); a frame with no lights gets ('point',),
-    whose code is never reached, so that the program still compiles."""
+def feature_set(light_types: np.ndarray, specular: bool = False) -> tuple[str, ...]:
+    """Light type names present (type-id order), then "specular" when some surface has a
+    specular material; a frame with no lights gets ('point',), whose code is never reached,
+    so that the program still compiles."""
     present = sorted(set(np.unique(light_types).tolist()))
     names = tuple(LIGHT_TYPES[t] for t in present if t < len(LIGHT_TYPES))
-    return names or ("point",)
+    return (names or ("point",)) + ((SPECULAR,) if specular else ())
 
 
 # Per light shape: the include its code lives in, its "affects" test and its radiance, as
 # GLSL expressions of (GpuLight L, vec3 d = P - position, float d2 = dot(d, d), vec3 N).
 SHAPES = {
-    "point": ("", "sphere_reaches(L, d2)", "lambert(L, d, d2, N)"),
+    "point": ("", "sphere_reaches(L, d2)", "lambert(L, d, d2, N, l)"),
     "spot": ("light_spot.glsl", "sphere_reaches(L, d2) && spot_cone_contains(L, d, d2)",
-             "lambert(L, d, d2, N) * spot_falloff(L, d, d2)"),
-    "capsule": ("light_capsule.glsl", "capsule_contains(L, d)", "capsule_radiance(L, d, N)"),
-    "box": ("light_box.glsl", "box_contains(L, d)", "box_radiance(L, d, N)"),
+             "lambert(L, d, d2, N, l) * spot_falloff(L, d, d2)"),
+    "capsule": ("light_capsule.glsl", "capsule_contains(L, d)", "capsule_radiance(L, d, N, l)"),
+    "box": ("light_box.glsl", "box_contains(L, d)", "box_radiance(L, d, N, l)"),
 }
 assert tuple(SHAPES) == LIGHT_TYPES
+SPECULAR = "specular"         # a material feature: some surface has GGX specular
 
 
 @lru_cache(maxsize=None)   # the same text objects every frame: cache keys hash once
 def features_glsl(features: tuple[str, ...]) -> str:
     """light_affects / light_radiance for exactly the shapes present: one type test per
-    shape but the last (a scene of one shape tests no type)."""
+    shape but the last (a scene of one shape tests no type); SPECULAR 1 only when some
+    surface has a specular material (material.glsl)."""
     present = [t for t in LIGHT_TYPES if t in features]
-    out = ['#include "light_window.glsl"']
+    out = [f"#define SPECULAR {int(SPECULAR in features)}", '#include "light_window.glsl"']
     out += [f'#include "{SHAPES[t][0]}"' for t in present if SHAPES[t][0]]
     for fn, col, ret in (("light_affects", 1, "bool"), ("light_radiance", 2, "vec3")):
-        args = "GpuLight L, vec3 d, float d2" + (", vec3 N" if fn == "light_radiance" else "")
+        args = "GpuLight L, vec3 d, float d2" + (", vec3 N, out vec3 l" if fn == "light_radiance" else "")
         out.append(f"{ret} {fn}({args}) {{")
         for t in present[:-1]:
             out.append(f"    if (L.id_type.y == LIGHT_{t.upper()}) return {SHAPES[t][col]};")

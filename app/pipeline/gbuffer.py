@@ -1,7 +1,8 @@
 """The G-buffer: the frame's first pass, a raster pass declared like any technique's.
 
-    gbuffer.vert/.frag -> position (xyz view space, w linear depth; 0 = sky), normal,
-                          albedo, depth; every later pass samples them at units 0, 1, 2.
+    gbuffer.vert/.frag -> position (xyz view space, w linear depth; 0 = sky),
+                          normal (xyz, w roughness: 0 matte), albedo (rgb, a metallic),
+                          depth; every later pass samples them at units 0, 1, 2.
 """
 from __future__ import annotations
 
@@ -14,17 +15,18 @@ TEXTURE_UNITS = {"g_position": 0, "g_normal": 1, "g_albedo": 2}
 
 
 def triangle_soup(meshes) -> np.ndarray:
-    """(T*3, 9) float32: position, flat face normal, albedo per vertex."""
+    """(T*3, 11) float32: position, flat face normal, albedo, roughness, metallic per vertex."""
     parts = []
     for m in meshes:
         tri = np.asarray(m.vertices, np.float64)[np.asarray(m.faces)]        # (F,3,3)
         n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
         f = len(tri)
+        material = np.asarray(tuple(m.albedo) + (m.roughness, m.metallic), np.float64)
         parts.append(np.concatenate([tri.reshape(-1, 3), np.repeat(n, 3, 0),
-                                     np.tile(np.asarray(m.albedo, np.float64), (3 * f, 1))], 1))
+                                     np.tile(material, (3 * f, 1))], 1))
     if not parts:
-        return np.zeros((0, 9), np.float32)
+        return np.zeros((0, 11), np.float32)
     return np.concatenate(parts).astype(np.float32)
 
 
@@ -39,6 +41,7 @@ class GBuffer:
     def __init__(self, ctx, meshes, size: tuple[int, int]):
         self.ctx = ctx
         self.soup = triangle_soup(meshes)
+        self.specular = any(m.roughness > 0 for m in meshes)   # compile GGX only then
         self.size = None
         self.resize(size)
 
@@ -60,8 +63,9 @@ class GBuffer:
     def pass_for(self, cam: FrameCamera) -> Pass:
         return Pass(
             "gbuffer", ("gbuffer.vert", "gbuffer.frag"),
-            draw=Draw(vertices=self.soup, format="3f 3f 3f",
-                      attributes=("in_position", "in_normal", "in_albedo"), target="gbuffer",
+            draw=Draw(vertices=self.soup, format="3f 3f 3f 2f",
+                      attributes=("in_position", "in_normal", "in_albedo", "in_material"),
+                      target="gbuffer",
                       depth_test="less", depth_write=True, clear=True),
             uniforms={"u_view_from_world": column_major(cam.view_from_world),
                       "u_clip_from_view": column_major(cam.clip_from_view)})

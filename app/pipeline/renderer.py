@@ -184,7 +184,7 @@ class Renderer:
             for name, array in build.buffers.items():
                 self.upload(name, array)
             cpu_ms = dict(build.times.ms, upload=(time.perf_counter() - t0) * 1e3)
-            features = feat.feature_set(build.lights.type)
+            features = feat.feature_set(build.lights.type, self.gbuffer.specular)
             frame_uniforms = {"u_size": (w, h), "u_light_count": len(build.lights.gpu),
                               "u_window": (0, WINDOW_ALL)}
             virtual = dict(feat.virtual_files(features), **getattr(technique, "glsl", {}))

@@ -134,7 +134,7 @@ def test_specialised_program_renders_like_the_general_one(gl, monkeypatch):
     try:
         special = r.render(REGISTRY["clustered"])
         assert special.meta["features"] == ["capsule", "box"]
-        monkeypatch.setattr(features, "feature_set", lambda types: LIGHT_TYPES)
+        monkeypatch.setattr(features, "feature_set", lambda types, specular=False: LIGHT_TYPES)
         general = r.render(REGISTRY["clustered"])
     finally:
         r.release()
