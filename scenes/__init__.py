@@ -1,7 +1,9 @@
-"""Scenes: builtin procedural scenes and JSON scene files (no OpenGL, no culling)."""
+"""Scenes: builtin procedural scenes, JSON scene files and glTF 2.0 files (no OpenGL, no
+culling)."""
 from .builtin import BUILTIN_SCENES
+from .gltf import load_gltf
 from .loader import SceneError, load_scene, scene_from_dict
 from .model import LIGHT_DTYPE, Camera, Mesh, Scene, make_lights
 
-__all__ = ["load_scene", "scene_from_dict", "SceneError", "BUILTIN_SCENES", "Scene", "Camera",
-           "Mesh", "LIGHT_DTYPE", "make_lights"]
+__all__ = ["load_scene", "scene_from_dict", "load_gltf", "SceneError", "BUILTIN_SCENES", "Scene",
+           "Camera", "Mesh", "LIGHT_DTYPE", "make_lights"]

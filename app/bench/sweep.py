@@ -52,7 +52,8 @@ class Sweep:
         key = (name, lights)
         if key not in self.scenes:
             n = lights if name in BUILTIN_SCENES else None
-            self.scenes[key] = load_scene(name, lights=n, seed=self.p.seed)
+            # a scene file takes no seed (its lights are its own)
+            self.scenes[key] = load_scene(name, lights=n, seed=self.p.seed if name in BUILTIN_SCENES else 0)
         return self.scenes[key]
 
     def light_counts(self, name: str, counts) -> tuple[int, ...]:

@@ -176,8 +176,8 @@ CASES = {
     "missing_spot_direction": (scene_case(delp("lights.1.direction")), r"lights\[1\]\.direction"),
     "spot_inner_over_outer": (scene_case(setp("lights.1.inner_angle_deg", 40)),
                               r"lights\[1\]\.inner_angle_deg"),
-    "spot_outer_90": (scene_case(setp("lights.1.outer_angle_deg", 90)),
-                      r"lights\[1\]\.outer_angle_deg"),
+    "spot_outer_over_90": (scene_case(setp("lights.1.outer_angle_deg", 90.5)),
+                           r"lights\[1\]\.outer_angle_deg"),
     # camera
     "missing_camera": (scene_case(delp("camera")), r"\bcamera\b"),
     "missing_camera_position": (scene_case(delp("camera.position")), r"camera\.position"),

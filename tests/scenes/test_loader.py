@@ -76,6 +76,12 @@ NAN = float("nan")
 INF = float("inf")
 
 
+CAPSULE = {"type": "capsule", "position": [0, 1, 0], "direction": [1, 0, 0], "length": 4, "radius": 2,
+           "color": [1, 1, 1], "intensity": 3}
+BOX = {"type": "box", "position": [0, 2, 0], "direction": [0, -2, 0], "up": [0, 0, 1],
+       "extent": [2, 1, 3], "color": [1, 1, 1], "intensity": 3}
+
+
 def _bad_npz_type_count(d, tmp_path):
     a = npz_arrays()
     a["type"] = np.zeros(MAX_LIGHTS, np.uint8)          # only the count matters: checked first
@@ -124,7 +130,7 @@ BAD = [
     # NaN / inf anywhere
     ("nan_radius", _set(["lights", 1, "radius"], NAN), "lights[1].radius:"),
     ("inf_camera_position", _set(["camera", "position"], [INF, 0, 0]), "camera.position[0]:"),
-    ("nan_unknown_key", _set(["extra"], [1, NAN]), "extra[1]:"),
+    ("nan_under_unknown_key", _set(["extra"], [1, NAN]), "top level: unknown key 'extra'"),
     ("nan_albedo", _set(["geometry", 0, "albedo"], [NAN, 0, 0]), "geometry[0].albedo[0]:"),
     ("overflow_intensity", _set(["lights", 0, "intensity"], 1e39), "lights[0].intensity:"),
     # camera
@@ -148,8 +154,12 @@ BAD = [
     ("intensity_negative", _set(["lights", 0, "intensity"], -5), "lights[0].intensity:"),
     ("spot_direction_zero", _set(["lights", 1, "direction"], [0, 0, 0]), "lights[1].direction:"),
     ("spot_direction_missing", _set(["lights", 1, "direction"], _DEL), "lights[1].direction:"),
-    ("spot_outer_90", _set(["lights", 1, "outer_angle_deg"], 90), "lights[1].outer_angle_deg:"),
-    ("spot_inner_zero", _set(["lights", 1, "inner_angle_deg"], 0), "lights[1].inner_angle_deg:"),
+    ("spot_outer_over_90", _set(["lights", 1, "outer_angle_deg"], 90.5), "lights[1].outer_angle_deg:"),
+    ("spot_outer_zero", _set(["lights", 1, "outer_angle_deg"], 0), "lights[1].outer_angle_deg:"),
+    ("spot_inner_negative", _set(["lights", 1, "inner_angle_deg"], -1), "lights[1].inner_angle_deg:"),
+    ("spot_outer_cos_rounds_to_1", lambda d, t: d["lights"][1].update(inner_angle_deg=0,
+                                                                      outer_angle_deg=0.01),
+     "lights[1].outer_angle_deg: must be wide enough"),
     ("spot_inner_gt_outer", _set(["lights", 1, "inner_angle_deg"], 40), "lights[1].inner_angle_deg:"),
     # geometry
     ("box_min_gt_max", _set(["geometry", 0, "box", "min"], [60, -0.1, -50]), "geometry[0].box.min:"),
@@ -172,7 +182,9 @@ BAD = [
     ("npz_missing_array", lambda d, t: with_npz(d, t, cos_outer=None), "lights_npz.cos_outer:"),
     ("npz_inconsistent_length", lambda d, t: with_npz(d, t, radius=np.ones(4, np.float32)),
      "lights_npz.radius:"),
-    ("npz_bad_type", lambda d, t: with_npz(d, t, type=np.array([0, 2, 0], np.uint8)), "lights_npz.type[1]:"),
+    ("npz_bad_type", lambda d, t: with_npz(d, t, type=np.array([0, 7, 0], np.uint8)), "lights_npz.type[1]:"),
+    ("npz_type_wraps_in_uint8", lambda d, t: with_npz(d, t, type=np.array([0, 256, 0], np.int64)),
+     "lights_npz.type[1]:"),
     ("npz_float_type", lambda d, t: with_npz(d, t, type=np.zeros(3, np.float32)), "lights_npz.type:"),
     ("npz_radius_zero", lambda d, t: with_npz(d, t, radius=np.array([1, 0, 1], np.float32)),
      "lights_npz.radius[1]:"),
@@ -190,6 +202,65 @@ BAD = [
     ("npz_spot_cos_out_of_range", lambda d, t: with_npz(d, t, cos_outer=np.full(3, -0.5, np.float32)),
      "lights_npz.cos_outer[1]:"),
     ("total_light_count", lambda d, t: _bad_npz_type_count(d, t), "lights_npz:"),
+    # unknown keys, at every level: the key and the closest known one
+    ("unknown_top_key", _set(["lihgts"], []), "top level: unknown key 'lihgts' (did you mean 'lights'?)"),
+    ("unknown_camera_key", _set(["camera", "fov"], 40),
+     "camera: unknown key 'fov' (closest known key: 'fov_y_deg'; known keys: position, target"),
+    ("unknown_geometry_key", lambda d, t: d["geometry"][0].update(albdo=[1, 0, 0]),
+     "geometry[0]: unknown key 'albdo' (did you mean 'albedo'?)"),
+    ("unknown_box_key", _set(["geometry", 0, "box", "mx"], [1, 1, 1]),
+     "geometry[0].box: unknown key 'mx' (did you mean 'max'?)"),
+    ("unknown_light_key", _set(["lights", 0, "colour"], [1, 1, 1]),
+     "lights[0]: unknown key 'colour' (did you mean 'color'?)"),
+    ("unknown_spot_key", _set(["lights", 1, "inner_angle"], 5),
+     "lights[1]: unknown key 'inner_angle' (did you mean 'inner_angle_deg'?)"),
+    ("point_light_spot_key", _set(["lights", 0, "direction"], [0, -1, 0]),
+     "lights[0]: key 'direction' does not apply to a point light (only to spot, capsule and box lights)"),
+    ("box_light_radius", lambda d, t: d["lights"].append(
+        {"type": "box", "position": [0, 1, 0], "direction": [0, -1, 0], "up": [0, 0, 1],
+         "extent": [1, 1, 1], "radius": 3}),
+     "lights[2]: key 'radius' does not apply to a box light (only to point, spot and capsule lights)"),
+    ("box_entry_mesh_key", _set(["geometry", 0, "transform"], np.eye(4).tolist()),
+     "geometry[0]: key 'transform' does not apply to a box entry (only to mesh entries)"),
+    ("unknown_npz_array", lambda d, t: with_npz(d, t, radii=np.ones(3, np.float32)),
+     "lights_npz: unknown array 'radii' in 'lights.npz' (did you mean 'radius'?)"),
+    ("unknown_key_before_missing_type", _set(["lights", 0, "typ"], "point"),
+     "lights[0]: unknown key 'typ' (did you mean 'type'?)"),
+    ("roughness_out_of_range", _set(["geometry", 0, "roughness"], 1.5), "geometry[0].roughness:"),
+    # capsule and box lights
+    ("capsule_length_negative", lambda d, t: d["lights"].append(dict(CAPSULE, length=-1)), "lights[2].length:"),
+    ("capsule_direction_zero", lambda d, t: d["lights"].append(dict(CAPSULE, direction=[0, 0, 0])),
+     "lights[2].direction:"),
+    ("box_extent_zero", lambda d, t: d["lights"].append(dict(BOX, extent=[1, 0, 1])), "lights[2].extent[1]:"),
+    ("box_extent_two", lambda d, t: d["lights"].append(dict(BOX, extent=[1, 1])), "lights[2].extent:"),
+    ("box_up_parallel", lambda d, t: d["lights"].append(dict(BOX, up=[0, 3, 0])), "lights[2].up:"),
+    ("box_up_missing", lambda d, t: d["lights"].append({k: v for k, v in BOX.items() if k != "up"}),
+     "lights[2].up: missing"),
+    ("npz_box_without_extent", lambda d, t: with_npz(d, t, type=np.array([0, 3, 0], np.uint8),
+                                                     up=np.tile([0.0, 1.0, 0.0], (3, 1))),
+     "lights_npz.extent: missing array"),
+    ("npz_box_up_parallel", lambda d, t: with_npz(d, t, type=np.array([0, 3, 0], np.uint8),
+                                                  up=np.tile([0.0, 0.0, 2.0], (3, 1)),
+                                                  extent=np.ones((3, 3))),
+     "lights_npz.up[1]:"),
+    ("npz_capsule_length_negative", lambda d, t: with_npz(d, t, type=np.array([0, 2, 0], np.uint8),
+                                                          length=np.array([0, -1.0, 0])),
+     "lights_npz.length[1]:"),
+    # float32 boundaries: the value as stored decides
+    ("radius_zero_in_float32", _set(["lights", 0, "radius"], 1e-46), "lights[0].radius:"),
+    ("radius_over_max_in_float32", _set(["lights", 0, "radius"], 1e7 + 1), "lights[0].radius:"),
+    ("intensity_inf_in_float32", _set(["lights", 0, "intensity"], 3.4028236e38), "lights[0].intensity:"),
+    ("position_inf_in_float32", _set(["lights", 0, "position"], [0, -3.4028236e38, 0]),
+     "lights[0].position[1]:"),
+    ("npz_radius_zero_in_float32", lambda d, t: with_npz(d, t, radius=np.array([1, 1e-46, 1])),
+     "lights_npz.radius[1]:"),
+    ("npz_cos_outer_one_in_float32", lambda d, t: with_npz(d, t, cos_inner=np.ones(3),
+                                                           cos_outer=np.full(3, 0.99999999)),
+     "lights_npz.cos_outer[1]:"),
+    ("npz_position_inf_in_float32", lambda d, t: with_npz(d, t, position=np.full((3, 3), 3.4028236e38)),
+     "lights_npz.position[0]:"),
+    ("npz_cos_inner_over_one", lambda d, t: with_npz(d, t, cos_inner=np.full(3, 1.0000001, np.float32)),
+     "lights_npz.cos_inner[1]:"),
 ]
 
 
@@ -243,13 +314,12 @@ def test_good_scene_round_trip(tmp_path):
     d["geometry"].append({"mesh": "sub/cube.obj",
                           "transform": [[1, 0, 0, 5], [0, 1, 0, 1], [0, 0, 1, -3], [0, 0, 0, 1]],
                           "albedo": [0.2, 0.4, 0.6]})
-    d["unknown_key_is_ignored"] = {"anything": [1, 2]}
     a = npz_arrays()
     d["lights_npz"] = write_npz(tmp_path, a, "sub/../l.npz")
     path = tmp_path / "scene.json"
     path.write_text(json.dumps(d))
 
-    s = load_scene(str(path), seed=123, distribution="whatever-ignored")
+    s = load_scene(str(path), seed=0)          # the default seed may be passed through
     assert s.name == "scene"
     assert s.resolution == (320, 180)
     assert s.camera.position == (0.0, 2.0, 10.0) and s.camera.far == 1000.0
@@ -265,6 +335,7 @@ def test_good_scene_round_trip(tmp_path):
     L = s.lights
     assert L.dtype == LIGHT_DTYPE and len(L) == 5
     exp = np.zeros(5, LIGHT_DTYPE)
+    exp["up"][:2] = (0, 0, -1)                      # make_lights' default (JSON lights)
     exp["type"] = [0, 1, 0, 1, 0]
     exp["position"][:2] = [[0, 1, 0], [2, 4, 0]]
     exp["position"][2:] = a["position"]
@@ -292,3 +363,139 @@ def test_minimal_scene_defaults(tmp_path):
     assert s.meshes == [] and len(s.lights) == 0 and s.lights.dtype == LIGHT_DTYPE
     assert s.camera.near == 0.1 and s.camera.far == 1000.0 and s.camera.fov_y_deg == 60.0
     assert s.max_depth == 1000.0
+
+
+# ------------------------------------------------------------------ spot angles, float32, shapes
+def _load_lights(d, tmp_path=None):
+    return scene_from_dict(d, tmp_path, "mem").lights
+
+
+def test_spot_angles_follow_gltf():
+    """0 <= inner <= outer, 0 < outer <= 90: inner 0 (glTF's default) and outer 90 are valid;
+    a 90-degree cone stores cos_outer exactly 0, inner 0 stores cos_inner exactly 1."""
+    d = good_dict()
+    spot = d["lights"][1]
+    cos32 = lambda deg: {0: 1.0, 90: 0.0}.get(deg, np.float32(math.cos(math.radians(deg))))
+    for inner, outer in ((0, 90), (0, 30), (90, 90), (30, 30), (20, 89.999), (0, 0.02)):
+        spot.update(inner_angle_deg=inner, outer_angle_deg=outer)
+        L = _load_lights(d)[1]
+        assert L["cos_inner"] == cos32(inner) and L["cos_outer"] == cos32(outer), (inner, outer)
+        assert 0 <= L["cos_outer"] < 1 and L["cos_inner"] >= L["cos_outer"]
+
+
+def test_spot_outer_angle_float32_boundary():
+    """The narrowest outer angle whose float32 cosine is still below 1 passes; one a hair
+    narrower, whose cosine rounds to 1 (a cone holding nothing), is refused."""
+    lo, hi = 1e-4, 1.0                       # degrees: cos rounds to 1 at lo, not at hi
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if np.float32(math.cos(math.radians(mid))) < 1:
+            hi = mid
+        else:
+            lo = mid
+    d = good_dict()
+    d["lights"][1].update(inner_angle_deg=0, outer_angle_deg=hi)
+    assert _load_lights(d)[1]["cos_outer"] == np.float32(1) - np.float32(2 ** -24)
+    d["lights"][1]["outer_angle_deg"] = lo
+    with pytest.raises(SceneError, match=r"^mem: lights\[1\]\.outer_angle_deg: must be wide enough"):
+        _load_lights(d)
+
+
+@pytest.mark.parametrize("key, value, stored", [
+    ("radius", 1.4e-45, np.float32(1.4e-45)),          # the smallest float32 subnormal: > 0
+    ("radius", 1e7 + 0.4, np.float32(1e7)),            # rounds onto the limit: valid as stored
+    ("intensity", 3.4028235e38, np.float32(3.4028235e38)),   # float32 max
+    ("intensity", 0.0, np.float32(0)),
+])
+def test_float32_boundary_values_accepted(key, value, stored):
+    d = good_dict()
+    d["lights"][0][key] = value
+    assert _load_lights(d)[0][key] == stored
+
+
+def test_npz_float32_boundary_values(tmp_path):
+    """cos_outer 0.99999994 (the float32 below 1) is a valid narrow cone; 0.99999999 (float64)
+    stores 1.0 and is refused; a float64 radius of 1e-46 stores 0 and is refused."""
+    d = good_dict()
+    a = npz_arrays()
+    a["cos_inner"] = np.ones(3)
+    a["cos_outer"] = np.full(3, np.float32(1) - np.float32(2 ** -24))
+    d["lights_npz"] = write_npz(tmp_path, a)
+    L = _load_lights(d, tmp_path)
+    assert L["cos_outer"][3] == np.float32(0.99999994) and L["cos_inner"][3] == 1
+    a["cos_outer"] = np.full(3, 0.99999999)
+    write_npz(tmp_path, a)
+    with pytest.raises(SceneError, match=r"lights_npz\.cos_outer\[1\]: .*1\.0 in float32"):
+        _load_lights(d, tmp_path)
+    a = npz_arrays()
+    a["radius"] = np.array([1.0, 1e-46, 1.0])
+    write_npz(tmp_path, a)
+    with pytest.raises(SceneError, match=r"lights_npz\.radius\[1\]: .*0\.0 in float32"):
+        _load_lights(d, tmp_path)
+
+
+def test_json_float32_message_shows_the_stored_value():
+    d = good_dict()
+    d["lights"][0]["radius"] = 1e-46
+    with pytest.raises(SceneError, match=r"^mem: lights\[0\]\.radius: .*\(got 1e-46, 0\.0 in float32\)$"):
+        _load_lights(d)
+
+
+def test_capsule_and_box_lights(tmp_path):
+    d = good_dict()
+    d["lights"] += [CAPSULE, BOX]
+    a = npz_arrays()
+    a["type"] = np.array([2, 3, 0], np.uint8)
+    a["length"] = np.array([5.0, 0.0, 0.0], np.float32)
+    a["up"] = np.tile(np.float32([0, 1, 0]), (3, 1))
+    a["extent"] = np.tile(np.float32([1, 2, 2]), (3, 1))
+    d["lights_npz"] = write_npz(tmp_path, a)
+    L = _load_lights(d, tmp_path)
+    assert L["type"].tolist() == [0, 1, 2, 3, 2, 3, 0]
+    cap, box, ncap, nbox = L[2], L[3], L[4], L[5]
+    assert cap["length"] == 4 and cap["radius"] == 2 and cap["direction"].tolist() == [1, 0, 0]
+    assert box["direction"].tolist() == [0, -1, 0] and box["up"].tolist() == [0, 0, 1]
+    assert box["extent"].tolist() == [2, 1, 3]
+    assert box["radius"] == np.float32(math.sqrt(14))         # the box's bounding sphere
+    assert ncap["length"] == 5 and ncap["radius"] == 2.5
+    np.testing.assert_allclose(ncap["direction"], [0, 0, -1])
+    assert nbox["extent"].tolist() == [1, 2, 2] and nbox["radius"] == 3
+    assert nbox["up"].tolist() == [0, 1, 0]
+
+
+def test_file_refuses_the_builtin_draw_arguments(tmp_path):
+    """A scene file places its own lights: a distribution is an error, a seed other than the
+    default 0 too; 0 (or None) passes, so callers may pass their default seed through."""
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(good_dict()))
+    for kwargs, field in ((dict(distribution="uniform"), "distribution"), (dict(seed=3), "seed"),
+                          (dict(seed=True), "seed"), (dict(seed=0, distribution="geometry"), "distribution")):
+        with pytest.raises(SceneError) as ei:
+            load_scene(str(path), **kwargs)
+        msg = str(ei.value)
+        assert "\n" not in msg and msg.startswith(f"{path}: {field}: applies to builtin scenes only"), msg
+    assert len(load_scene(str(path), seed=0).lights) == 2
+    assert len(load_scene(str(path), seed=None).lights) == 2
+
+
+def test_unknown_key_messages_are_exact(tmp_path):
+    """The message of the issue, word for word."""
+    d = good_dict()
+    d["geometry"][0]["albdo"] = d["geometry"][0].pop("albedo")
+    with pytest.raises(SceneError) as ei:
+        scene_from_dict(d, tmp_path, "scene.json")
+    assert str(ei.value) == "scene.json: geometry[0]: unknown key 'albdo' (did you mean 'albedo'?)"
+
+
+def test_material_keys_of_the_contract(tmp_path):
+    d = good_dict()
+    d["geometry"][0].update(roughness=0.3, metallic=1.0)
+    with_mesh(d, tmp_path, roughness=0.5, albedo=[0.1, 0.2, 0.3])
+    box, mesh = scene_from_dict(d, tmp_path, "mem").meshes
+    assert (box.albedo, box.roughness, box.metallic) == ((0.8, 0.8, 0.8), 0.3, 1.0)
+    assert (mesh.albedo, mesh.roughness, mesh.metallic) == ((0.1, 0.2, 0.3), 0.5, 0.0)
+    d = good_dict()
+    assert scene_from_dict(d, None, "mem").meshes[0].roughness == 0.0     # matte by default
+    d["geometry"][0]["metallic"] = -0.5
+    with pytest.raises(SceneError, match=r"^mem: geometry\[0\]\.metallic: "):
+        scene_from_dict(d, None, "mem")
