@@ -36,6 +36,23 @@ uint groupAllMin(uint v) { return groupReduce(v, 0u, 0u, 0u).x; }
 uint groupAllMax(uint v) { return groupReduce(0xFFFFFFFFu, v, 0u, 0u).y; }
 uint groupAllBitOr(uint v) { return groupReduce(0xFFFFFFFFu, 0u, 0u, v).w; }
 
+// groupAllBitOr of many words in one round of barriers (the emulation pays per round, not
+// per word), in three calls every invocation makes:
+//   groupOrWordsBegin(count);                      count <= WAVE_OR_WORDS, group-uniform
+//   groupOrWord(k, v_k) for this lane's words;     any k < count, any order (skip zeros)
+//   groupOrWordsEnd();  then groupOrWordsResult(k) is the OR of every lane's v_k, until the
+//                       next groupOrWordsBegin
+#define WAVE_OR_WORDS 32
+shared uint wave_or_words[WAVE_OR_WORDS];
+void groupOrWordsBegin(uint count) {
+    barrier();
+    if (gl_LocalInvocationIndex < count) wave_or_words[gl_LocalInvocationIndex] = 0u;
+    barrier();
+}
+void groupOrWord(uint k, uint v) { if (v != 0u) atomicOr(wave_or_words[k], v); }
+void groupOrWordsEnd() { barrier(); }
+uint groupOrWordsResult(uint k) { return wave_or_words[k]; }
+
 uvec2 groupBallot(bool b) {
     barrier();
     if (gl_LocalInvocationIndex < 2u) wave_bits[gl_LocalInvocationIndex] = 0u;
@@ -83,6 +100,18 @@ uint waveAllMin(uint v) {
     return r;
 }
 uint waveAllMax(uint v) { return ~waveAllMin(~v); }
+// ARB_shader_ballot has no OR reduction: read each active lane once (as waveAllMin), unless
+// every lane holds the same value (one vote; lanes of one screen tile often do).
+uint waveAllBitOr(uint v) {
+    uint first = readFirstInvocationARB(v);
+    if (allInvocationsARB(v == first)) return first;
+    uint r = 0u;
+    uvec2 m = waveBallot(true);
+    for (uint w = 0u; w < 2u; ++w)
+        for (uint bits = m[w]; bits != 0u; bits &= bits - 1u)
+            r |= readInvocationARB(v, w * 32u + uint(findLSB(bits)));
+    return r;
+}
 #else
 bool waveActiveAllTrue(bool b) { return groupActiveAllTrue(b); }
 bool waveActiveAnyTrue(bool b) { return groupActiveAnyTrue(b); }
@@ -90,4 +119,5 @@ uint waveReadFirstLane(uint v) { return groupReadFirstLane(v); }
 uvec2 waveBallot(bool b) { return groupBallot(b); }
 uint waveAllMin(uint v) { return groupAllMin(v); }
 uint waveAllMax(uint v) { return groupAllMax(v); }
+uint waveAllBitOr(uint v) { return groupAllBitOr(v); }
 #endif

@@ -8,6 +8,7 @@ from .hybrid import Hybrid
 from .perfect import Perfect
 from .tiled import Tiled
 from .tree import Tree
+from .zbin import ZBin
 
 __all__ = ["REGISTRY", "get", "register", "unregister", "with_role", "Technique"]
 
@@ -28,7 +29,7 @@ def unregister(name: str) -> None:
     REGISTRY.pop(name, None)
 
 
-for _t in (Brute(), Tiled(), Clustered(), Tree(), Hybrid(), Perfect()):
+for _t in (Brute(), Tiled(), Clustered(), Tree(), Hybrid(), ZBin(), Perfect()):
     register(_t)
 
 

@@ -7,6 +7,7 @@ from app.pipeline import gl as glmod
 from app.pipeline.shaders import Source
 
 LANES = 64
+COLS = 24
 MAIN = """#version 430
 // define: WAVE_NATIVE
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -16,7 +17,7 @@ void main() {
     uint lane = gl_LocalInvocationIndex;
     uint v = (lane * 37u + 11u) % 97u;
     bool p = lane % 3u == 0u;
-    uint o = lane * 16u;
+    uint o = lane * 24u;
 #if WAVE_NATIVE
     outv[o + 0] = waveAllMin(v);
     outv[o + 1] = waveAllMax(v);
@@ -27,6 +28,11 @@ void main() {
     outv[o + 5] = b.x; outv[o + 6] = b.y;
     outv[o + 7] = gl_SubGroupSizeARB;
     outv[o + 8] = gl_SubGroupInvocationARB;
+    outv[o + 9] = waveAllBitOr(1u << (v % 32u));
+    // a uniform loop with a per-lane value (the zbin shader's merged word loop)
+    uint acc = 0u;
+    for (uint k = 0u; k < 3u; ++k) acc += bitCount(waveAllBitOr(lane < 5u ? k << lane : 0u));
+    outv[o + 10] = acc;
 #else
     outv[o + 0] = groupAllMin(v);
     outv[o + 1] = groupAllMax(v);
@@ -43,6 +49,20 @@ void main() {
     uint acc = 0u;
     for (uint k = 0u; k < 3u; ++k) acc += groupAllMax(lane < 10u ? k * lane : 0u);
     outv[o + 13] = acc;
+    outv[o + 14] = waveAllBitOr(1u << (v % 32u));
+    uint acc2 = 0u;
+    for (uint k = 0u; k < 3u; ++k) acc2 += bitCount(waveAllBitOr(lane < 5u ? k << lane : 0u));
+    outv[o + 15] = acc2;
+    // many words OR-ed in one round of barriers; two rounds in a row reuse the shared words
+    for (uint round = 0u; round < 2u; ++round) {
+        groupOrWordsBegin(3u + round);
+        groupOrWord(0u, 1u << ((lane + round) % 32u));
+        if (lane == 7u) groupOrWord(2u, 5u + round);
+        groupOrWord(2u + round, lane == 63u ? 0x80000000u : 0u);
+        groupOrWordsEnd();
+        for (uint k = 0u; k < 4u; ++k)
+            outv[o + 16u + round * 4u + k] = k < 3u + round ? groupOrWordsResult(k) : 77u;
+    }
 #endif
 }
 """
@@ -51,12 +71,24 @@ def run(gl, native: bool) -> np.ndarray:
     ext = glmod.NATIVE_WAVE_EXTENSIONS if native else ()
     text = Source("t.comp", {"t.comp": MAIN}).text({"WAVE_NATIVE": int(native)}, ext)
     prog = gl.compute_shader(text)
-    out = gl.buffer(reserve=LANES * 16 * 4)
+    out = gl.buffer(reserve=LANES * COLS * 4)
     out.bind_to_storage_buffer(0)
     prog.run(1)
-    got = np.frombuffer(out.read(), np.uint32).reshape(LANES, 16).astype(np.int64)
+    got = np.frombuffer(out.read(), np.uint32).reshape(LANES, COLS).astype(np.int64)
     prog.release(), out.release()
     return got
+
+
+def _or(values) -> int:
+    out = 0
+    for x in np.asarray(values).tolist():
+        out |= int(x)
+    return out
+
+
+def _or_loop(lanes) -> int:
+    """The shaders' loop: sum over k of the bits of the OR of (k << lane) over lanes < 5."""
+    return sum(bin(_or([k << int(l) for l in lanes if l < 5])).count("1") for k in range(3))
 
 
 def inputs():
@@ -71,7 +103,10 @@ def test_group_emulation_matches_numpy(gl):
     expect = {0: v.min(), 1: v.max(), 2: int((v > 1).all()), 3: int((v == 11).any()), 4: v[0],
               5: mask & 0xFFFFFFFF, 6: mask >> 32, 8: 0xFFFFFFFF,
               9: (v + 5).min(), 10: (v * 2).max(), 11: LANES - 1, 12: 2 | 8,
-              13: sum(max(k * l for l in range(10)) for k in range(3))}
+              13: sum(max(k * l for l in range(10)) for k in range(3)),
+              14: _or(1 << (v % 32)), 15: _or_loop(lane),
+              16: 0xFFFFFFFF, 17: 0, 18: 5 | 0x80000000, 19: 77,
+              20: 0xFFFFFFFF, 21: 0, 22: 6, 23: 0x80000000}
     for col, want in expect.items():
         assert (got[:, col] == want).all(), (col, got[:, col], want)
     assert list(got[:, 7]) == [int(p[:i].sum()) for i in range(LANES)]
@@ -92,3 +127,5 @@ def test_native_subgroups_match_numpy_per_subgroup(gl):
         assert (got[sl, 2] == int((sv > 1).all())).all() and (got[sl, 3] == int((sv == 11).any())).all()
         assert (got[sl, 4] == sv[0]).all()
         assert (got[sl, 5] == mask & 0xFFFFFFFF).all() and (got[sl, 6] == mask >> 32).all()
+        assert (got[sl, 9] == _or(1 << (sv % 32))).all()
+        assert (got[sl, 10] == _or_loop(lane[sl])).all()
