@@ -59,9 +59,10 @@ _TAIL = [
     "frame_cost_ms", "frame_cost_min_ms", "frame_cost_max_ms", "setup_ms",
     "evaluated_pp", "exact_pp", "waste", "nodes_pp", "wave_iters",
     "bytes_lights", "bytes_culling", "error_ref", "image_error", "image_flip", "radiance_ratio",
-    "mismatch_count", "mismatch_hash", "floor_position_pct",
+    "mismatch_count", "mismatch_hash", "floor_position_pct", "stats",
 ]
-TEXT_COLUMNS = {"study", "scene", "technique", "role", "gpu_passes", "error_ref"}
+TEXT_COLUMNS = {"study", "scene", "technique", "role", "gpu_passes", "error_ref",
+                "stats"}      # stats: the technique's numeric meta stats of the frame, as JSON
 
 
 def option_specs() -> dict[str, OptionSpec]:

@@ -5,6 +5,7 @@ pass but the frame's G-buffer; untimed set-up (the floor's list building) is no 
 """
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -74,6 +75,9 @@ def figure_cells(res) -> dict:
         "wave_iters": float(res.wave["iterations"].mean()),
         "bytes_lights": int(nbytes.get("lights", 0)),
         "bytes_culling": int(sum(v for k, v in nbytes.items() if k != "lights")),
+        "stats": json.dumps({k: v for k, v in res.meta["stats"].items()
+                             if isinstance(v, (int, float)) and not isinstance(v, bool)},
+                            sort_keys=True),
     }
 
 

@@ -29,6 +29,7 @@ from .common import Colors, Roles, num, order, sel
 from .cpu import fig_cpu
 from .cutoff import EXPLANATION as CUTOFF_EXPLANATION, fig_cutoff
 from .maps import fig_classification, fig_heat
+from .notes import technique_notes
 from .options import fig_option, studied_options
 from .path import fig_path
 from .tables import floor_table, summary_table
@@ -69,6 +70,8 @@ def write_report(out: Path, rows: list[dict], maps: dict, info: dict) -> list[st
         spec = option_specs().get(opt)
         what = f" ({spec.help})" if spec else ""
         section(f"Option study: {opt}{what}", *fig_option(rows, opt, is_bool, out, colors))
+    for title, text in technique_notes(rows):
+        section(title, None, [], text)
     section("Lights evaluated per pixel (tree paper figure 1)", *fig_heat(maps, out, info, roles))
     section("Traversal per wave: list / tree / mixed (tree paper figure 3)",
             *fig_classification(rows, maps, out))

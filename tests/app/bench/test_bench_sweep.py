@@ -100,3 +100,18 @@ def test_report_rebuilds_from_the_folder(sweep):
     after = (out / "report.md").read_text()
     strip = lambda s: re.sub(r"run time: .*", "", s)
     assert strip(after) == strip(before)
+
+
+def test_technique_notes_and_stats_column(sweep):
+    """Techniques set their paper's figures beside the run's (report_notes, e.g. zbin's
+    memory table from its own build); every rendered row carries its meta stats as JSON."""
+    import json
+    out, rows = sweep
+    rendered = [r for r in rows if r["study"] == "path"]
+    assert all("visible_lights" in json.loads(r["stats"]) for r in rendered)
+    text = (out / "report.md").read_text()
+    for name, t in REGISTRY.items():
+        if hasattr(t, "report_notes"):
+            assert f"## {name}: " in text
+    if "zbin" in REGISTRY:
+        assert "| 1,036,800 B |" in text and "+ 32,384 B" in text
