@@ -5,13 +5,20 @@
                           [--heatmap heat.png]
 
 plus the chosen technique's own options (--tile, --slices, ...: an option it does not take
-is an error), --classify PNG (hybrid list/tree/mixed map), --check DIR (the exactness check
+is an error), --classify PNG (list/tree/mixed map of a technique that has the classes
+view: tree, hybrid), --check DIR (the exactness check
 against the reference technique: on a difference, images in DIR, one line naming the first
 differing pixel and its lights, exit status 1) and --list (builtin scenes and techniques).
 
 The CPU stage is built once before the measured frame: the first call of its numba kernels
 loads or compiles them, which the printed `cpu_ms` must not contain; that first build's time
 is printed apart as `cpu_warmup_ms`.
+
+The PNGs are what the window shows (app.images, one definition): --out is the displayed
+image, tonemap(exposure * radiance + ambient * albedo) with the window's automatic exposure
+unless --exposure X, and its faint ambient (--ambient, 0: none); --heatmap is the window's
+heat view pixel for pixel (log2(1 + n) turbo, top of the scale the frame's largest count or
+--heat-max N) with its colour bar.  The dump's `image` stays the linear radiance.
 """
 from __future__ import annotations
 
@@ -34,11 +41,15 @@ def build_parser():
     p.add_argument("--frames", type=int, default=64, help="length of the camera path loop")
     p.add_argument("--out", help="tone-mapped PNG")
     p.add_argument("--dump", help="npz dump of the contract")
-    p.add_argument("--heatmap", help="lights-evaluated heat map PNG (16x16 blocks, legend)")
-    p.add_argument("--classify", help="hybrid list/tree/mixed classification PNG")
+    p.add_argument("--heatmap", help="lights-evaluated heat map PNG (per pixel, the window's heat "
+                   "view, with its colour bar)")
+    p.add_argument("--classify", help="list/tree/mixed classification PNG (techniques with the "
+                   "classes view)")
     p.add_argument("--check", metavar="DIR", help="compare with the reference technique; on a "
                    "difference write images to DIR, name the first differing pixel, exit 1")
     p.add_argument("--list", action="store_true", help="print builtin scenes and techniques")
+    from .window.launch import add_display_args
+    add_display_args(p)
     cli.add_option_args(p)
     return p
 
@@ -58,6 +69,15 @@ def main(argv=None) -> None:
         raise cli.UserError("--frame must be >= 0 and --frames >= 1")
     check_suffixes(args)
     technique = get(args.technique)
+    if args.classify:
+        from .techniques import REGISTRY
+        from .window.views import views_of, with_view
+        if "classes" not in views_of(technique):
+            raise cli.UserError(f"--classify: {technique.name} has no classes view (it takes one "
+                                f"path per wave); techniques with it: "
+                                f"{', '.join(with_view(REGISTRY, 'classes'))}")
+    if not (args.heat_max >= 0):
+        raise cli.UserError(f"--heat-max must be >= 0 (got {args.heat_max})")
     opts = cli.options_for(technique, args)
     scene = cli.load_scene_args(args)
     from .pipeline.renderer import Renderer
@@ -69,11 +89,16 @@ def main(argv=None) -> None:
     warm_ms = (time.perf_counter() - warm) * 1e3
     result = renderer.render(technique, args.frame, opts, frames=args.frames)
     result.meta.update(scene=args.scene, lights=len(scene.lights), seed=args.seed)
+    covered = result.depth > 0
+    exposure = (images.auto_exposure(result.image, covered) if args.exposure == "auto"
+                else float(args.exposure))
+    display = {"exposure": round(exposure, 6), "ambient": args.ambient}
     if args.out:
-        images.save_png(result.image, images.ensure_parent(args.out))
+        images.save_png(result.image, images.ensure_parent(args.out), _albedo(renderer),
+                        exposure, args.ambient)
     if args.heatmap:
-        images.save_heatmap(result.evaluated, images.ensure_parent(args.heatmap),
-                            f"{technique.name}: lights evaluated per pixel")
+        display["heat_max"] = images.save_heatmap(result.evaluated, images.ensure_parent(args.heatmap),
+                                                  covered, args.heat_max or None)
     if args.classify:
         images.save_classification(result.wave["case_bits"], renderer.size, images.ensure_parent(args.classify),
                                    f"{technique.name}: traversal per 8x8 wave")
@@ -87,10 +112,18 @@ def main(argv=None) -> None:
         "exact_per_pixel": round(float(result.contrib_count[result.depth > 0].mean()) if (result.depth > 0).any() else 0.0, 3),
         "cpu_ms": {k: round(v, 2) for k, v in m["cpu_ms"].items()},
         "gpu_ms": {k: round(v, 2) for k, v in m["gpu_ms"].items()},
-        "cpu_warmup_ms": round(warm_ms, 2),
+        "cpu_warmup_ms": round(warm_ms, 2), "display": display,
         "wall_s": round(time.perf_counter() - t0, 2)}))
     if args.check:
         check_against_reference(renderer, technique, opts, result, args)
+
+
+def _albedo(renderer):
+    """The G-buffer's albedo, (H, W, 3) float in [0, 1], row 0 = top (the ambient term)."""
+    import numpy as np
+    w, h = renderer.size
+    raw = np.frombuffer(renderer.gbuffer.albedo.read(), np.uint8).reshape(h, w, 4)
+    return raw[::-1, :, :3].astype(np.float32) / 255.0
 
 
 def check_suffixes(args) -> None:

@@ -1,7 +1,6 @@
 #version 430
-// The window's present and HUD passes (app/window/passes.py): one quad over u_rect (NDC
-// x0, y0, x1, y1), drawn as a 4-vertex triangle strip with no vertex buffer.  The views use
-// the whole viewport; the HUD blit uses a corner rectangle.
+// The window's present and stash passes (app/window/passes.py): one quad over u_rect (NDC
+// x0, y0, x1, y1), drawn as a 4-vertex triangle strip with no vertex buffer.
 uniform vec4 u_rect;
 out vec2 v_uv;
 

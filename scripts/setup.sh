@@ -2,6 +2,15 @@
 # Idempotent set-up for a fresh Debian machine: Mesa's EGL/llvmpipe system packages (apt-get
 # when root, else one line saying what to install), a virtualenv in .venv, the project and
 # its test extra.  Sourced by scripts/main.sh and scripts/test.sh.
+#
+# Sourced into an interactive shell (`source scripts/setup.sh`), the strict options below
+# are this script's own: the shell's options are restored when it returns, and a failure
+# returns 1 instead of closing the shell.
+if [ "${BASH_SOURCE[0]}" != "$0" ]; then
+    _lab_setup_options="$(set +o)"      # a command substitution reports errexit off: from $-
+    case $- in *e*) _lab_setup_options+="; set -e" ;; *) _lab_setup_options+="; set +e" ;; esac
+    trap 'eval "$_lab_setup_options"; unset _lab_setup_options; trap - RETURN' RETURN
+fi
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -21,7 +30,7 @@ if [ ${#missing[@]} -gt 0 ]; then
         apt-get update -qq >/dev/null && apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
     else
         echo "error: missing system packages; run: sudo apt-get install ${missing[*]}" >&2
-        exit 1
+        return 1 2>/dev/null || exit 1
     fi
 fi
 
@@ -34,7 +43,7 @@ if [ ! -x .venv/bin/python ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; th
            .venv/bin/python -m pip install -q -e '.[test]'; } > .venv/pip.log 2>&1; then
         tail -n 20 .venv/pip.log >&2
         echo "error: pip install failed (full log: .venv/pip.log)" >&2
-        exit 1
+        return 1 2>/dev/null || exit 1
     fi
     echo "$want" > "$stamp"
 fi

@@ -1,5 +1,10 @@
 """Per-block maps of one frame (maps.npz): lights evaluated per pixel for every technique
-(tree paper figure 1), and each wave's traversal case, list / tree / mixed (figure 3)."""
+(tree paper figure 1), and each wave's traversal case, list / tree / mixed (figure 3).
+
+The heat maps use the lab's one heat-map definition (app.images: the turbo ramp, the scale
+log2(1 + n) / log2(1 + max), zero counts grey), the one capture's --heatmap and the window's
+heat view use; the top of the scale is the largest block mean over all panels, so the panels
+of one figure compare.  The values are block means (the sweep keeps those in maps.npz)."""
 from __future__ import annotations
 
 import math
@@ -10,7 +15,7 @@ from .common import DPI, plt, save, sel, times
 
 
 def fig_heat(maps, out, info, roles) -> tuple[str | None, list[str]]:
-    from matplotlib.colors import LogNorm
+    from ..images import HEAT_ZERO, fmt_tick, heat_cmap, heat_norm, heat_ticks
     keys = [k for k in maps if k.startswith("evaluated/")]
     if not keys:
         return None, []
@@ -18,9 +23,8 @@ def fig_heat(maps, out, info, roles) -> tuple[str | None, list[str]]:
     if "exact" in maps and f"evaluated/{roles.floor}" not in maps:
         panels.append(("exact (lights affecting)", maps["exact"]))
     vals = np.concatenate([m.ravel() for _, m in panels])
-    pos = vals[vals > 0]
-    vmin = max(float(pos.min()) if len(pos) else 0.1, 0.1)
-    vmax = max(float(vals.max()), vmin * 10)
+    vmax = max(float(vals.max()), 1.0)
+    cmap = heat_cmap().with_extremes(bad=(HEAT_ZERO,) * 3)
     cols = min(3, len(panels))
     rws = math.ceil(len(panels) / cols)
     h, w = panels[0][1].shape
@@ -30,10 +34,13 @@ def fig_heat(maps, out, info, roles) -> tuple[str | None, list[str]]:
     for ax in axes.ravel():
         ax.axis("off")
     for ax, (t, m) in zip(axes.ravel(), panels):
-        im = ax.imshow(np.maximum(m, vmin), cmap="turbo", norm=LogNorm(vmin, vmax),
-                       interpolation="nearest")
+        shown = np.ma.masked_less_equal(m, 0.0)     # a zero mean: grey, as in the window
+        im = ax.imshow(shown, cmap=cmap, norm=heat_norm(vmax), interpolation="nearest")
         ax.set_title(f"{t}: {m.mean():.3g}/px", fontsize=8)
-    fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.8).set_label("lights / pixel (log)", fontsize=8)
+    bar = fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.8)
+    ticks = heat_ticks(vmax)
+    bar.set_ticks(ticks, labels=[fmt_tick(v) for v in ticks])
+    bar.set_label("lights / pixel, log2(1 + n)", fontsize=8)
     scene = info.get("config", {}).get("heat_scene", "")
     b = int(maps.get("block", 16))
     fig.suptitle(f"lights evaluated per pixel, {b}x{b} block means, {scene} frame 0", fontsize=9)

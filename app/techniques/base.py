@@ -5,6 +5,8 @@
     role          "technique"; "reference" (brute: the exactness check's reference) or
                   "floor" (perfect: the shading floor no technique can beat)
     Options       its own frozen dataclass of declared options (app.techniques.options)
+    views         the window's views it has (app.window.views): every technique has shaded,
+                  heat, diff and split; one with that structure adds tiles, slices, classes
     glsl          shader texts of its own by file name, beside glsl/ (usually empty: its
                   shaders are files in glsl/)
     build()       the CPU stage: numpy in, GPU-layout arrays out, timed by step
@@ -29,6 +31,7 @@ class Technique:
     role: str = "technique"
     Options: type[TechniqueOptions] = TechniqueOptions
     glsl: dict[str, str] = {}
+    views: tuple[str, ...] = ("shaded", "heat", "diff", "split")
 
     def resolve_options(self, opts=None) -> TechniqueOptions:
         """This technique's Options from None (defaults), a dict {name: value} (checked,

@@ -9,6 +9,7 @@ class Brute(Technique):
     name = "brute"
     summary = "every visible light at every pixel (reference)"
     role = "reference"
+    views = ("shaded", "heat", "split")      # no diff: it is the reference
 
     def build(self, frame, opts):
         return prepare(frame)

@@ -37,6 +37,7 @@ def list_reads(duplicated: bool) -> tuple[str, ...]:
 class Clustered(Technique):
     name = "clustered"
     summary = "2.5D grid of index lists (Persson 2013)"
+    views = Technique.views + ("tiles", "slices")
 
     @dataclass(frozen=True)
     class Options(SliceOptions, ListOptions):

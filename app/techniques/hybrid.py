@@ -16,6 +16,7 @@ from .tree import tree_buffers, tree_passes
 class Hybrid(Technique):
     name = "hybrid"
     summary = "2.5D grid, each cell a list or a tree (listing 2 heuristic)"
+    views = Technique.views + ("tiles", "slices", "classes")
 
     @dataclass(frozen=True)
     class Options(SliceOptions, ListOptions, TreeOptions, WaveOptions):

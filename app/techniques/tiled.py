@@ -24,6 +24,7 @@ def pool_entries(b) -> int:
 class Tiled(Technique):
     name = "tiled"
     summary = "2D tiles, min/max depth and light lists on the GPU (Andersson, Harada)"
+    views = Technique.views + ("tiles",)
 
     @dataclass(frozen=True)
     class Options(TileOptions):

@@ -45,6 +45,7 @@ def tree_passes(build, opts, shader: str, native_wave: bool = False):
 class Tree(Technique):
     name = "tree"
     summary = "a light tree per 2D tile (O'Donnell & Chajdas 2017)"
+    views = Technique.views + ("tiles", "classes")
 
     @dataclass(frozen=True)
     class Options(TileOptions, ListOptions, TreeOptions):

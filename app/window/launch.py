@@ -1,5 +1,6 @@
-"""The command line of `python -m app.window`: its flags, the window it opens (pyglet,
-glfw, or headless EGL), the run, and the summary line of a run."""
+"""The command line of `python -m app.window`: its flags (the lab's first, then the window
+system's), the window it opens (pyglet, glfw, or headless EGL), the run, and the summary
+line of a run."""
 from __future__ import annotations
 
 import argparse
@@ -8,12 +9,14 @@ import math
 import os
 import time
 
-from .. import cli
+from .. import cli, images
 from ..errors import UserError
 from .keys import parse_keys
-from .views import VIEWS
+from .views import VIEWS, views_of, with_view
 
-DESCRIPTION = "Live window: the capture pipeline, every frame, in a moderngl-window app."
+DESCRIPTION = ("Live window: the capture pipeline, every frame, with a panel of every option "
+               "(Dear ImGui). Starts on the fastest exact technique for the scene.")
+WINDOW_TYPES = ("pyglet", "glfw", "headless", "sdl2", "pyside2", "pyqt5", "pygame2", "tk")
 
 
 def _positive(text: str) -> int:
@@ -26,27 +29,104 @@ def _positive(text: str) -> int:
     return v
 
 
+def _bool(text: str) -> bool:
+    t = text.lower()
+    if t in ("1", "true", "yes", "on"):
+        return True
+    if t in ("0", "false", "no", "off"):
+        return False
+    raise argparse.ArgumentTypeError(f"expected true or false, got '{text}'")
+
+
+def _exposure(text: str):
+    if text == "auto":
+        return text
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected 'auto' or a positive number, got '{text}'") from None
+    if not (v > 0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"expected 'auto' or a positive number, got {text}")
+    return v
+
+
+def _ambient(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number in 0..1, got '{text}'") from None
+    if not (0.0 <= v <= 1.0):
+        raise argparse.ArgumentTypeError(f"expected a number in 0..1, got {text}")
+    return v
+
+
+def _point(text: str) -> str:
+    try:
+        x, y = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected XxY window pixels, e.g. 80x45 (got '{text}')") from None
+    if x < 0 or y < 0:
+        raise argparse.ArgumentTypeError(f"expected XxY >= 0 (got '{text}')")
+    return f"{x}x{y}"
+
+
+def add_display_args(p) -> None:
+    """--exposure, --ambient, --heat-max: the display's, shared with capture."""
+    p.add_argument("--exposure", type=_exposure, default="auto",
+                   help=f"'auto' (the {images.EXPOSURE_PERCENTILE * 100:.0f}%% luminance of the lit pixels "
+                        f"maps to {images.EXPOSURE_TARGET:g}) or a factor on the radiance")
+    p.add_argument("--ambient", type=_ambient, default=images.AMBIENT,
+                   help=f"display only: ambient x albedo added after the exposure, so geometry "
+                        f"shows with few lights (default {images.AMBIENT:g}; 0: none)")
+    p.add_argument("--heat-max", type=float, default=0.0,
+                   help="heat map: count at the top of the scale (0: the frame's largest); fix it "
+                        "so two runs compare")
+
+
 def build_parser():
-    import moderngl_window as mglw
-    # moderngl-window's own flags (--window, --backend, --fullscreen, --vsync, --resizable,
-    # --hidden, --samples, --cursor, --size_mult); our --size (WxH) replaces its --size.
-    p = cli.Parser(prog="python -m app.window", description=DESCRIPTION,
-                   parents=[mglw.create_parser()], conflict_handler="resolve")
+    from ..techniques import REGISTRY
+    from .panel import panel_keys
+    p = cli.Parser(prog="python -m app.window", description=DESCRIPTION)
     cli.add_scene_args(p)
-    p.add_argument("--technique", default=None, help="starting technique id (default: the first)")
-    p.add_argument("--view", choices=VIEWS, default="shaded", help="starting view")
+    p.add_argument("--technique", default=None,
+                   help="starting technique id (default: the fastest exact one for the scene, "
+                        "measured at start-up)")
+    p.add_argument("--reprobe", action="store_true",
+                   help="measure the techniques again at start-up (without --technique the window "
+                        "starts on the one the last probe found fastest for this scene and size)")
+    p.add_argument("--view", choices=VIEWS, default="shaded", help="starting view (one the technique has)")
+    add_display_args(p)
     p.add_argument("--frames", type=_positive, help="exit after N frames (scripted run)")
     p.add_argument("--screenshot", help="PNG of the last frame")
-    p.add_argument("--keys", type=parse_keys, default=[], help='key names replayed one per frame, e.g. "3,v,v"')
-    p.add_argument("--path", action="store_true", help="start playing the camera path")
+    p.add_argument("--keys", type=lambda t: parse_keys(t, panel_keys(REGISTRY)), default=[],
+                   help='one step per frame: key names, panel changes NAME=VALUE or clicks '
+                        'click:NAME, e.g. "3,v,tile=32,click:duplicated"')
+    p.add_argument("--record", metavar="PATH.json", help="record the camera path from the first "
+                   "frame (C stops and saves; saved on exit)")
+    p.add_argument("--replay", metavar="PATH.json", help="play a recorded camera path, one key a "
+                   "frame (P stops / resumes)")
+    p.add_argument("--path", action="store_true", help="start playing the scene's camera path")
     p.add_argument("--path-frames", type=_positive, default=600,
-                   help="frames of one camera-path loop (capture --frame K --frames F = path frame K of F)")
-    p.add_argument("--heat-max", type=float, default=0.0,
-                   help="heat view: lights per pixel at the top of the ramp (0: the frame's max)")
-    p.add_argument("--no-hud", action="store_true", help="start with the HUD hidden")
+                   help="frames of one scene camera-path loop (capture --frame K --frames F = path frame K of F)")
+    p.add_argument("--inspect", metavar="XxY", type=_point, dest="cursor",
+                   help="inspect the pixel at window position XxY (from the top left) from the start")
+    p.add_argument("--no-hud", action="store_true", help="start with the HUD and panel hidden")
     p.add_argument("--json", action="store_true", help="print a JSON line per frame (default with --frames)")
-    p.add_argument("--shot-dir", default=".", help="folder of K/F12 screenshots")
+    p.add_argument("--shot-dir", default=".", help="folder of K/F12 screenshots and unnamed recordings")
     cli.add_option_args(p)
+    w = p.add_argument_group("window system (moderngl-window)")
+    w.add_argument("--window", "-wnd", choices=WINDOW_TYPES, default=None,
+                   help="window type (default pyglet; MODERNGL_WINDOW overrides; headless: EGL, no display)")
+    w.add_argument("--backend", default=None, help="context backend (headless: egl by default)")
+    w.add_argument("--fullscreen", action="store_true", help="open fullscreen")
+    w.add_argument("--vsync", type=_bool, default=None, help="vsync on or off")
+    w.add_argument("--resizable", type=_bool, default=None, help="window resizable or not")
+    w.add_argument("--hidden", action="store_true", help="start the window hidden")
+    w.add_argument("--samples", type=int, default=None, help="multisampling samples of the window")
+    w.add_argument("--mouse-cursor", type=_bool, default=None, dest="mouse_cursor",
+                   help="show the mouse cursor or not")
+    w.add_argument("--size-mult", type=float, default=1.0, dest="size_mult",
+                   help="window size multiplier (the render follows the window)")
     return p
 
 
@@ -70,7 +150,8 @@ def open_window(args, size):
                      resizable=True if args.resizable is None else args.resizable,
                      visible=not args.hidden, gl_version=(4, 3),
                      vsync=True if args.vsync is None else args.vsync,
-                     samples=args.samples or 0, cursor=True if args.cursor is None else args.cursor,
+                     samples=args.samples or 0,
+                     cursor=True if args.mouse_cursor is None else args.mouse_cursor,
                      backend=backend)
     except Exception as exc:
         raise UserError(f"could not open a {name} window with OpenGL 4.3 "
@@ -81,15 +162,40 @@ def open_window(args, size):
     return window, name
 
 
+def start_candidates(args, given: dict) -> tuple[str | None, list[str]]:
+    """(the starting technique when --technique names it, else None; the techniques the
+    start may choose from: every one but the reference and the floor that takes every option
+    flag given and has the --view asked for).  One line and exit status 2 when none can."""
+    from ..techniques import REGISTRY, get
+    if args.technique:
+        t = get(args.technique)
+        cli.options_for(t, args)                     # the starting technique takes every flag given
+        if args.view not in views_of(t):
+            raise UserError(f"--view {args.view}: {t.name} has no {args.view} view (its views: "
+                            f"{', '.join(views_of(t))}; techniques with it: "
+                            f"{', '.join(with_view(REGISTRY, args.view))})")
+        return t.name, [t.name]
+    names = set(given)
+    plain = [t for t in REGISTRY.values() if t.role == "technique"]
+    ok = [t.name for t in plain if names <= set(t.Options.names()) and args.view in views_of(t)]
+    if not ok:
+        flags = " ".join("--" + n.replace("_", "-") for n in given)
+        raise UserError(f"no technique takes {flags or 'these options'} and has the {args.view} view: "
+                        f"give --technique")
+    return None, ok
+
+
 def main(argv=None) -> None:
     args = build_parser().parse_args(argv)
     from scenes import BUILTIN_SCENES
-    from ..techniques import REGISTRY, get
-    technique = get(args.technique) if args.technique else next(iter(REGISTRY.values()))
     if not (args.heat_max >= 0 and math.isfinite(args.heat_max)):
         raise UserError(f"--heat-max must be >= 0 (got {args.heat_max})")
-    cli.options_for(technique, args)     # the starting technique takes every flag given
+    given = cli.given_options(args)
+    technique, candidates = start_candidates(args, given)
     scene = cli.load_scene_args(args)
+    if args.replay:
+        from .campath import load
+        load(args.replay)                            # a bad file: one line before any window
     size = args.size or tuple(scene.resolution)
 
     import weakref
@@ -97,16 +203,17 @@ def main(argv=None) -> None:
     from moderngl_window.timers.clock import Timer
     window, name = open_window(args, size)
     from .app import LabWindow
-    setup = {"args": args, "scene": scene, "technique": technique.name,
-             "given": cli.given_options(args), "builtin": args.scene in BUILTIN_SCENES}
+    setup = {"args": args, "scene": scene, "technique": technique, "candidates": candidates,
+             "given": given, "builtin": args.scene in BUILTIN_SCENES}
+    t0 = time.perf_counter()
     app = LabWindow(setup, ctx=window.ctx, wnd=window, timer=Timer())
     # as moderngl_window.create_window_config_instance does: the window's events go to
     # the config its __init__ wired up (the `config` setter would wire them again)
     window._config = weakref.ref(app)
     window.swap_buffers()
     window.set_default_viewport()
-    t0 = time.perf_counter()
     mglw.run_window_config_instance(app)
+    app.finish()
     # the states the run went through: [first frame, technique, view, lights, [w, h]] per change
     sequence = []
     for i, h in enumerate(app.history):
@@ -115,5 +222,6 @@ def main(argv=None) -> None:
             sequence.append([i] + state)
     print(json.dumps({"exit": "ok", "window": name, "frames": app.frame,
                       "wall_s": round(time.perf_counter() - t0, 2), "sequence": sequence,
-                      "size": list(app.renderer.size), "screenshots": app.shots,
+                      "size": list(app.renderer.size), "screenshots": app.shots, "screenshot_hud": app.shot_huds,
+                      "paths": app.saved_paths, "started": app.started,
                       "renderer": app.renderer.limits.renderer}), flush=True)

@@ -1,7 +1,9 @@
-"""Technique options in the window: the option flags given on the command line apply to
-every technique that declares them.  The starting technique takes them strictly (a flag it
+"""Technique options in the window.  The option flags given on the command line apply to
+every technique that declares them: the starting technique takes them strictly (a flag it
 does not take is an error, as in capture: app.cli.options_for); a technique switched to
-with a key takes the ones it declares and ignores the others, which the HUD lists."""
+takes the ones it declares and ignores the others, which the HUD lists.  The panel then
+changes one technique's options (its own declarations: app.techniques.options OptionSpec),
+checked as on the command line; the next frame renders with them."""
 from __future__ import annotations
 
 
@@ -16,27 +18,50 @@ def describe(value) -> str:
 
 
 class WindowOptions:
-    """{option name: value} of the given flags; each technique's Options made once."""
+    """{option name: value} of the given flags, and each technique's Options (the given
+    flags it declares, then the panel's changes)."""
 
     def __init__(self, given: dict):
         self.given = dict(given)
         self._made: dict = {}
+        self.changed: dict[str, dict] = {}       # technique -> {option: value} from the panel
 
     def for_technique(self, technique):
-        """(technique.Options from the given flags it declares, names of the ignored ones)."""
+        """(technique.Options from the given flags it declares and the panel's changes,
+        names of the given flags it ignores)."""
         if technique.name not in self._made:
             names = set(technique.Options.names())
             taken = {k: v for k, v in self.given.items() if k in names}
+            taken.update(self.changed.get(technique.name, {}))
             self._made[technique.name] = (technique.Options.make(taken, technique.name),
                                           tuple(sorted(set(self.given) - names)))
         return self._made[technique.name]
 
+    def set(self, technique, name: str, value):
+        """Change one option of one technique (checked: a UserError names the flag and its
+        range); returns the value as stored."""
+        spec = {s.name: s for s in technique.Options.specs()}.get(name)
+        if spec is None:
+            from ..errors import UserError
+            raise UserError(f"{technique.name} has no option {flag(name)}")
+        value = spec.check(value, technique.name)
+        self.changed.setdefault(technique.name, {})[name] = value
+        self._made.pop(technique.name, None)
+        return value
+
+    def reset(self, technique) -> None:
+        """Back to the given flags and the declared defaults."""
+        self.changed.pop(technique.name, None)
+        self._made.pop(technique.name, None)
+
     def hud_line(self, technique) -> str:
-        """'options: --tile 32' (the given flags this technique takes) and the ignored ones."""
-        _, ignored = self.for_technique(technique)
-        shown = lambda keys: "  ".join(f"{flag(k)} {describe(self.given[k])}" for k in keys)
-        taken = [k for k in self.given if k not in ignored]
-        text = "options: " + (shown(taken) if taken else "defaults")
+        """'options: --tile 32' (the given flags this technique takes, and the panel's
+        changes) and the ignored ones."""
+        opts, ignored = self.for_technique(technique)
+        shown = lambda keys, src: "  ".join(f"{flag(k)} {describe(src[k])}" for k in keys)
+        taken = {k: v for k, v in self.given.items() if k not in ignored}
+        taken.update(self.changed.get(technique.name, {}))
+        text = "options: " + (shown(taken, taken) if taken else "defaults")
         if ignored:
-            text += f"   (not taken by {technique.name}: {shown(k for k in self.given if k in ignored)})"
+            text += f"   (not taken by {technique.name}: {shown([k for k in self.given if k in ignored], self.given)})"
         return text

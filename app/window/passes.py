@@ -2,56 +2,124 @@
 the frame's buffers (the renderer binds what each declares; none is timed: they are the
 window's cost, not the technique's):
 
-    view_stats  present_stats.comp   out_stats + G-buffer depth -> view_stats (VIEW_STATS,
-                                     32 bytes: the HUD's frame sums and the heat scale)
-    present     present.vert/.frag   out_color, out_stats, wave_stats, view_stats -> a view
-    hud         present.vert/.frag   the HUD text texture (unit HUD_UNIT), blended, top left
+    view_stats  present_stats.comp   out_color, out_stats, G-buffer depth (+ the reference's
+                                     counters) -> view_stats (VIEW_STATS, 32 bytes) and
+                                     view_extra (EXTRA_WORDS words): the HUD's frame sums,
+                                     the heat scale, the exposure histogram, the diff count
+    present     present.vert/.frag   out_color, out_stats, wave_stats -> a view, scaled to
+                                     the target
+    stash       present.vert/.frag   out_color, out_stats -> two textures (radiance, counters)
+                                     that outlive the frame: the reference's (diff view) and
+                                     the second technique's (split view)
 
-Textures: the G-buffer position texture at unit 0 (GBuffer.bind_textures), the HUD text at
-HUD_UNIT (a define of present.frag, so the number is written here only).
+Textures: the G-buffer at units 0-2 (GBuffer.bind_textures); the stashes at the *_UNIT
+units below (defines of present.frag, so each number is written here only).
 """
 from __future__ import annotations
 
+import numpy as np
+
 from cpu_prep import layouts
 
-from ..pipeline.passes import OUT_COLOR, OUT_STATS, WAVE_STATS, Buffer, Draw, Pass, image_groups
-from .views import VIEWS, Overlay
+from .. import images
+from ..pipeline.passes import OUT_COLOR, OUT_STATS, WAVE_STATS, Buffer, Draw, Pass
+from .views import VIEWS, view_defines
 
 VIEW_STATS = "view_stats"
-HUD_UNIT = 3
+VIEW_EXTRA = "view_extra"
+EXTRA_HEAD = ("lit", "max_exact", "reserved", "differ")      # then the histogram
+STATS_BLOCK = 32                     # pixels a side of one view_stats group (present_stats.comp)
+EXTRA_WORDS = len(EXTRA_HEAD) + images.HIST_BINS
+UNITS = {"REF_COLOR_UNIT": 4, "REF_STATS_UNIT": 5, "SPLIT_COLOR_UNIT": 6, "SPLIT_STATS_UNIT": 7}
 FULL = (-1.0, -1.0, 1.0, 1.0)        # u_rect of a full-viewport quad (NDC x0, y0, x1, y1)
 
 
-def _quad(target, size, blend: bool = False) -> Draw:
-    """Four vertices from gl_VertexID (present.vert), over the whole render size."""
+def present_defines() -> dict[str, object]:
+    """present_common.glsl's constants, from app.images (their one definition)."""
+    return {"HIST_BINS": images.HIST_BINS, "HIST_LOG2_MIN": float(images.HIST_LOG2_MIN),
+            "HIST_LOG2_MAX": float(images.HIST_LOG2_MAX), "HEAT_ZERO": float(images.HEAT_ZERO),
+            "HEAT_OVERLAY_ALPHA": float(images.HEAT_OVERLAY_ALPHA)}
+
+
+def _quad(target, viewport, blend: bool = False) -> Draw:
+    """Four vertices from gl_VertexID (present.vert) over the viewport."""
     return Draw(count=4, mode="triangle_strip", target=target, blend=blend,
-                viewport=(0, 0, *size))
+                viewport=(0, 0, *viewport))
 
 
-def view_stats_pass(size) -> Pass:
-    """Frame sums over the pixels geometry covers (ViewStats)."""
+def view_stats_pass(size, reference: bool = False) -> Pass:
+    """Frame sums over the pixels geometry covers (ViewStats + the extra words); with
+    `reference`, pixels whose light set differs from the stashed reference's."""
     w, h = size
-    return Pass("view_stats", "present_stats.comp", reads=(OUT_STATS,),
-                writes={VIEW_STATS: Buffer(layouts.VIEW_STATS.itemsize, layouts.VIEW_STATS, cleared=True)},
-                groups=image_groups(w, h), uniforms={"u_size": (w, h)}, timed=False)
+    return Pass("view_stats", "present_stats.comp", reads=(OUT_COLOR, OUT_STATS),
+                writes={VIEW_STATS: Buffer(layouts.VIEW_STATS.itemsize, layouts.VIEW_STATS, cleared=True),
+                        VIEW_EXTRA: Buffer(EXTRA_WORDS * 4, None, cleared=True)},
+                groups=(-(-w // STATS_BLOCK), -(-h // STATS_BLOCK), 1), timed=False,
+                defines=dict(present_defines(), REF=int(reference), REF_UNIT=UNITS["REF_STATS_UNIT"]),
+                uniforms={"u_size": (w, h)})
 
 
-def present_pass(target, size, view: str, overlay: Overlay, heat_max: float) -> Pass:
+def read_extra(words: np.ndarray) -> dict:
+    """The view_extra words as {lit, max_exact, max_nodes, differ, hist}."""
+    words = np.asarray(words, np.uint32)
+    out = {k: int(words[i]) for i, k in enumerate(EXTRA_HEAD)}
+    out["hist"] = words[len(EXTRA_HEAD):EXTRA_WORDS].astype(np.int64)
+    return out
+
+
+def present_pass(target, size, viewport, view: str, uniforms: dict) -> Pass:
     """One view of the frame, drawn into `target` (the window's framebuffer or a
-    screenshot's)."""
+    screenshot's) at `viewport` size; `uniforms`: present.frag's (exposure, heat scale,
+    grid, split, inspect ...)."""
+    u = {"u_rect": FULL, "u_size": tuple(size), "u_viewport": tuple(viewport),
+         "u_view": VIEWS.index(view)}
+    u.update(uniforms)
     return Pass("present", ("present.vert", "present.frag"),
-                reads=(OUT_COLOR, OUT_STATS, WAVE_STATS, VIEW_STATS),
-                draw=_quad(target, size), defines={"HUD": 0}, timed=False,
-                uniforms={"u_rect": FULL, "u_size": tuple(size), "u_view": VIEWS.index(view),
-                          "u_tile": overlay.tile, "u_slices": overlay.slices,
-                          "u_slice_scale": overlay.slice_scale, "u_slice_bias": overlay.slice_bias,
-                          "u_heat_max": float(heat_max)})
+                reads=(OUT_COLOR, OUT_STATS, WAVE_STATS), draw=_quad(target, viewport), timed=False,
+                defines=dict(present_defines(), STASH=0, **view_defines(), **UNITS), uniforms=u)
 
 
-def hud_pass(target, size, hud_size) -> Pass:
-    """The HUD texture (bound at HUD_UNIT) blended over the top-left corner, pixel for pixel."""
-    w, h = size
-    tw, th = hud_size
-    rect = (-1.0, 1.0 - 2.0 * min(th, h) / h, -1.0 + 2.0 * min(tw, w) / w, 1.0)
-    return Pass("hud", ("present.vert", "present.frag"), draw=_quad(target, size, blend=True),
-                defines={"HUD": 1, "HUD_UNIT": HUD_UNIT}, uniforms={"u_rect": rect}, timed=False)
+def stash_pass(fbo, size) -> Pass:
+    """This frame's radiance and counters into the textures of `fbo` (RGBA32F, RGBA32UI)."""
+    return Pass("stash", ("present.vert", "present.frag"), reads=(OUT_COLOR, OUT_STATS),
+                draw=_quad(fbo, size), timed=False,
+                defines=dict(present_defines(), STASH=1, **view_defines(), **UNITS),
+                uniforms={"u_rect": FULL, "u_size": tuple(size)})
+
+
+class Stash:
+    """Two textures a frame is copied into (stash_pass), kept across frames; `key` is the
+    state it was rendered for (camera, lights, size, technique, options)."""
+
+    def __init__(self, ctx, color_unit: int, stats_unit: int):
+        self.ctx = ctx
+        self.units = (color_unit, stats_unit)
+        self.size = None
+        self.key = None
+        self.fbo = self.color = self.stats = None
+        self.figures: dict = {}
+
+    def ensure(self, size) -> None:
+        if self.size == tuple(size):
+            return
+        self.release()
+        self.size = tuple(size)
+        import moderngl
+        self.color = self.ctx.texture(self.size, 4, dtype="f4")
+        self.stats = self.ctx.texture(self.size, 4, dtype="u4")
+        for t in (self.color, self.stats):
+            t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.fbo = self.ctx.framebuffer([self.color, self.stats])
+        self.key = None
+
+    def bind(self) -> None:
+        if self.color is not None:
+            self.color.use(self.units[0])
+            self.stats.use(self.units[1])
+
+    def release(self) -> None:
+        for o in (self.fbo, self.color, self.stats):
+            if o is not None:
+                o.release()
+        self.fbo = self.color = self.stats = None
+        self.size = self.key = None

@@ -1,20 +1,46 @@
-"""The views and their overlays: what each view shows, and which of the technique's own
-structure (its Build's grid) the tiles and slices views draw.  No GL here.
+"""The views, which of them a technique has, and the overlays of its own structure.  No GL.
 
-    shaded   the tone-mapped image (capture's --out)
-    heat     lights evaluated per pixel, log turbo ramp
-    classes  traversal case of each 8x8 wave (list / tree / mixed / empty)
-    tiles    the technique's screen tiles (grid.tile), when it has a grid
+    shaded   the displayed image: tonemap(exposure * radiance + ambient * albedo), as capture's --out
+    heat     lights evaluated (or exact lights) per pixel, app.images' one heat-map definition;
+             overlay mode: over the shaded image
+    tiles    the technique's screen tiles (its Build's grid)
     slices   the technique's depth slices (grid.slices > 1, listing 4)
+    classes  traversal case of each 8x8 wave (list / tree / mixed / empty)
+    diff     pixels whose set of lights (contrib_count, contrib_hash) differs from the
+             reference's (brute), red; it should be empty
+    split    the current technique left, a second one right (shaded or heat)
 
-A technique without a grid (brute, perfect) or without depth slices (tiled, tree) gets no
-overlay it does not have: the view shows the shaded image and the HUD says why.
+A technique offers the views in its `views` attribute (app.techniques.base.Technique.views:
+shaded, heat, diff, split for every one; tiles, slices, classes where it has that structure):
+a view it does not have is not offered for it.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-VIEWS = ("shaded", "heat", "classes", "tiles", "slices")
+VIEWS = ("shaded", "heat", "tiles", "slices", "classes", "diff", "split")
+SPLIT_VIEWS = ("shaded", "heat")
+HEAT_OF = ("evaluated", "exact")
+
+
+def views_of(technique) -> tuple[str, ...]:
+    """The views a technique offers, in the window's order."""
+    own = set(getattr(technique, "views", ()) or ("shaded",))
+    unknown = own - set(VIEWS)
+    if unknown:
+        raise ValueError(f"technique {technique.name}: unknown view(s) {sorted(unknown)} "
+                         f"(known: {', '.join(VIEWS)})")
+    return tuple(v for v in VIEWS if v in own)
+
+
+def with_view(registry, view: str) -> list[str]:
+    """Names of the techniques that offer `view`."""
+    return [t.name for t in registry.values() if view in views_of(t)]
+
+
+def view_defines() -> dict[str, int]:
+    """VIEW_<NAME> ids for present.frag."""
+    return {f"VIEW_{v.upper()}": i for i, v in enumerate(VIEWS)}
 
 
 @dataclass(frozen=True)
@@ -40,20 +66,31 @@ class Overlay:
         return {"tile": self.tile, "tiles": list(self.tiles), "slices": self.slices} if self.tile else None
 
 
-def view_note(view: str, technique: str, overlay: Overlay, heat_top: float) -> str | None:
+def view_note(view: str, technique: str, overlay: Overlay, heat_top: float, *,
+              heat_of: str = "evaluated", overlay_mode: bool = False, reference: str = "brute",
+              differ: int | None = None, split: str = "", split_view: str = "shaded") -> str | None:
     """The HUD line that explains the current view (None: the shaded view needs none)."""
     if view == "heat":
-        return f"heat: lights evaluated per pixel, 0 .. {heat_top:g}, log turbo ramp"
+        what = "lights evaluated" if heat_of == "evaluated" else "exact lights"
+        return (f"heat: {what} per pixel, 0 .. {heat_top:g}, log2(1 + n) turbo"
+                + (", over the shaded image" if overlay_mode else ""))
     if view == "classes":
         return "8x8 waves: blue list, green tree, white mixed, grey empty"
     if view == "tiles":
         if not overlay.tile:
-            return f"no tiles for {technique}: it has no screen grid (shaded image shown)"
+            return f"no tiles: {technique} has no screen grid"
         tx, ty = overlay.tiles
         return f"tiles: {overlay.tile} px, {tx}x{ty} ({technique}'s grid)"
     if view == "slices":
         if overlay.slices > 1:
             return f"depth slices: {overlay.slices} (listing 4), slice 0 grey = near slice"
-        what = "2D tiles only" if overlay.tile else "no screen grid"
-        return f"no depth slices for {technique}: {what} (shaded image shown)"
+        return f"no depth slices: {technique} has 2D tiles only"
+    if view == "diff":
+        if differ is None:
+            return f"diff vs {reference}: the reference is not rendered for this frame yet"
+        if differ == 0:
+            return f"diff vs {reference}: 0 pixels differ (the light sets are exact)"
+        return f"diff vs {reference}: {differ} pixels differ (red)"
+    if view == "split":
+        return f"split: {technique} left | {split} right ({split_view})"
     return None

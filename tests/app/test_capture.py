@@ -96,3 +96,37 @@ def test_check_against_the_reference_and_warmup_apart(tmp_path):
     assert "exact: tree equals brute" in r.stderr
     summary = json.loads(r.stdout)
     assert summary["cpu_warmup_ms"] >= 0 and "cull" in summary["cpu_ms"]
+
+
+def test_classify_needs_a_technique_with_the_classes_view(tmp_path):
+    """A view the technique does not have is refused (the window offers the same views)."""
+    r = capture("--scene", "arena", "--lights", "10", "--size", "16x16", "--technique", "tiled",
+                "--classify", str(tmp_path / "c.png"))
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "tiled has no classes view" in r.stderr and "hybrid" in r.stderr
+    assert not list(tmp_path.iterdir())
+
+
+def test_pngs_are_what_the_window_shows(tmp_path):
+    """--out is app.images.display of the dump's radiance (exposure, ambient: display only);
+    --heatmap is the per-pixel heat map with a fixed top, then its colour bar."""
+    from app import images
+    r = capture("--scene", "hangar", "--technique", "clustered", "--lights", "200", "--size", "64x40",
+                "--exposure", "2", "--ambient", "0", "--heat-max", "64", "--out", str(tmp_path / "f.png"),
+                "--heatmap", str(tmp_path / "h.png"), "--dump", str(tmp_path / "f.npz"))
+    assert r.returncode == 0, r.stderr
+    d = read_dump(tmp_path / "f.npz")
+    png = np.asarray(Image.open(tmp_path / "f.png").convert("RGB")).astype(int)
+    assert np.abs(png - images.display(d["image"], None, 2.0, 0.0)).max() <= 1
+    heat = np.asarray(Image.open(tmp_path / "h.png").convert("RGB")).astype(int)
+    want = images.heat_rgb(d["evaluated"], d["depth"] > 0, 64.0)
+    assert heat.shape[0] == 40 and np.array_equal(heat[:, :64], want)
+    summary = json.loads(r.stdout)
+    assert summary["display"] == {"exposure": 2.0, "ambient": 0.0, "heat_max": 64.0}
+    # automatic exposure by default, and a faint ambient: the unlit geometry is not black
+    r = capture("--scene", "hangar", "--technique", "clustered", "--lights", "1", "--size", "64x40",
+                "--out", str(tmp_path / "dark.png"), "--dump", str(tmp_path / "dark.npz"))
+    assert r.returncode == 0, r.stderr
+    dark = np.asarray(Image.open(tmp_path / "dark.png").convert("RGB"))
+    covered = read_dump(tmp_path / "dark.npz")["depth"] > 0
+    assert (dark.max(2)[covered] >= 5).mean() > 0.95

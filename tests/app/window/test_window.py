@@ -1,10 +1,11 @@
 """The live window (app.window), driven as scripted runs in a subprocess: its GL context must
 not meet the session's EGL context (tests/conftest.py `gl`), one context per process.
 
-Headless (`--window headless`, EGL) for keys, views, options per technique, overlays and
-screenshots; one run under Xvfb with the pyglet window.  A missing xvfb-run fails (CI
-installs it: LAB_WITH_XVFB=1 scripts/setup.sh).  The HUD's text, the overlays and the
-options per technique are also checked without GL.
+Headless (`--window headless`, EGL) for keys, views, the panel, options per technique,
+overlays, camera paths and screenshots; one run under Xvfb with the pyglet window.  A missing
+xvfb-run fails (CI installs it: LAB_WITH_XVFB=1 scripts/setup.sh).  The HUD's text, the
+panel's model, the overlays and the options per technique are also checked without GL
+(test_panel.py), the present passes in process (test_present.py).
 """
 from __future__ import annotations
 
@@ -21,24 +22,26 @@ import pytest
 from PIL import Image
 
 from app.techniques import REGISTRY
+from app.window.views import views_of
 
 ROOT = Path(__file__).resolve().parents[3]
 SMALL = ["--scene", "city", "--lights", "32", "--size", "160x90"]
 LIT = ["--scene", "city", "--size", "160x90"]        # the default 4096 lights: a lit image
 NAMES = list(REGISTRY)
+PLAIN = [t.name for t in REGISTRY.values() if t.role == "technique"]
 
 
-def run(args, prefix=(), timeout=120):
-    env = dict(os.environ)
+def run(args, prefix=(), timeout=180, env=None):
+    env = dict(os.environ, **(env or {}))
     env.pop("MODERNGL_WINDOW", None)       # it would override --window
     proc = subprocess.run([*prefix, sys.executable, "-m", *args], cwd=ROOT, env=env,
                           capture_output=True, text=True, timeout=timeout)
     return proc
 
 
-def run_window(args, prefix=(), headless=True):
+def run_window(args, prefix=(), headless=True, env=None):
     cmd = ["app.window"] + (["--window", "headless"] if headless else []) + list(args)
-    proc = run(cmd, prefix)
+    proc = run(cmd, prefix, env=env)
     assert proc.returncode == 0, f"exit {proc.returncode}: {proc.stderr[-2000:]}"
     lines = [json.loads(l) for l in proc.stdout.splitlines() if l.startswith("{")]
     frames = [l for l in lines if "frame" in l]
@@ -51,13 +54,35 @@ def load_rgb(path) -> np.ndarray:
     return np.asarray(Image.open(path).convert("RGB")).astype(np.int16)
 
 
+def key_of(name: str) -> str:
+    """The digit key that selects a technique (REGISTRY order)."""
+    return str(NAMES.index(name) + 1)
+
+
+def test_starts_on_the_fastest_exact_technique(tmp_path):
+    # no --technique: a probe picks among the plain techniques (never the reference or the
+    # floor), says so, and remembers it: the next start takes no probe
+    env = {"LAB_CACHE_DIR": str(tmp_path), "LAB_PROBE_BUDGET_S": "300"}
+    frames, summary, proc = run_window(SMALL + ["--frames", "2"], env=env)
+    assert frames[0]["technique"] in PLAIN
+    assert summary["started"].startswith(f"started on {frames[0]['technique']}, the fastest")
+    assert all(n in summary["started"] for n in PLAIN) and "probe at 160x90" in summary["started"]
+    assert "fastest exact technique" in proc.stderr
+    assert (tmp_path / "window-start.json").is_file()
+    again, summary, _ = run_window(SMALL + ["--frames", "1"], env=env)
+    assert again[0]["technique"] == frames[0]["technique"] and "at the last probe" in summary["started"]
+
+
 def test_keys_switch_technique_view_and_lights():
-    keys = ["3", "v", "v", "+", "1"]
-    frames, summary, _ = run_window(SMALL + ["--frames", "6", "--keys", ",".join(keys)])
+    keys = [key_of("clustered"), "v", "v", "+", key_of("brute")]
+    frames, summary, proc = run_window(SMALL + ["--technique", "tree", "--frames", "6",
+                                               "--keys", ",".join(keys)])
     assert [f["frame"] for f in frames] == list(range(6))
     assert [f["key"] for f in frames] == keys + [None]
-    assert [f["technique"] for f in frames] == [NAMES[2]] * 4 + [NAMES[0]] * 2
-    assert [f["view"] for f in frames] == ["shaded", "heat", "classes", "classes", "classes", "classes"]
+    assert [f["technique"] for f in frames] == ["clustered"] * 4 + ["brute"] * 2
+    # brute has no tiles view: switching to it shows the shaded image and says why
+    assert [f["view"] for f in frames] == ["shaded", "heat", "tiles", "tiles", "shaded", "shaded"]
+    assert "brute has no tiles view" in proc.stderr
     assert [f["lights"] for f in frames] == [32, 32, 32, 64, 64, 64]
     for f in frames:
         assert f["size"] == [160, 90]
@@ -66,18 +91,67 @@ def test_keys_switch_technique_view_and_lights():
         assert "shade" in f["gpu_ms"] and f["cpu_ms"]
     assert summary["frames"] == 6 and summary["window"] == "headless"
     assert [s[1:3] for s in summary["sequence"]] == [
-        [NAMES[2], "shaded"], [NAMES[2], "heat"], [NAMES[2], "classes"], [NAMES[2], "classes"],
-        [NAMES[0], "classes"]]
+        ["clustered", "shaded"], ["clustered", "heat"], ["clustered", "tiles"],
+        ["clustered", "tiles"], ["brute", "shaded"]]
 
 
-def test_views_cycle_and_moves():
-    keys = ["v"] * 5 + ["w", "d", "p"]
-    frames, _, _ = run_window(SMALL + ["--frames", "10", "--keys", ",".join(keys)])
+def test_views_cycle_through_the_techniques_own_and_moves():
+    own = views_of(REGISTRY["hybrid"])
+    keys = ["v"] * len(own) + ["w", "d", "p"]
+    frames, _, _ = run_window(SMALL + ["--technique", "hybrid", "--frames", str(len(keys) + 2),
+                                       "--keys", ",".join(keys)])
     views = [f["view"] for f in frames]
-    assert views[:6] == ["heat", "classes", "tiles", "slices", "shaded", "shaded"]
+    assert views[:len(own)] == list(own[1:]) + ["shaded"]
+    diff = frames[list(own).index("diff") - 1]
+    assert diff["view"] == "diff" and diff["differ"] == 0 and diff["reference"] == "brute"
+    split = frames[list(own).index("split") - 1]
+    assert split["split"]["technique"] in NAMES and split["split"]["technique"] != "hybrid"
+    n = len(own)
     cams = [f["camera"] for f in frames]
-    assert cams[5] != cams[4] and cams[6] != cams[5]          # W, D fly
-    assert frames[7]["playing"] and frames[9]["path_frame"] > frames[7]["path_frame"]
+    assert cams[n] != cams[n - 1] and cams[n + 1] != cams[n]          # W, D fly
+    assert frames[n + 2]["playing"] and frames[-1]["path_frame"] > frames[n + 2]["path_frame"]
+
+
+def test_every_technique_offers_its_own_views_only():
+    assert views_of(REGISTRY["brute"]) == ("shaded", "heat", "split")
+    assert "slices" not in views_of(REGISTRY["tiled"]) and "slices" not in views_of(REGISTRY["tree"])
+    assert "classes" in views_of(REGISTRY["hybrid"]) and "classes" in views_of(REGISTRY["tree"])
+    assert "classes" not in views_of(REGISTRY["clustered"])
+    for t in REGISTRY.values():
+        v = views_of(t)
+        assert v[:2] == ("shaded", "heat") and "split" in v
+        assert ("tiles" in v) == (t.name not in ("brute", "perfect"))
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--technique", "tiled", "--view", "slices"], "tiled has no slices view"),
+    (["--technique", "clustered", "--view", "classes"], "clustered has no classes view"),
+])
+def test_a_view_a_technique_lacks_is_refused(args, words):
+    proc = run(["app.window", "--window", "headless", *args])
+    assert proc.returncode == 2 and words in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_panel_change_applies_on_the_next_frame():
+    # tile=32 typed into the panel on frame 0: frame 0 rendered already, frame 1 uses it;
+    # a value out of range is refused in one line and changes nothing
+    frames, _, proc = run_window(SMALL + ["--technique", "clustered", "--frames", "4",
+                                          "--keys", "tile=32,tile=7000,slices=8"])
+    assert frames[0]["options"]["tile"] == 48 and frames[0]["grid"]["tile"] == 48
+    assert frames[1]["options"]["tile"] == 32 and frames[1]["grid"]["tile"] == 32
+    assert frames[2]["options"]["tile"] == 32 and "--tile must be in 4..256" in proc.stderr
+    assert frames[3]["options"]["slices"] == 8 and frames[3]["grid"]["slices"] == 8
+
+
+def test_panel_widget_click_through_imgui():
+    # a real click (imgui mouse events at the checkbox's place, known once the panel has been
+    # drawn): move, press, release on frames 1-3; the change applies on the frame after
+    frames, _, _ = run_window(["--scene", "city", "--lights", "32", "--size", "640x360",
+                               "--technique", "clustered", "--frames", "6",
+                               "--keys", "r,click:duplicated"])
+    dup = [f["options"]["duplicated"] for f in frames]
+    assert dup[:4] == [False] * 4 and dup[-1] is True
 
 
 def test_screenshot_is_the_scene_and_matches_capture(tmp_path):
@@ -87,19 +161,32 @@ def test_screenshot_is_the_scene_and_matches_capture(tmp_path):
     assert summary["screenshots"] == [str(shot)]
     img = load_rgb(shot)
     assert img.shape == (90, 160, 3)
-    assert img.var() > 0 and (img.max(2) > 0).mean() > 0.05      # lit, not blank
-    # the shaded view is capture's tone-mapped image (same camera at frame 0, same tonemap)
+    assert img.var() > 0 and (img.max(2) > 0).mean() > 0.5      # ambient: geometry is visible
+    # the shaded view is capture's displayed image (same camera at frame 0, same exposure,
+    # ambient and tone mapping: app.images.display and its GLSL twin)
     proc = run(["app.capture", *LIT, "--technique", "hybrid", "--out", str(ref)])
     assert proc.returncode == 0, proc.stderr
     diff = np.abs(img - load_rgb(ref))
     assert diff.max() <= 2 and (diff > 0).mean() < 0.01, (diff.max(), (diff > 0).mean())
 
 
+def test_heat_view_is_captures_heat_map(tmp_path):
+    shot, heat = tmp_path / "window.png", tmp_path / "heat.png"
+    run_window(LIT + ["--technique", "tree", "--view", "heat", "--frames", "1", "--no-hud",
+                      "--heat-max", "64", "--screenshot", str(shot)])
+    proc = run(["app.capture", *LIT, "--technique", "tree", "--heatmap", str(heat), "--heat-max", "64"])
+    assert proc.returncode == 0, proc.stderr
+    a, b = load_rgb(shot), load_rgb(heat)
+    assert b.shape[0] == 90 and b.shape[1] > 160                     # the image, then its colour bar
+    assert np.abs(a - b[:, :160]).max() <= 1
+
+
 def test_k_screenshot_and_heat_view(tmp_path):
     # K on frame 0 saves the shaded view into --shot-dir; V; the last frame (heat) --screenshot
     b = tmp_path / "heat.png"
-    _, summary, _ = run_window(LIT + ["--frames", "2", "--no-hud", "--keys", "k,v",
-                                      "--shot-dir", str(tmp_path / "shots"), "--screenshot", str(b)])
+    _, summary, _ = run_window(LIT + ["--technique", "clustered", "--frames", "2", "--no-hud",
+                                      "--keys", "k,v", "--shot-dir", str(tmp_path / "shots"),
+                                      "--screenshot", str(b)])
     shots = summary["screenshots"]
     assert len(shots) == 2 and Path(shots[0]).parent == tmp_path / "shots" and shots[1] == str(b)
     assert "shaded" in Path(shots[0]).name
@@ -108,24 +195,30 @@ def test_k_screenshot_and_heat_view(tmp_path):
     assert sb.var() > 0 and np.abs(sa - sb).mean() > 1
 
 
-def test_hud_drawn_on_screenshot(tmp_path):
+def test_hud_and_panel_on_screenshot_without_old_messages(tmp_path):
     a, b = tmp_path / "plain.png", tmp_path / "hud.png"
-    run_window(["--scene", "city", "--lights", "32", "--size", "320x180", "--frames", "1",
-                "--no-hud", "--screenshot", str(a)])
-    run_window(["--scene", "city", "--lights", "32", "--size", "320x180", "--frames", "1",
-                "--screenshot", str(b)])
+    common = ["--scene", "city", "--lights", "32", "--size", "480x270", "--technique", "clustered"]
+    run_window(common + ["--frames", "1", "--no-hud", "--screenshot", str(a)])
+    _, summary, _ = run_window(common + ["--frames", "3", "--keys", "k,k",
+                                         "--shot-dir", str(tmp_path), "--screenshot", str(b)])
     diff = np.abs(load_rgb(a) - load_rgb(b)).sum(2)
     ys, xs = np.nonzero(diff)
-    assert len(ys) > 100 and ys.min() < 10 and xs.min() < 10     # text in the top-left corner
+    assert len(ys) > 100 and ys.min() < 10 and xs.min() < 10     # the HUD, top left
+    assert xs.max() > 470                                        # the panel, right
+    # the second and third screenshots are taken while "screenshot: ..." is on screen: they
+    # do not carry it
+    huds = summary["screenshot_hud"]
+    assert len(huds) == 3 and all(huds)
+    assert not any("screenshot:" in line for hud in huds for line in hud)
 
 
-@pytest.mark.parametrize("args", [["--frames", "0"], ["--keys", "3,nope"], ["--size", "12"],
-                                  ["--technique", "nope"], ["--no-such-flag"],
-                                  ["--window", "nope"], ["--heat-max", "-1"],
+@pytest.mark.parametrize("args", [["--frames", "0"], ["--keys", "3,nope"], ["--keys", "nope=3"],
+                                  ["--size", "12"], ["--technique", "nope"], ["--no-such-flag"],
+                                  ["--window", "nope"], ["--heat-max", "-1"], ["--exposure", "-2"],
                                   ["--technique", "brute", "--tile", "32"],
-                                  ["--tile", "32"],                 # the default start: brute
                                   ["--technique", "tree", "--slices", "8"],
-                                  ["--technique", "tree", "--tile", "7000"]])
+                                  ["--technique", "tree", "--tile", "7000"],
+                                  ["--replay", "/nonexistent/path.json"]])
 def test_bad_flags_one_line_exit_2(args):
     proc = run(["app.window", "--window", "headless", *args])
     assert proc.returncode == 2
@@ -134,25 +227,29 @@ def test_bad_flags_one_line_exit_2(args):
     assert "Traceback" not in proc.stderr
 
 
+def test_help_shows_the_labs_options_first():
+    proc = run(["app.window", "--help"])
+    assert proc.returncode == 0
+    out = proc.stdout
+    for flag in ("--scene", "--technique", "--exposure", "--record", "--replay", "--keys"):
+        assert out.index(flag) < out.index("--window"), flag
+    assert out.index("--fullscreen") > out.index("--tile")
+
+
 def test_pyglet_window_under_xvfb(tmp_path):
     xvfb = shutil.which("xvfb-run")
     if xvfb is None:
         pytest.fail("xvfb-run not found: install xvfb (LAB_WITH_XVFB=1 scripts/setup.sh)")
     shot = tmp_path / "xvfb.png"
     frames, summary, _ = run_window(
-        LIT + ["--window", "pyglet", "--frames", "3", "--keys", "5,v,v,v,v", "--no-hud",
-               "--screenshot", str(shot)],
+        LIT + ["--window", "pyglet", "--technique", "hybrid", "--frames", "3", "--keys",
+               "v,v,tile=32", "--screenshot", str(shot)],
         prefix=[xvfb, "-a", "-s", "-screen 0 640x480x24"], headless=False)
     assert summary["window"] == "pyglet" and summary["frames"] == 3
-    assert [(f["technique"], f["view"]) for f in frames] == [(NAMES[4], "shaded"), (NAMES[4], "heat"),
-                                                            (NAMES[4], "classes")]
+    assert [(f["technique"], f["view"]) for f in frames] == [("hybrid", "heat"), ("hybrid", "tiles"),
+                                                            ("hybrid", "tiles")]
     img = load_rgb(shot)
     assert img.shape == (90, 160, 3) and img.var() > 0
-
-
-def key_of(name: str) -> str:
-    """The digit key that selects a technique (REGISTRY order)."""
-    return str(NAMES.index(name) + 1)
 
 
 def test_options_per_technique():
@@ -175,50 +272,89 @@ def test_options_per_technique():
 
 def test_perfect_is_a_view_too():
     # the floor technique runs its untimed set-up (count, plan, fill) through the window
-    frames, _, _ = run_window(LIT + ["--frames", "2", "--keys", key_of("perfect")])
+    frames, _, _ = run_window(LIT + ["--technique", "clustered", "--frames", "2", "--keys",
+                                     key_of("perfect")])
     for f in frames:
         assert f["technique"] == "perfect" and f["grid"] is None
         assert f["exact_per_pixel"] > 0 and f["evaluated_per_pixel"] == f["exact_per_pixel"]
         assert f["setup_ms"] and "shade" in f["gpu_ms"]
 
 
-def overlay_shots(tmp_path, technique, options=("--tile", "32")):
-    """Shaded, tiles and slices views of one frame (K on frames 0, 4 and 6)."""
+def overlay_shots(tmp_path, technique, views, options=("--tile", "32")):
+    """Screenshots of `views` of one frame (set through the panel, one a frame)."""
+    keys = []
+    for v in views:
+        keys += [f"view={v}", "k"]
     frames, summary, _ = run_window(SMALL + ["--technique", technique, *options, "--no-hud",
-                                             "--frames", "7", "--keys", "k,v,v,v,k,v,k",
+                                             "--frames", str(len(keys) + 1), "--keys", ",".join(keys),
                                              "--shot-dir", str(tmp_path / technique)])
-    assert [f["view"] for f in frames[::2]] == ["shaded", "classes", "tiles", "slices"]
     shots = summary["screenshots"]
-    assert [Path(s).name.split("-")[3] for s in shots] == ["shaded", "tiles", "slices"]
+    assert [Path(s).name.split("-")[3] for s in shots] == list(views)
     return [load_rgb(s) for s in shots]
 
 
 def test_tiles_overlay_is_the_techniques_grid(tmp_path):
-    shaded, tiles, slices = overlay_shots(tmp_path, "tree")
+    shaded, tiles = overlay_shots(tmp_path, "tree", ("shaded", "tiles"))
     diff = np.abs(tiles - shaded).sum(2) > 0
     rows, cols = np.nonzero(diff)
     h = shaded.shape[0]
     on_line = ((h - 1 - rows) % 32 == 0) | (cols % 32 == 0)   # tiles start at the bottom left
     assert diff.sum() > 100 and on_line.all()
     assert {0, 32, 64, 96, 128} <= set(cols.tolist())
-    assert (slices == shaded).all()               # tree has no depth slices: nothing drawn
 
 
 def test_slices_overlay_of_a_2_5d_grid(tmp_path):
-    shaded, tiles, slices = overlay_shots(tmp_path, "hybrid")
+    shaded, tiles, slices = overlay_shots(tmp_path, "hybrid", ("shaded", "tiles", "slices"))
     assert (np.abs(tiles - shaded).sum(2) > 0).sum() > 100
     assert (np.abs(slices - shaded).sum(2) > 0).mean() > 0.3
 
 
-def test_no_overlay_for_a_technique_without_a_grid(tmp_path):
-    shaded, tiles, slices = overlay_shots(tmp_path, "brute", options=())
-    assert (tiles == shaded).all() and (slices == shaded).all()
+def test_inspect_the_cursor_light_and_tile(tmp_path):
+    # the tile's list holds every light that affects the pixel (a conservative list), and
+    # the picked light's bounding sphere is drawn
+    plain, shot = tmp_path / "plain.png", tmp_path / "inspect.png"
+    run_window(LIT + ["--technique", "tiled", "--tile", "16", "--frames", "1", "--no-hud",
+                      "--screenshot", str(plain)])
+    frames, _, _ = run_window(LIT + ["--technique", "tiled", "--tile", "16", "--frames", "1",
+                                     "--no-hud", "--inspect", "80x70", "--screenshot", str(shot)])
+    ins = frames[0]["inspect"]
+    assert ins["pixel"] == [80, 90 - 1 - 70]
+    assert ins["tile"] == [80, 16, 96, 32] and ins["tile_index"] == [5, 1]
+    assert ins["affecting"], "no light affects the inspected pixel: move it"
+    assert ins["tile_lights"] >= len(ins["affecting"]) and ins["evaluated"] >= len(ins["affecting"])
+    assert ins["light"] in ins["affecting"] and ins["sphere"][3] > 0
+    diff = np.abs(load_rgb(shot) - load_rgb(plain)).sum(2) > 0
+    assert diff.sum() > 50
+
+
+def test_record_replay_and_bench_along_the_path(tmp_path):
+    path = tmp_path / "fly.json"
+    keys = ["w", "w", "d", "w", "e"]
+    rec, summary, _ = run_window(SMALL + ["--technique", "clustered", "--frames", "5",
+                                          "--keys", ",".join(keys), "--record", str(path)])
+    assert summary["paths"] == [str(path)]
+    data = json.loads(path.read_text())
+    assert data["scene"] == "city" and len(data["keys"]) == 5
+    assert [k["position"] for k in data["keys"]] == [pytest.approx(f["camera"], abs=1e-3) for f in rec]
+    rep, _, _ = run_window(SMALL + ["--technique", "tree", "--frames", "5", "--replay", str(path)])
+    assert [f["camera"] for f in rep] == [f["camera"] for f in rec]
+    assert [f["path_frame"] for f in rep] == [0, 1, 2, 3, 4]
+
+
+def test_slow_technique_is_announced_before_it_renders():
+    proc = run(["app.window", "--window", "headless", "--scene", "city", "--lights", "32768",
+                "--size", "160x90", "--technique", "brute", "--frames", "1"])
+    assert proc.returncode == 0, proc.stderr
+    assert "slow: brute needs about" in proc.stderr
+    frame = json.loads([l for l in proc.stdout.splitlines() if l.startswith('{"technique"')][0])
+    assert frame["technique"] == "brute"
 
 
 # ---- no GL: key names and the fly camera --------------------------------------------------
 
 def test_key_names_and_parse():
     from app.window import KEY_NAMES, key_names, parse_keys
+    from app.window.panel import panel_keys
 
     class Keys:
         NUMBER_1, NUMBER_9, W, V, F12, ESCAPE, K = 49, 57, 119, 118, 300, 27, 107
@@ -226,6 +362,8 @@ def test_key_names_and_parse():
     m = key_names(Keys)
     assert m == {49: "1", 57: "9", 119: "w", 118: "v", 300: "f12", 27: "escape", 107: "k"}
     assert parse_keys(" 3, V ,f12") == ["3", "v", "f12"]
+    assert parse_keys("tile=32, click:Lights-per-leaf", panel_keys(REGISTRY)) == \
+        ["tile=32", "click:lights_per_leaf"]
     assert set("123456789") <= set(KEY_NAMES)
 
 
@@ -244,36 +382,3 @@ def test_fly_camera():
     fly.turn(math.pi / 2, 0.0)                        # quarter turn right: looks along +x
     f2 = np.array(fly.forward())
     assert f2[0] > 0.99 and abs(f2[2]) < 0.2
-
-
-def test_hud_text_names_missing_overlays_and_ignored_options():
-    from types import SimpleNamespace
-    from app.window.hud import hud_lines
-    from app.window.options import WindowOptions
-    from app.window.views import Overlay, view_note
-    none = Overlay.of(None)
-    assert view_note("tiles", "brute", none, 1).startswith("no tiles for brute")
-    assert view_note("slices", "perfect", none, 1).startswith("no depth slices for perfect")
-    grid = SimpleNamespace(tile=32, tiles_x=5, tiles_y=3, slices=1, slice_scale=0.0, slice_bias=0.0)
-    tiles = Overlay.of(grid)
-    assert view_note("tiles", "tree", tiles, 1) == "tiles: 32 px, 5x3 (tree's grid)"
-    assert view_note("slices", "tree", tiles, 1).startswith("no depth slices for tree: 2D tiles")
-    assert view_note("shaded", "tree", tiles, 1) is None
-
-    opts = WindowOptions({"tile": 32, "lights_per_leaf": 2})
-    tree, ignored = opts.for_technique(REGISTRY["tree"])
-    assert type(tree) is REGISTRY["tree"].Options and tree.tile == 32 and ignored == ()
-    brute, ignored = opts.for_technique(REGISTRY["brute"])
-    assert brute.as_dict() == {} and ignored == ("lights_per_leaf", "tile")
-    assert opts.hud_line(REGISTRY["tree"]) == "options: --tile 32  --lights-per-leaf 2"
-    line = opts.hud_line(REGISTRY["brute"])
-    assert line == "options: defaults   (not taken by brute: --tile 32  --lights-per-leaf 2)"
-    assert WindowOptions({}).hud_line(REGISTRY["hybrid"]) == "options: defaults"
-
-    f = {"technique": "brute", "view": "tiles", "size": [160, 90], "lights": 32, "visible_lights": 31,
-         "evaluated_per_pixel": 31.0, "exact_per_pixel": 0.5, "cpu_ms": {"cull": 1.0},
-         "gpu_ms": {"shade": 2.0}, "setup_ms": {}}
-    lines = hud_lines(f, position="1/6", role="reference", software=True, playing=False,
-                      options=line, note=view_note("tiles", "brute", none, 1))
-    assert lines[0].startswith("brute [reference] (1/6)   view: tiles")
-    assert line in lines and any(l.startswith("no tiles for brute") for l in lines)

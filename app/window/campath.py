@@ -1,0 +1,165 @@
+"""Camera paths: a fly-through recorded in the window (--record PATH.json), replayed in the
+window (--replay PATH.json) and benchmarked along (python -m app.bench --path PATH.json).
+
+The file (JSON, version 1):
+
+    {
+      "format": "many-light-lab camera path",
+      "version": 1,
+      "scene": "city",                  # the scene it was recorded in (informative)
+      "size": [960, 540],               # the window's render size then (informative)
+      "keys": [                         # one key per recorded frame, in order
+        {"t": 0.0,                      # seconds since the recording started (frame timing)
+         "position": [x, y, z], "target": [x, y, z], "up": [0, 1, 0],
+         "fov_y_deg": 60.0, "near": 0.1, "far": 1000.0},
+        ...
+      ]
+    }
+
+A replay and the benchmark take one key per frame (the frame timing `t` says how fast it
+was flown; frame k of a replay is key k, however long a frame takes).  A bad file is
+rejected with one line naming the key and the field (exit status 2).  No GL here.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import json
+import math
+from pathlib import Path
+
+from ..errors import UserError
+
+FORMAT = "many-light-lab camera path"
+VERSION = 1
+CAMERA_FIELDS = ("position", "target", "up", "fov_y_deg", "near", "far")
+
+
+@dataclass
+class CameraPath:
+    keys: list = field(default_factory=list)      # scenes.model.Camera
+    times: list = field(default_factory=list)     # seconds, one per key
+    scene: str = ""
+    size: tuple[int, int] | None = None
+
+    def __len__(self) -> int:
+        return len(self.keys)
+
+    def camera(self, frame: int):
+        """The camera of frame `frame` (one key a frame, looping)."""
+        return self.keys[frame % len(self.keys)]
+
+    def add(self, cam, t: float) -> None:
+        self.keys.append(cam)
+        self.times.append(float(t))
+
+    def as_dict(self) -> dict:
+        r = lambda v: [round(float(x), 6) for x in v]
+        return {"format": FORMAT, "version": VERSION, "scene": self.scene,
+                "size": list(self.size) if self.size else None,
+                "keys": [{"t": round(float(t), 4), "position": r(c.position), "target": r(c.target),
+                          "up": r(c.up), "fov_y_deg": float(c.fov_y_deg), "near": float(c.near),
+                          "far": float(c.far)} for c, t in zip(self.keys, self.times)]}
+
+    def save(self, path) -> Path:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        d = self.as_dict()
+        keys = d.pop("keys")
+        head = json.dumps(d)[:-1]              # one key a line: diffable, still small
+        body = ",\n  ".join(json.dumps(k) for k in keys)
+        path.write_text(f'{head}, "keys": [\n  {body}\n]}}\n')
+        return path
+
+
+def _vec3(v, where: str) -> tuple[float, float, float]:
+    if not (isinstance(v, (list, tuple)) and len(v) == 3):
+        raise UserError(f"{where}: must be a list of 3 numbers (got {v!r})")
+    out = []
+    for x in v:
+        if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+            raise UserError(f"{where}: must be a list of 3 finite numbers (got {v!r})")
+        out.append(float(x))
+    return tuple(out)
+
+
+def _number(v, where: str, lo: float = -math.inf, hi: float = math.inf, open_lo=False) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise UserError(f"{where}: must be a finite number (got {v!r})")
+    if (v <= lo if open_lo else v < lo) or v > hi:
+        raise UserError(f"{where}: must be in {'(' if open_lo else '['}{lo:g}, {hi:g}] (got {v!r})")
+    return float(v)
+
+
+def from_dict(d, source: str = "camera path") -> CameraPath:
+    """A CameraPath from the file's JSON object, every field checked."""
+    from scenes.model import Camera
+    if not isinstance(d, dict):
+        raise UserError(f"{source}: must be a JSON object with 'keys'")
+    if d.get("format", FORMAT) != FORMAT:
+        raise UserError(f"{source}: format: expected '{FORMAT}' (got {d.get('format')!r})")
+    if d.get("version", VERSION) != VERSION:
+        raise UserError(f"{source}: version: {d.get('version')!r} is not supported (expected {VERSION})")
+    known = {"format", "version", "scene", "size", "keys"}
+    unknown = sorted(set(d) - known)
+    if unknown:
+        raise UserError(f"{source}: unknown field '{unknown[0]}' (known: {', '.join(sorted(known))})")
+    keys = d.get("keys")
+    if not isinstance(keys, list) or not keys:
+        raise UserError(f"{source}: keys: must be a non-empty list of camera keys")
+    path = CameraPath(scene=str(d.get("scene") or ""))
+    size = d.get("size")
+    if size is not None:
+        if not (isinstance(size, list) and len(size) == 2 and all(isinstance(v, int) and v > 0 for v in size)):
+            raise UserError(f"{source}: size: must be [width, height] in pixels (got {size!r})")
+        path.size = tuple(size)
+    last_t = -math.inf
+    for i, k in enumerate(keys):
+        where = f"{source}: keys[{i}]"
+        if not isinstance(k, dict):
+            raise UserError(f"{where}: must be an object")
+        missing = [f for f in CAMERA_FIELDS if f not in k]
+        if missing:
+            raise UserError(f"{where}: missing '{missing[0]}'")
+        extra = sorted(set(k) - set(CAMERA_FIELDS) - {"t"})
+        if extra:
+            raise UserError(f"{where}: unknown field '{extra[0]}' (known: t, {', '.join(CAMERA_FIELDS)})")
+        pos = _vec3(k["position"], f"{where}.position")
+        tgt = _vec3(k["target"], f"{where}.target")
+        up = _vec3(k["up"], f"{where}.up")
+        fov = _number(k["fov_y_deg"], f"{where}.fov_y_deg", 0.0, 179.0, open_lo=True)
+        near = _number(k["near"], f"{where}.near", 0.0, math.inf, open_lo=True)
+        far = _number(k["far"], f"{where}.far", near, math.inf, open_lo=True)
+        if math.dist(pos, tgt) <= 1e-9:
+            raise UserError(f"{where}: target equals position (no view direction)")
+        f = [b - a for a, b in zip(pos, tgt)]
+        cross = (f[1] * up[2] - f[2] * up[1], f[2] * up[0] - f[0] * up[2], f[0] * up[1] - f[1] * up[0])
+        if math.hypot(*cross) <= 1e-9 * math.hypot(*f) * max(math.hypot(*up), 1e-30):
+            raise UserError(f"{where}: up is zero or parallel to the view direction")
+        t = _number(k.get("t", float(i)), f"{where}.t", 0.0)
+        if t < last_t:
+            raise UserError(f"{where}.t: keys must be in time order ({t:g} after {last_t:g})")
+        last_t = t
+        path.add(Camera(pos, tgt, up, fov, near, far), t)
+    return path
+
+
+def load(path) -> CameraPath:
+    """The camera path file at `path` (one-line UserError when it is not one)."""
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except OSError as exc:
+        raise UserError(f"camera path {p}: cannot read it ({exc.strerror or exc})") from None
+    try:
+        d = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise UserError(f"camera path {p}: not JSON ({exc.msg} at line {exc.lineno})") from None
+    return from_dict(d, f"camera path {p}")
+
+
+def from_scene(scene, frames: int) -> CameraPath:
+    """The scene's own camera path (Scene.camera_at) as `frames` keys at 30 frames a second."""
+    path = CameraPath(scene=scene.name)
+    for k in range(frames):
+        path.add(scene.camera_at(k, frames), k / 30.0)
+    return path

@@ -1,0 +1,322 @@
+"""The live panel's model: what can be changed and how, with no GL and no imgui.
+
+    LabState   what the next frame renders and shows: technique, its options, view, light
+               count / seed / distribution, exposure, ambient, heat scale, split, inspect
+    Panel      the controls of the current state, read from the declarations (a technique's
+               options: its Options.specs(), flag / range / help), and `apply`, the one way
+               a value gets in: the imgui widgets (app.window.ui) call it when a widget
+               changes, scripted runs (--keys "tile=32") and tests call it the same way.
+               Changes apply on the next frame (the frame being drawn already rendered).
+
+Every value is checked where it is applied; a bad one is a UserError (one line), which the
+window shows as a message and the state keeps its value.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import math
+from typing import Callable
+
+from .. import images
+from ..errors import UserError
+from .options import WindowOptions, flag
+from .views import HEAT_OF, SPLIT_VIEWS, views_of
+
+EV_RANGE = (-20.0, 20.0)
+AMBIENT_RANGE = (0.0, 1.0)
+HEAT_MAX_RANGE = (0.0, 1e7)
+DISTRIBUTIONS = ("uniform", "geometry")
+
+
+@dataclass
+class LabState:
+    registry: dict                          # name -> technique (app.techniques.REGISTRY)
+    technique: str
+    options: WindowOptions
+    lights: int
+    view: str = "shaded"
+    seed: int = 0
+    distribution: str | None = None         # None: the scene's own
+    builtin: bool = True                    # a builtin scene: lights are drawn (count, seed, distribution)
+    file_lights: int = 0                    # a scene file: the lights it has
+    max_lights: int = 4_194_304
+    exposure_auto: bool = True
+    exposure_ev: float = 0.0                # manual exposure = 2 ** ev
+    exposure_now: float = 1.0               # the last frame's exposure (auto or manual)
+    ambient: float = images.AMBIENT
+    heat_max: float = 0.0                   # 0: the frame's largest count
+    heat_of: str = "evaluated"
+    heat_overlay: bool = False
+    split_with: str = ""
+    split_view: str = "shaded"
+    split_at: float = 0.0                   # 0: the middle of what the panel leaves visible
+    inspect: bool = False
+    hud: bool = True
+    panel: bool = True
+    version: int = 0                        # bumped by every change
+    messages: list = field(default_factory=list)
+
+    @property
+    def tech(self):
+        return self.registry[self.technique]
+
+    def views(self) -> tuple[str, ...]:
+        return views_of(self.tech)
+
+    def changed(self, message: str | None = None) -> None:
+        self.version += 1
+        if message:
+            self.messages.append(message)
+
+    # ---- the state's own rules ---------------------------------------------------------------
+    def set_technique(self, name: str) -> None:
+        if name not in self.registry:
+            raise UserError(f"unknown technique '{name}' (choose from {', '.join(self.registry)})")
+        self.technique = name
+        self.options.for_technique(self.tech)          # its options exist and are valid
+        note = None
+        if self.view not in self.views():
+            note = f"{name} has no {self.view} view: shaded"
+            self.view = "shaded"
+        if self.split_with == name:
+            self.split_with = self.default_split()
+        self.changed(note)
+
+    def set_view(self, view: str) -> None:
+        if view not in self.views():
+            raise UserError(f"{self.technique} has no {view} view (its views: {', '.join(self.views())})")
+        self.view = view
+        self.changed()
+
+    def next_view(self) -> None:
+        vs = self.views()
+        self.view = vs[(vs.index(self.view) + 1) % len(vs)] if self.view in vs else vs[0]
+        self.changed()
+
+    def default_split(self) -> str:
+        """The technique the split view compares with: the first other one that is neither
+        the reference nor the floor, else any other."""
+        others = [n for n in self.registry if n != self.technique]
+        plain = [n for n in others if self.registry[n].role == "technique"]
+        return (plain or others or [self.technique])[0]
+
+    def set_lights(self, n) -> None:
+        n = _int(n, "lights")
+        top = self.max_lights if self.builtin else self.file_lights
+        if not 0 <= n <= top:
+            what = "the scene file has" if not self.builtin else "at most"
+            raise UserError(f"lights must be in 0..{top} ({what} {top})")
+        self.lights = n
+        self.changed()
+
+    @property
+    def exposure_manual(self) -> float:
+        return 2.0 ** self.exposure_ev
+
+
+@dataclass
+class Control:
+    key: str                    # what `apply` and --keys "key=value" name
+    label: str
+    kind: str                   # int, float, bool, choice, button, text
+    value: object = None
+    lo: float | None = None
+    hi: float | None = None
+    choices: tuple = ()
+    help: str = ""
+    section: str = ""
+    log: bool = False           # a slider on a log scale (light counts, ranges over decades)
+    power_of_two: bool = False
+    set: Callable | None = None
+
+
+def _int(v, what: str) -> int:
+    if isinstance(v, str):
+        try:
+            v = int(v.strip())
+        except ValueError:
+            raise UserError(f"{what} must be an integer (got '{v}')") from None
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v):
+        raise UserError(f"{what} must be an integer (got {v!r})")
+    return int(v)
+
+
+def _float(v, what: str, lo: float, hi: float) -> float:
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        raise UserError(f"{what} must be a number (got {v!r})") from None
+    if not (math.isfinite(v) and lo <= v <= hi):
+        raise UserError(f"{what} must be in {lo:g}..{hi:g} (got {v:g})")
+    return v
+
+
+def _bool(v, what: str) -> bool:
+    if isinstance(v, str):
+        t = v.strip().lower()
+        if t in ("1", "true", "on", "yes"):
+            return True
+        if t in ("0", "false", "off", "no"):
+            return False
+        raise UserError(f"{what} must be on or off (got '{v}')")
+    if isinstance(v, (bool, int)) and v in (0, 1):
+        return bool(v)
+    raise UserError(f"{what} must be on or off (got {v!r})")
+
+
+def _choice(v, what: str, choices) -> str:
+    if v not in choices:
+        raise UserError(f"{what} must be one of {', '.join(map(str, choices))} (got {v!r})")
+    return v
+
+
+class Panel:
+    """The controls of a LabState, and the one way values get in (`apply`).  `actions`
+    are the window's buttons: {key: (label, callback)} (play, record, screenshot ...)."""
+
+    FIXED_KEYS = ("technique", "view", "defaults", "lights", "seed", "distribution",
+                  "exposure_auto", "exposure_ev", "ambient", "heat_max", "heat_of",
+                  "heat_overlay", "split_with", "split_view", "split_at", "inspect")
+
+    def __init__(self, state: LabState, actions: dict | None = None):
+        self.state = state
+        self.actions = dict(actions or {})
+
+    # ---- the controls -------------------------------------------------------------------------
+    def controls(self) -> list[Control]:
+        s = self.state
+        tech = s.tech
+        out = [Control("technique", "technique", "choice", s.technique, choices=tuple(s.registry),
+                       help="; ".join(f"{t.name}: {t.summary}" for t in s.registry.values()),
+                       section="technique", set=s.set_technique),
+               Control("view", "view", "choice", s.view, choices=s.views(),
+                       help="the views this technique has", section="technique", set=s.set_view)]
+        opts, _ = s.options.for_technique(tech)
+        for spec in tech.Options.specs():
+            kind = {bool: "bool", int: "int", float: "float"}[spec.kind]
+            lo, hi = spec.lo, spec.hi
+            out.append(Control(spec.name, spec.name.replace("_", " "), kind, getattr(opts, spec.name),
+                               lo=lo, hi=hi, help=f"{flag(spec.name)}: {spec.help}",
+                               section="options", power_of_two=spec.power_of_two,
+                               log=kind != "bool" and lo is not None and hi is not None and lo > 0 and hi / lo >= 1e3,
+                               set=lambda v, n=spec.name: self._set_option(n, v)))
+        out.append(Control("defaults", "defaults", "button", help="this technique's declared defaults "
+                           "(and the command line's flags)", section="options", set=self._defaults))
+        if s.builtin:
+            out += [Control("lights", "lights", "int", s.lights, lo=0, hi=s.max_lights, log=True,
+                            help="light count (drawn anew with the seed and distribution)",
+                            section="lights", set=s.set_lights),
+                    Control("seed", "seed", "int", s.seed, lo=0, hi=2**31 - 1, help="light draw seed",
+                            section="lights", set=self._set_seed),
+                    Control("distribution", "distribution", "choice", s.distribution or "scene default",
+                            choices=("scene default",) + DISTRIBUTIONS, section="lights",
+                            help="lights uniform in the scene's box or on its geometry",
+                            set=self._set_distribution)]
+        else:
+            out.append(Control("lights", "lights", "int", s.lights, lo=0, hi=s.file_lights,
+                               help="the first N lights of the scene file", section="lights",
+                               set=s.set_lights))
+        out += [Control("exposure_auto", "auto exposure", "bool", s.exposure_auto, section="display",
+                        help=f"the {images.EXPOSURE_PERCENTILE:.0%} luminance of the lit pixels "
+                             f"maps to {images.EXPOSURE_TARGET:g} (app.images)",
+                        set=lambda v: self._setattr("exposure_auto", _bool(v, "auto exposure"))),
+                Control("exposure_ev", "exposure EV", "float",
+                        math.log2(s.exposure_now) if s.exposure_auto and s.exposure_now > 0 else s.exposure_ev,
+                        lo=EV_RANGE[0], hi=EV_RANGE[1],
+                        section="display", help="exposure = 2^EV; moving it turns auto exposure off",
+                        set=self._set_ev),
+                Control("ambient", "ambient", "float", s.ambient, lo=AMBIENT_RANGE[0], hi=AMBIENT_RANGE[1],
+                        section="display", help="display only: ambient x albedo added after the "
+                                                "exposure, so geometry shows with few lights",
+                        set=lambda v: self._setattr("ambient", _float(v, "ambient", *AMBIENT_RANGE))),
+                Control("heat_max", "heat max", "float", s.heat_max, lo=HEAT_MAX_RANGE[0], hi=HEAT_MAX_RANGE[1],
+                        section="display", help="top of the heat scale; 0: the frame's largest count "
+                                                "(fix it to compare two runs)",
+                        set=lambda v: self._setattr("heat_max", _float(v, "heat max", *HEAT_MAX_RANGE))),
+                Control("heat_of", "heat of", "choice", s.heat_of, choices=HEAT_OF, section="display",
+                        help="lights evaluated per pixel, or exact lights (contrib_count)",
+                        set=lambda v: self._setattr("heat_of", _choice(v, "heat of", HEAT_OF))),
+                Control("heat_overlay", "heat over shaded", "bool", s.heat_overlay, section="display",
+                        help="the heat map over the shaded image",
+                        set=lambda v: self._setattr("heat_overlay", _bool(v, "heat over shaded"))),
+                Control("split_with", "split with", "choice", s.split_with,
+                        choices=tuple(n for n in s.registry if n != s.technique), section="compare",
+                        help="the technique on the right half of the split view",
+                        set=self._set_split),
+                Control("split_view", "split shows", "choice", s.split_view, choices=SPLIT_VIEWS,
+                        section="compare", help="both halves as shaded images or heat maps",
+                        set=lambda v: self._setattr("split_view", _choice(v, "split shows", SPLIT_VIEWS))),
+                Control("split_at", "split at", "float", s.split_at, lo=0.0, hi=0.95, section="compare",
+                        help="where the split is, a fraction of the width (0: the middle of what "
+                             "the panel leaves visible)",
+                        set=lambda v: self._setattr("split_at", _float(v, "split at", 0.0, 0.95))),
+                Control("inspect", "inspect cursor", "bool", s.inspect, section="inspect",
+                        help="the light and the tile under the cursor, with its light list",
+                        set=lambda v: self._setattr("inspect", _bool(v, "inspect")))]
+        for key, (label, callback) in self.actions.items():
+            out.append(Control(key, label, "button", section="camera", set=lambda v, c=callback: c()))
+        return out
+
+    def control(self, key: str) -> Control:
+        for c in self.controls():
+            if c.key == key:
+                return c
+        known = ", ".join(c.key for c in self.controls())
+        raise UserError(f"no control '{key}' for {self.state.technique} (controls: {known})")
+
+    # ---- the one way in -----------------------------------------------------------------------
+    def apply(self, key: str, value=None) -> None:
+        """Set control `key` to `value` (a string is converted by the control's kind) as a
+        widget does; raises UserError with one line when the value is refused."""
+        c = self.control(key)
+        if c.kind == "int" and isinstance(value, str):
+            value = _int(value, c.label)
+        elif c.kind == "float" and isinstance(value, str):
+            value = _float(value, c.label, -math.inf, math.inf)
+        elif c.kind == "bool":
+            value = _bool(value, c.label)
+        c.set(value)
+
+    # ---- setters -------------------------------------------------------------------------------
+    def _setattr(self, name: str, value) -> None:
+        setattr(self.state, name, value)
+        self.state.changed()
+
+    def _set_option(self, name: str, value) -> None:
+        s = self.state
+        s.options.set(s.tech, name, value)
+        s.changed()
+
+    def _defaults(self, _=None) -> None:
+        self.state.options.reset(self.state.tech)
+        self.state.changed(f"{self.state.technique}: options back to their defaults")
+
+    def _set_seed(self, v) -> None:
+        v = _int(v, "seed")
+        if not 0 <= v <= 2**31 - 1:
+            raise UserError(f"seed must be in 0..{2**31 - 1} (got {v})")
+        self._setattr("seed", v)
+
+    def _set_distribution(self, v) -> None:
+        v = _choice(v, "distribution", ("scene default",) + DISTRIBUTIONS)
+        self._setattr("distribution", None if v == "scene default" else v)
+
+    def _set_ev(self, v) -> None:
+        v = _float(v, "exposure EV", *EV_RANGE)
+        self.state.exposure_ev = v
+        self.state.exposure_auto = False
+        self.state.changed()
+
+    def _set_split(self, v) -> None:
+        s = self.state
+        _choice(v, "split with", tuple(n for n in s.registry if n != s.technique))
+        self._setattr("split_with", v)
+
+
+def panel_keys(registry) -> set[str]:
+    """Every key a scripted run may set (--keys "key=value"): the fixed controls and every
+    option of every technique (whether the current one has it is checked when applied)."""
+    keys = set(Panel.FIXED_KEYS)
+    for t in registry.values():
+        keys.update(t.Options.names())
+    return keys

@@ -1,0 +1,157 @@
+"""How long a technique's frame takes, before the window commits to it.
+
+    fastest()   the start-up probe: every candidate technique (not the reference, not the
+                floor: both are there to compare against, not to fly with) rendered twice at
+                the window's size (at most PROBE_PIXELS of it) with the scene's first camera;
+                the fastest second frame (wall clock: what the window waits for) wins.  The
+                first frame compiles the technique's shaders and kernels, which the window
+                would pay anyway.  Nothing is named here: a new technique module takes part.
+                Why not a small size: a culling structure's tiles and cells cover more of the
+                view at a lower resolution, so its lists grow and the ranking can change
+                (tiled: 2x slower per pixel at half size on the city).  The probe stops
+                after PROBE_BUDGET_S (6 s; LAB_PROBE_BUDGET_S sets it): a cold numba cache
+                compiles each technique's kernels on its first frame, seconds each.  A
+                complete probe's choice is remembered per scene, light draw, size, renderer
+                and technique set in the user's cache folder (cache_file), so a later start
+                takes no probe at all (--reprobe measures again).
+    FrameCosts  the wall time of each technique's frames as measured (the probe's, the
+                window's own), scaled to another pixel and light count; a technique never
+                measured is estimated from one frame at a reduced size (after one that
+                compiles): ESTIMATE_SCALE (1/64 of the pixels) for the reference and the floor,
+                whose per-pixel loops do not depend on the resolution, so the estimate is
+                close; PLAIN_ESTIMATE_SCALE for a culling technique, for which a reduced size
+                over-estimates (its lists grow), the closer to the real size the better.  A
+                frame predicted over SLOW_MS is announced in the HUD before it starts.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+import time
+
+from cpu_prep.camera import frame_camera
+
+from ..errors import UserError
+
+PROBE_PIXELS = 960 * 540
+PROBE_BUDGET_S = float(os.environ.get("LAB_PROBE_BUDGET_S", 6.0))
+ESTIMATE_SCALE = 0.125
+PLAIN_ESTIMATE_SCALE = 0.5
+SLOW_MS = 1000.0
+
+
+def _scaled(size, scale: float) -> tuple[int, int]:
+    return max(8, int(round(size[0] * scale))), max(8, int(round(size[1] * scale)))
+
+
+def timed_frame(renderer, technique, opts, lights, cam, size) -> float:
+    """Wall ms of one frame of `technique` at `size` (the renderer is left at that size)."""
+    if renderer.size != tuple(size):
+        renderer.resize(size)
+    t0 = time.perf_counter()
+    renderer.render(technique, 0, opts, lights=lights, readback=False,
+                    camera=frame_camera(cam, *size))
+    renderer.ctx.finish()
+    return (time.perf_counter() - t0) * 1e3
+
+
+def fastest(renderer, candidates, opts_of, lights, cam, max_pixels: int = PROBE_PIXELS,
+            budget_s: float = PROBE_BUDGET_S):
+    """(name of the fastest candidate, {name: wall ms at the probe size}, probe size,
+    names not probed for want of time).  `opts_of(technique)` gives its options.  A
+    candidate that refuses the frame (a limit it cannot meet) is left out; the renderer is
+    back at its size afterwards."""
+    full = renderer.size
+    size = _scaled(full, min(1.0, (max_pixels / (full[0] * full[1])) ** 0.5))
+    times: dict[str, float] = {}
+    skipped: list[str] = []
+    t0 = None          # the budget starts after the first compile frame: it pays what every
+    try:               # technique shares (the CPU stage's common kernels, the G-buffer's shaders)
+        for t in candidates:
+            if t0 is not None and times and time.perf_counter() - t0 > budget_s:
+                skipped.append(t.name)
+                continue
+            try:
+                timed_frame(renderer, t, opts_of(t), lights, cam, size)      # compiles
+                if t0 is None:
+                    t0 = time.perf_counter()
+                times[t.name] = timed_frame(renderer, t, opts_of(t), lights, cam, size)
+            except UserError:
+                continue
+    finally:
+        renderer.resize(full)
+    if not times:
+        return None, times, size, skipped
+    return min(times, key=times.get), times, size, skipped
+
+
+def cache_file() -> Path:
+    """The start-up probe's memory: $LAB_CACHE_DIR, else $XDG_CACHE_HOME (or ~/.cache)/many-light-lab,
+    /window-start.json."""
+    root = os.environ.get("LAB_CACHE_DIR")
+    if not root:
+        root = str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "many-light-lab")
+    return Path(root) / "window-start.json"
+
+
+def remembered(key: str) -> dict | None:
+    try:
+        return json.loads(cache_file().read_text()).get(key)
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def remember(key: str, choice: dict) -> None:
+    """Keep the probe's choice (best effort: an unwritable cache folder is no error)."""
+    path = cache_file()
+    try:
+        data = json.loads(path.read_text()) if path.is_file() else {}
+        if not isinstance(data, dict):
+            data = {}
+    except (OSError, ValueError):
+        data = {}
+    data[key] = choice
+    while len(data) > 64:                       # a small file: the oldest entries go
+        data.pop(next(iter(data)))
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(data, indent=1) + "\n")
+    except OSError:
+        pass
+
+
+class FrameCosts:
+    """Measured wall ms per technique, with the pixels and lights it was measured at."""
+
+    def __init__(self):
+        self.known: dict[str, tuple[float, int, int]] = {}
+
+    def record(self, name: str, ms: float, pixels: int, lights: int) -> None:
+        self.known[name] = (float(ms), int(pixels), int(lights))
+
+    def predict(self, name: str, pixels: int, lights: int) -> float | None:
+        """ms scaled linearly in pixels and in lights (an upper bound for a culling
+        technique, exact for brute-force loops); None when never measured."""
+        k = self.known.get(name)
+        if k is None:
+            return None
+        ms, p0, l0 = k
+        return ms * pixels / max(p0, 1) * max(lights, 1) / max(l0, 1)
+
+    def estimate(self, renderer, technique, opts, lights, cam) -> float:
+        """Predicted ms at the renderer's size: measured, or from one frame at
+        ESTIMATE_SCALE of the size (recorded as measured there)."""
+        w, h = renderer.size
+        got = self.predict(technique.name, w * h, len(lights))
+        if got is not None:
+            return got
+        full = renderer.size
+        small = _scaled(full, ESTIMATE_SCALE if technique.role != "technique" else PLAIN_ESTIMATE_SCALE)
+        try:
+            timed_frame(renderer, technique, opts, lights, cam, small)       # compiles
+            ms = timed_frame(renderer, technique, opts, lights, cam, small)
+        finally:
+            renderer.resize(full)
+        self.record(technique.name, ms, small[0] * small[1], len(lights))
+        return self.predict(technique.name, w * h, len(lights))

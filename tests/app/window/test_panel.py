@@ -1,0 +1,214 @@
+"""The window's parts that need no GL: the panel's model (controls read from the techniques'
+declarations, the one `apply` path), camera path files, timers, frame-cost predictions, the
+HUD's text and app.images' one definition of what a person sees."""
+from __future__ import annotations
+
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from app import images
+from app.errors import UserError
+from app.techniques import REGISTRY
+from app.window import campath
+from app.window.hud import exposure_text, hud_lines
+from app.window.options import WindowOptions
+from app.window.panel import LabState, Panel, panel_keys
+from app.window.probe import FrameCosts
+from app.window.timers import Timers
+from app.window.views import Overlay, view_note, views_of
+
+
+def state(technique="hybrid", given=None, **kw):
+    kw.setdefault("lights", 4096)
+    return LabState(REGISTRY, technique=technique, options=WindowOptions(given or {}), **kw)
+
+
+def test_controls_are_the_techniques_declared_options():
+    for t in REGISTRY.values():
+        p = Panel(state(t.name))
+        keys = [c.key for c in p.controls() if c.section == "options"]
+        assert keys == list(t.Options.names()) + ["defaults"]
+        for c in p.controls():
+            if c.section == "options" and c.kind != "button":
+                spec = {s.name: s for s in t.Options.specs()}[c.key]
+                assert (c.lo, c.hi, c.power_of_two) == (spec.lo, spec.hi, spec.power_of_two)
+                assert spec.help in c.help and spec.flag in c.help
+    assert [c.choices for c in Panel(state()).controls() if c.key == "view"][0] == views_of(REGISTRY["hybrid"])
+
+
+def test_apply_is_checked_and_changes_the_technique_options():
+    s = state("tree", {"tile": 32})
+    p = Panel(s)
+    p.apply("lights_per_leaf", "2")                  # a string, as --keys gives it
+    opts, _ = s.options.for_technique(REGISTRY["tree"])
+    assert opts.lights_per_leaf == 2 and opts.tile == 32
+    v = s.version
+    with pytest.raises(UserError, match="--tile must be in 4..256"):
+        p.apply("tile", 7000)
+    with pytest.raises(UserError, match="power of two"):
+        p.apply("max_leaves", 48)
+    assert s.version == v and s.options.for_technique(REGISTRY["tree"])[0].tile == 32
+    with pytest.raises(UserError, match="no control 'slices' for tree"):
+        p.apply("slices", 8)
+    p.apply("defaults")
+    assert s.options.for_technique(REGISTRY["tree"])[0].lights_per_leaf != 2 or \
+        REGISTRY["tree"].Options().lights_per_leaf == 2
+    assert s.options.for_technique(REGISTRY["tree"])[0].tile == 32     # the command line's stays
+
+
+def test_panel_display_and_lights_controls():
+    s = state("clustered")
+    p = Panel(s)
+    p.apply("exposure_ev", "2.5")
+    assert not s.exposure_auto and s.exposure_manual == pytest.approx(2 ** 2.5)
+    p.apply("exposure_auto", "on")
+    p.apply("ambient", 0.1)
+    p.apply("heat_max", 64)
+    p.apply("heat_of", "exact")
+    p.apply("heat_overlay", True)
+    p.apply("lights", "1024")
+    p.apply("seed", 7)
+    p.apply("distribution", "uniform")
+    assert (s.exposure_auto, s.ambient, s.heat_max, s.heat_of, s.heat_overlay, s.lights, s.seed,
+            s.distribution) == (True, 0.1, 64.0, "exact", True, 1024, 7, "uniform")
+    with pytest.raises(UserError):
+        p.apply("ambient", 2.0)
+    with pytest.raises(UserError):
+        p.apply("heat_of", "nodes")
+    with pytest.raises(UserError, match="at most"):
+        p.apply("lights", 10**9)
+    p.apply("technique", "brute")                    # it has no slices: back to shaded
+    s.view = "shaded"
+    with pytest.raises(UserError, match="brute has no tiles view"):
+        p.apply("view", "tiles")
+    f = state("clustered", builtin=False, file_lights=10, lights=10)
+    with pytest.raises(UserError, match="the scene file has 10"):
+        Panel(f).apply("lights", 11)
+    assert "seed" not in [c.key for c in Panel(f).controls()]
+
+
+def test_switching_technique_keeps_a_view_it_has_or_falls_back():
+    s = state("hybrid", view="slices")
+    s.set_technique("clustered")
+    assert s.view == "slices" and not s.messages
+    s.set_technique("tree")
+    assert s.view == "shaded" and s.messages == ["tree has no slices view: shaded"]
+    s.split_with = "tiled"
+    s.set_technique("tiled")
+    assert s.split_with != "tiled"
+
+
+def test_every_panel_key_is_scriptable():
+    keys = panel_keys(REGISTRY)
+    assert {"tile", "lights_per_leaf", "radius_scale", "exposure_ev", "heat_max"} <= keys
+    for t in REGISTRY.values():
+        for c in Panel(state(t.name)).controls():
+            assert c.key in keys
+
+
+def test_camera_path_round_trip_and_bad_files(tmp_path):
+    from scenes.model import Camera
+    path = campath.CameraPath(scene="city", size=(320, 180))
+    for k in range(3):
+        path.add(Camera((0.0, 5.0, 30.0 - k), (0.0, 5.0, -1.0), (0.0, 1.0, 0.0), 60.0, 0.5, 3000.0), k / 30)
+    f = path.save(tmp_path / "p.json")
+    back = campath.load(f)
+    assert len(back) == 3 and back.keys == path.keys and back.scene == "city" and back.size == (320, 180)
+    assert back.camera(4) == path.keys[1]                          # loops
+    good = json.loads(f.read_text())
+    cases = [({"keys": []}, "keys: must be a non-empty"),
+             ({**good, "keyz": 1}, "unknown field 'keyz'"),
+             ({**good, "version": 9}, "version"),
+             ({**good, "keys": [{**good["keys"][0], "fov_y_deg": float("nan")}]}, "fov_y_deg"),
+             ({**good, "keys": [{**good["keys"][0], "near": 0}]}, "near"),
+             ({**good, "keys": [{**good["keys"][0], "target": good["keys"][0]["position"]}]}, "target equals"),
+             ({**good, "keys": [{k: v for k, v in good["keys"][0].items() if k != "up"}]}, "missing 'up'"),
+             ({**good, "keys": good["keys"][::-1]}, "time order")]
+    for data, words in cases:
+        (tmp_path / "bad.json").write_text(json.dumps(data))
+        with pytest.raises(UserError, match=words) as e:
+            campath.load(tmp_path / "bad.json")
+        assert "\n" not in str(e.value)
+    (tmp_path / "bad.json").write_text("{nope")
+    with pytest.raises(UserError, match="not JSON"):
+        campath.load(tmp_path / "bad.json")
+
+
+def test_timers_rolling_median_min_and_history():
+    t = Timers()
+    t.add("a", {"shade": 99.0}, {"cull": 1.0}, 120.0)           # first frame: compiles, not kept
+    for v in (3.0, 1.0, 2.0, 10.0):
+        t.add("a", {"shade": v}, {"cull": 1.0}, 20.0)
+    med, lo, n = t.summary()["gpu shade"]
+    assert (med, lo, n) == (2.5, 1.0, 4) and t.history("gpu shade") == [3.0, 1.0, 2.0, 10.0]
+    t.add("b", {"shade": 5.0}, {}, 1.0)                          # a new configuration: new history
+    assert t.summary() == {}
+
+
+def test_frame_cost_prediction_scales_with_pixels_and_lights():
+    c = FrameCosts()
+    assert c.predict("brute", 100, 10) is None
+    c.record("brute", 50.0, 1000, 100)
+    assert c.predict("brute", 4000, 200) == pytest.approx(400.0)
+
+
+def test_hud_text_and_view_notes():
+    none = Overlay.of(None)
+    grid = SimpleNamespace(tile=32, tiles_x=5, tiles_y=3, slices=1, slice_scale=0.0, slice_bias=0.0)
+    tiles = Overlay.of(grid)
+    assert view_note("tiles", "tree", tiles, 1) == "tiles: 32 px, 5x3 (tree's grid)"
+    assert view_note("slices", "tree", tiles, 1).startswith("no depth slices")
+    assert view_note("tiles", "perfect", none, 1).startswith("no tiles")
+    assert view_note("shaded", "tree", tiles, 1) is None
+    assert "37" in view_note("heat", "tree", tiles, 37) and "log2(1 + n)" in view_note("heat", "tree", tiles, 37)
+    assert view_note("diff", "tree", tiles, 1, differ=0).endswith("0 pixels differ (the light sets are exact)")
+    assert "pending" in view_note("diff", "tree", tiles, 1, differ=None) or \
+        "not rendered" in view_note("diff", "tree", tiles, 1, differ=None)
+
+    opts = WindowOptions({"tile": 32, "lights_per_leaf": 2})
+    tree, ignored = opts.for_technique(REGISTRY["tree"])
+    assert type(tree) is REGISTRY["tree"].Options and tree.tile == 32 and ignored == ()
+    brute, ignored = opts.for_technique(REGISTRY["brute"])
+    assert brute.as_dict() == {} and ignored == ("lights_per_leaf", "tile")
+    assert opts.hud_line(REGISTRY["tree"]) == "options: --tile 32  --lights-per-leaf 2"
+    line = opts.hud_line(REGISTRY["brute"])
+    assert line == "options: defaults   (not taken by brute: --tile 32  --lights-per-leaf 2)"
+    opts.set(REGISTRY["tree"], "tile", 16)
+    assert opts.hud_line(REGISTRY["tree"]) == "options: --tile 16  --lights-per-leaf 2"
+
+    f = {"technique": "brute", "view": "heat", "size": [160, 90], "lights": 32, "visible_lights": 31,
+         "evaluated_per_pixel": 31.0, "exact_per_pixel": 0.5, "cpu_ms": {"cull": 1.0},
+         "gpu_ms": {"shade": 2.0}, "setup_ms": {}}
+    lines = hud_lines(f, position="1/6", role="reference", software=True, playing=False,
+                      options=line, note=view_note("heat", "brute", none, 31),
+                      exposure=exposure_text(4.0, True, 0.02))
+    assert lines[0].startswith("brute [reference] (1/6)   view: heat")
+    assert line in lines and "exposure auto x4 (EV +2.0)   ambient 0.02 (display only)" in lines
+
+
+def test_one_heat_definition_and_exposure():
+    v = np.array([[0, 1, 3], [7, 15, 100]])
+    covered = np.array([[True, True, True], [True, True, False]])
+    assert images.heat_max(v, covered) == 15.0 and images.heat_max(v, covered, 64) == 64.0
+    rgb = images.heat_rgb(v, covered, 15.0)
+    assert (rgb[1, 2] == 0).all()                                # sky black
+    assert (rgb[0, 0] == images.to8(np.array([images.HEAT_ZERO]))).all()   # covered zero grey
+    t = images.heat_t(np.array([0, 1, 3, 15, 1000]), 15)
+    assert t[0] == 0 and t[3] == 1 and t[4] == 1 and np.all(np.diff(t) >= 0)
+    assert t[1] == pytest.approx(0.25)                           # log2(2) / log2(16)
+    for top in (1, 7, 37, 1000, 65536):
+        ticks = images.heat_ticks(top)
+        assert ticks[0] == 0 and ticks[-1] == top and ticks == sorted(ticks)
+    # exposure: the percentile of the lit pixels lands on the target
+    img = np.zeros((10, 100, 3), np.float32)
+    img[:, :50] = 0.25
+    img[:, 50:] = 4.0
+    e = images.auto_exposure(img, np.ones((10, 100), bool))
+    assert 4.0 * e == pytest.approx(images.EXPOSURE_TARGET, rel=0.25)   # within a bin
+    assert images.auto_exposure(np.zeros((4, 4, 3), np.float32), np.ones((4, 4), bool)) == 1.0
+    # ambient is display only and lifts unlit geometry off black
+    dark = images.display(np.zeros((1, 1, 3), np.float32), np.full((1, 1, 3), 0.5, np.float32), 8.0, 0.02)
+    assert 20 < int(dark.max()) < 60
