@@ -4,6 +4,7 @@ from ..errors import UserError
 from .base import ROLES, Technique
 from .brute import Brute
 from .clustered import Clustered
+from .fptl import Fptl
 from .hybrid import Hybrid
 from .perfect import Perfect
 from .tiled import Tiled
@@ -29,7 +30,7 @@ def unregister(name: str) -> None:
     REGISTRY.pop(name, None)
 
 
-for _t in (Brute(), Tiled(), Clustered(), Tree(), Hybrid(), ZBin(), Perfect()):
+for _t in (Brute(), Tiled(), Clustered(), Tree(), Hybrid(), ZBin(), Fptl(), Perfect()):
     register(_t)
 
 
