@@ -4,6 +4,11 @@ cell an index list of the lights whose conservative box of cells contains it.
 
     ranges[cell] = (first entry, count) -> entries[] (uint) -> lights[] (GpuLight)
     cell = (ty * tiles_x + tx) * slices + slice;   960x540 at 48 px, 16 slices: 3,520 cells
+
+`scalarize` walks each wave's distinct cells one at a time (Drobot 2017, "hierarchical
+container scalarized over containers"): the same lights per pixel, loads from a
+wave-uniform address; the wave's scalar iterations (rounds + entries of every cell walked)
+go to WAVE_STATS.iterations instead of the longest lane's loop.
 """
 from dataclasses import dataclass
 
@@ -12,7 +17,7 @@ import numpy as np
 from cpu_prep import frame as cpuframe, layouts
 
 from .base import Technique, grid_uniforms, prepare_binned, shading_passes
-from .options import ListOptions, SliceOptions
+from .options import ListOptions, SliceOptions, WaveOptions, option
 
 
 def list_buffers(b, offsets, entries, duplicated: bool) -> None:
@@ -40,8 +45,11 @@ class Clustered(Technique):
     views = Technique.views + ("tiles", "slices")
 
     @dataclass(frozen=True)
-    class Options(SliceOptions, ListOptions):
-        pass
+    class Options(SliceOptions, ListOptions, WaveOptions):
+        scalarize: bool = option(False, "the wave walks its distinct cells one at a time, each "
+                                        "list from a wave-uniform address (Drobot 2017: "
+                                        "hierarchical container scalarized over containers)",
+                                 study=(False, True))
 
     def build(self, frame, opts):
         b, offsets, entries = prepare_binned(frame, opts, opts.slices)
@@ -52,5 +60,6 @@ class Clustered(Technique):
     def passes(self, build, opts):
         return shading_passes(build, "shade_clustered.comp", list_reads(opts.duplicated),
                               build.data["longest_list"],
-                              defines={"LIGHTS_DUPLICATED": int(opts.duplicated)},
-                              uniforms=grid_uniforms(build.grid))
+                              defines={"LIGHTS_DUPLICATED": int(opts.duplicated),
+                                       "SCALARIZED": int(opts.scalarize)},
+                              uniforms=grid_uniforms(build.grid), native_wave=opts.native_wave)

@@ -51,3 +51,22 @@ def test_hybrid_reports_list_tree_and_mixed_waves(gl):
     padded[:h, :w] = lanes[::-1]           # wave rows are in image order, lanes GL order
     per_wave = padded.reshape(res.wave.shape[0], 8, res.wave.shape[1], 8).max((1, 3))[::-1]
     assert np.array_equal(per_wave, res.wave["iterations"].astype(np.int64))
+
+
+def test_scalarized_cells_walk_every_distinct_cell(gl):
+    """clustered with scalarize: the same light sets per pixel; per wave the scalar loop walks
+    each distinct cell once with all its entries, so it runs at least the longest lane's
+    loop plus one round per cell (the slides: performance highly variable)."""
+    scene = load_scene("city", lights=4096, seed=1)
+    r = Renderer(scene, (96, 54))
+    try:
+        plain = r.render(REGISTRY["clustered"], 0, {})
+        for native in (False, True):
+            sc = r.render(REGISTRY["clustered"], 0, {"scalarize": True, "native_wave": native})
+            for field in ("contrib_count", "contrib_hash", "evaluated"):
+                assert np.array_equal(getattr(sc, field), getattr(plain, field)), field
+            busy = plain.wave["iterations"] > 0
+            assert busy.any()
+            assert (sc.wave["iterations"][busy] > plain.wave["iterations"][busy]).all()
+    finally:
+        r.release()
