@@ -35,7 +35,7 @@ FRAMES = 500
 PATH_FRAMES = 60           # camera loop; a multiple of len(REGISTRY) would align, 60 covers both
 WARMUP = 120               # two full loops of (camera frame, technique) pairs
 RSS_TOLERANCE = 8 << 20
-TIMING_KEYS = ("cpu_ms", "gpu_ms", "setup_ms", "wall_s")
+TIMING_KEYS = ("cpu_ms", "gpu_ms", "setup_ms", "cpu_warmup_ms", "wall_s")
 
 
 def rss_bytes() -> int:

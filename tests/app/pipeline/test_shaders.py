@@ -54,10 +54,15 @@ def test_cache_reuses_programs_and_recompiles_on_define_change(gl):
 
 
 def test_every_glsl_file_is_reachable():
+    from app.pipeline import features
+    from app.techniques import REGISTRY
+    virtual = dict(features.virtual_files(features.LIGHT_TYPES))
+    for t in REGISTRY.values():          # texts techniques generate (e.g. their structs)
+        virtual.update(t.glsl)
     used = set()
-    for comp in shaders.GLSL_DIR.glob("*.comp"):
-        from app.pipeline import features
-        used |= set(Source(comp.name, features.virtual_files(features.LIGHT_TYPES)).files)
+    for stage in ("*.comp", "*.vert", "*.frag"):
+        for main in shaders.GLSL_DIR.glob(stage):
+            used |= set(Source(main.name, virtual).files)
     missing = {p.name for p in shaders.GLSL_DIR.glob("*.glsl")} - used
     assert not missing, f"unused shader files: {missing}"
 
