@@ -71,6 +71,32 @@ class Buffer:
 
 
 @dataclass(frozen=True)
+class Target:
+    """A depth (+ stencil) render target a technique owns, kept by the renderer by name and
+    resized with the frame: the frame's size divided by `scale` (rounded up), `samples` per
+    pixel (0: single-sampled), with an 8-bit stencil or without.  What a pass draws into it
+    persists for the later passes of the frame (a pass fills it, later ones test against
+    it); at the frame's start its contents are undefined."""
+    name: str
+    scale: int = 1
+    samples: int = 0
+    stencil: bool = False
+
+
+@dataclass(frozen=True)
+class StencilStep:
+    """One draw of a per-instance stencil sequence (Draw.stencil): its face culling, depth
+    test, stencil test (func against ref) and the stencil ops on stencil fail / depth fail /
+    depth pass ("keep" | "zero" | "replace").  ref 0 means: the instance's own reference,
+    instance % 255 + 1 (so successive instances need no clear between them)."""
+    cull: str | None = None
+    depth_test: str | None = None
+    func: str = "always"                  # "always" | "equal" | "notequal"
+    ref: int = 0
+    ops: tuple[str, str, str] = ("keep", "keep", "keep")
+
+
+@dataclass(frozen=True)
 class Draw:
     """A raster pass's draw.  Vertex attributes come from `vertices` ((V, n) float32, laid
     out by `format`, named by `attributes`), or from gl_VertexID alone (vertices None).
@@ -78,7 +104,12 @@ class Draw:
     target: "gbuffer"        the G-buffer's colour targets and depth
             "gbuffer_depth"  the G-buffer's depth only (test it; colour writes go nowhere)
             "none"           no colour or depth target, only storage writes (frame size)
-            a moderngl Framebuffer (the window's screen)"""
+            a Target         the technique's own depth (+ stencil) target (MSAA, scaled)
+            a moderngl Framebuffer (the window's screen)
+    stencil: a per-instance sequence: for each instance in turn, one draw per StencilStep
+             (its cull and depth test replace the Draw's), the uniforms u_instance (the
+             instance; gl_InstanceID is 0) and u_step (the step) set for each; with the
+             stencil test on.  Empty: one instanced draw, no stencil test."""
     vertices: np.ndarray | None = None
     format: str = ""
     attributes: tuple[str, ...] = ()
@@ -86,12 +117,13 @@ class Draw:
     instances: int = 1
     mode: str = "triangles"               # "triangles" | "triangle_strip"
     target: object = "none"
-    depth_test: str | None = None         # "less" | "less_equal" | "greater" | None
+    depth_test: str | None = None         # "less" | "less_equal" | "greater" | "greater_equal" | "always" | None
     depth_write: bool = False
     cull: str | None = None               # "back" | "front" | None
     clear: bool = False
     blend: bool = False
     viewport: tuple[int, int, int, int] | None = None   # default: the whole target
+    stencil: tuple[StencilStep, ...] = ()
 
 
 @dataclass(frozen=True)

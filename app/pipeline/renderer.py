@@ -19,6 +19,7 @@ untimed one wrote.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+import ctypes
 import time
 
 import moderngl
@@ -30,12 +31,14 @@ from cpu_prep.limits import WINDOW_ALL, LimitError
 from . import features as feat, gl
 from ..errors import UserError
 from .gbuffer import GBuffer, TEXTURE_UNITS
-from .passes import FRAME_OUTPUTS, OUT_STATS, Buffer, Build, FrameInput, HostStep, Pass, WAVE_DIM
+from .passes import (FRAME_OUTPUTS, OUT_STATS, Buffer, Build, FrameInput, HostStep, Pass,
+                     Target, WAVE_DIM)
 from .shaders import ProgramCache
 
 DEBUG_SLOT = "debug_lights"    # pixel.glsl DEBUG_PIXEL: ids of the lights affecting one pixel
 DEBUG_MAX_IDS = 1 << 16
-DEPTH_FUNCS = {"less": "<", "less_equal": "<=", "greater": ">", "always": "1"}
+DEPTH_FUNCS = {"less": "<", "less_equal": "<=", "greater": ">", "greater_equal": ">=",
+               "always": "1"}
 MODES = {"triangles": moderngl.TRIANGLES, "triangle_strip": moderngl.TRIANGLE_STRIP}
 
 
@@ -82,6 +85,7 @@ class Renderer:
         self._vbos: dict = {}    # id(vertex array) -> (array, vbo)
         self._vaos: dict = {}
         self._blank = None       # colour target of passes that draw to no target
+        self._targets: dict = {}  # Target.name -> _OwnTarget (techniques' depth/stencil targets)
         self._frame = _Frame()
 
     @property
@@ -313,6 +317,8 @@ class Renderer:
                     prog[k].value = v
 
     def _target(self, target):
+        if isinstance(target, Target):
+            return self._own_target(target).fbo
         if not isinstance(target, str):
             return target
         if target != "none":
@@ -337,34 +343,82 @@ class Renderer:
             self._vaos[key] = self.ctx.vertex_array(prog, content, skip_errors=True)
         return self._vaos[key]
 
+    def _own_target(self, t: Target) -> "_OwnTarget":
+        """The technique's Target at this frame's size (made or remade on demand)."""
+        w, h = self.size
+        size = (-(-w // t.scale), -(-h // t.scale))
+        own = self._targets.get(t.name)
+        if own is None or own.spec != (t, size):
+            if own is not None:
+                own.release()
+            own = self._targets[t.name] = _OwnTarget(self.ctx, t, size)
+        return own
+
+    def _depth_test(self, test) -> None:
+        if test:
+            self.ctx.enable(moderngl.DEPTH_TEST)
+            self.ctx.depth_func = DEPTH_FUNCS[test]
+        else:
+            self.ctx.disable(moderngl.DEPTH_TEST)
+
+    def _cull(self, cull) -> None:
+        if cull:
+            self.ctx.enable(moderngl.CULL_FACE)
+            self.ctx.cull_face = cull
+        else:
+            self.ctx.disable(moderngl.CULL_FACE)
+
     def _draw(self, prog, d) -> None:
         ctx = self.ctx
         fbo = self._target(d.target)
         fbo.use()
-        ctx.viewport = d.viewport or (0, 0, *fbo.size)
+        own = self._targets[d.target.name] if isinstance(d.target, Target) else None
+        ctx.viewport = d.viewport or (0, 0, *(own.size if own else fbo.size))
         if d.clear:
-            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        if d.depth_test:
-            ctx.enable(moderngl.DEPTH_TEST)
-            ctx.depth_func = DEPTH_FUNCS[d.depth_test]
-        else:
-            ctx.disable(moderngl.DEPTH_TEST)
+            if own is not None:
+                own.clear()
+            else:
+                fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self._depth_test(d.depth_test)
         fbo.depth_mask = d.depth_write
-        if d.cull:
-            ctx.enable(moderngl.CULL_FACE)
-            ctx.cull_face = d.cull
-        else:
-            ctx.disable(moderngl.CULL_FACE)
+        self._cull(d.cull)
         if d.blend:
             ctx.enable(moderngl.BLEND)
             ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
         else:
             ctx.disable(moderngl.BLEND)
         count = d.count if d.count is not None else (len(d.vertices) if d.vertices is not None else 0)
-        if count and d.instances:
+        if count and d.instances and d.stencil:
+            self._draw_stencil(prog, d, count)
+        elif count and d.instances:
             self._vertex_array(prog, d).render(MODES[d.mode], vertices=count, instances=d.instances)
         fbo.depth_mask = True
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
+
+    def _draw_stencil(self, prog, d, count: int) -> None:
+        """Draw.stencil: for each instance, one draw per step, the stencil test on."""
+        gl = _raw_gl()
+        vao = self._vertex_array(prog, d)
+        has_instance, has_step = "u_instance" in prog, "u_step" in prog
+        self.ctx.enable_direct(_GL_STENCIL_TEST)
+        gl.glStencilMask(0xFF)
+        try:
+            for i in range(d.instances):
+                if has_instance:
+                    prog["u_instance"].value = i
+                for k, step in enumerate(d.stencil):
+                    if has_step:
+                        prog["u_step"].value = k
+                    self._cull(step.cull)
+                    self._depth_test(step.depth_test)
+                    ref = step.ref or (i % 255 + 1)
+                    gl.glStencilFunc(_STENCIL_FUNCS[step.func], ref, 0xFF)
+                    gl.glStencilOp(*(_STENCIL_OPS[o] for o in step.ops))
+                    vao.render(MODES[d.mode], vertices=count, instances=1)
+        finally:
+            gl.glStencilFunc(_STENCIL_FUNCS["always"], 0, 0xFF)
+            gl.glStencilOp(*(_STENCIL_OPS["keep"],) * 3)
+            self.ctx.disable_direct(_GL_STENCIL_TEST)
 
     # ---- outputs -------------------------------------------------------------------
 
@@ -395,8 +449,123 @@ class Renderer:
         if self._blank is not None:
             self._blank.release()
             self._blank = None
+        for t in self._targets.values():
+            t.release()
+        self._targets.clear()
         self.programs.release()
         self.gbuffer.release()
 
 
-__all__ = ["Renderer", "FrameResult", "Buffer", "TEXTURE_UNITS"]
+# ---- what moderngl 5 does not wrap: depth/stencil targets, stencil state ------------------
+
+_GL_STENCIL_TEST = 0x0B90
+_STENCIL_FUNCS = {"always": 0x0207, "equal": 0x0202, "notequal": 0x0205}
+_STENCIL_OPS = {"keep": 0x1E00, "zero": 0, "replace": 0x1E01}
+_RAW_GL = None
+
+
+def _raw_gl():
+    """The GL entry points moderngl 5 lacks, from the vendor-neutral GL library (which
+    dispatches to whichever context is current: the headless EGL one or a window's)."""
+    global _RAW_GL
+    if _RAW_GL is None:
+        for name in ("libOpenGL.so.0", "libGL.so.1"):
+            try:
+                lib = ctypes.CDLL(name)
+                break
+            except OSError:
+                continue
+        else:
+            raise UserError("stencil and own depth targets need libOpenGL.so.0 or libGL.so.1")
+        u, i, p = ctypes.c_uint, ctypes.c_int, ctypes.POINTER(ctypes.c_uint)
+        for fn, args in {"glStencilFunc": (u, i, u), "glStencilOp": (u, u, u), "glStencilMask": (u,),
+                         "glClearStencil": (i,), "glClearDepth": (ctypes.c_double,),
+                         "glDepthMask": (ctypes.c_ubyte,), "glClear": (u,),
+                         "glGenRenderbuffers": (i, p), "glDeleteRenderbuffers": (i, p),
+                         "glBindRenderbuffer": (u, u),
+                         "glRenderbufferStorageMultisample": (u, i, u, i, i),
+                         "glGenFramebuffers": (i, p), "glDeleteFramebuffers": (i, p),
+                         "glBindFramebuffer": (u, u), "glFramebufferRenderbuffer": (u, u, u, u),
+                         "glCheckFramebufferStatus": (u,),
+                         "glGetMultisamplefv": (u, u, ctypes.POINTER(ctypes.c_float))}.items():
+            getattr(lib, fn).argtypes = list(args)
+        lib.glCheckFramebufferStatus.restype = u
+        _RAW_GL = lib
+    return _RAW_GL
+
+
+class _OwnTarget:
+    """A Target: a float depth (+ 8-bit stencil) renderbuffer, `samples` per pixel, in its
+    own framebuffer (wrapped for moderngl's use() and depth_mask)."""
+    _GL_RB, _GL_FB = 0x8D41, 0x8D40
+
+    def __init__(self, ctx, t: Target, size: tuple[int, int]):
+        gl = _raw_gl()
+        self.spec, self.size, self.target = (t, size), size, t
+        self.rb, self.fb = ctypes.c_uint(), ctypes.c_uint()
+        gl.glGenRenderbuffers(1, ctypes.byref(self.rb))
+        gl.glBindRenderbuffer(self._GL_RB, self.rb.value)
+        fmt = 0x8CAD if t.stencil else 0x8CAC          # DEPTH32F_STENCIL8 | DEPTH_COMPONENT32F
+        gl.glRenderbufferStorageMultisample(self._GL_RB, int(t.samples), fmt, *size)
+        gl.glBindRenderbuffer(self._GL_RB, 0)
+        gl.glGenFramebuffers(1, ctypes.byref(self.fb))
+        gl.glBindFramebuffer(self._GL_FB, self.fb.value)
+        attach = 0x821A if t.stencil else 0x8D00       # DEPTH_STENCIL_ATTACHMENT | DEPTH_ATTACHMENT
+        gl.glFramebufferRenderbuffer(self._GL_FB, attach, self._GL_RB, self.rb.value)
+        status = gl.glCheckFramebufferStatus(self._GL_FB)
+        gl.glBindFramebuffer(self._GL_FB, 0)
+        if status != 0x8CD5:
+            self.release()
+            raise UserError(f"target '{t.name}' ({size[0]}x{size[1]}, {t.samples} samples, "
+                            f"stencil {t.stencil}) is not supported here (status {status:#x})")
+        self.fbo = ctx.detect_framebuffer(self.fb.value)
+
+    def clear(self) -> None:
+        """Depth 1 and stencil 0 (bound by the caller)."""
+        gl = _raw_gl()
+        gl.glDepthMask(1)
+        gl.glStencilMask(0xFF)
+        gl.glClearDepth(1.0)
+        gl.glClearStencil(0)
+        gl.glClear(0x100 | (0x400 if self.target.stencil else 0))
+
+    def sample_positions(self) -> list[tuple[float, float]]:
+        """The driver's sample positions (within the pixel, 0..1) of this target."""
+        gl = _raw_gl()
+        self.fbo.use()
+        out = []
+        for k in range(max(int(self.target.samples), 1)):
+            v = (ctypes.c_float * 2)()
+            gl.glGetMultisamplefv(0x8E50, k, v)       # GL_SAMPLE_POSITION
+            out.append((float(v[0]), float(v[1])))
+        return out
+
+    def release(self) -> None:
+        gl = _raw_gl()
+        if getattr(self, "fbo", None) is not None:
+            self.fbo.release()                       # deletes the framebuffer too
+            self.fbo, self.fb = None, ctypes.c_uint()
+        if self.fb.value:
+            gl.glDeleteFramebuffers(1, ctypes.byref(self.fb))
+            self.fb = ctypes.c_uint()
+        if self.rb.value:
+            gl.glDeleteRenderbuffers(1, ctypes.byref(self.rb))
+            self.rb = ctypes.c_uint()
+
+
+_SAMPLE_POSITIONS: dict = {}
+
+
+def sample_positions(samples: int) -> list[tuple[float, float]]:
+    """The driver's positions (within the pixel, 0..1) of the samples of a `samples`-sample
+    target (queried once per count on the process's context)."""
+    if samples not in _SAMPLE_POSITIONS:
+        t = _OwnTarget(gl.context(), Target("sample-probe", samples=samples), (1, 1))
+        try:
+            _SAMPLE_POSITIONS[samples] = t.sample_positions()
+        finally:
+            t.release()
+    return _SAMPLE_POSITIONS[samples]
+
+
+__all__ = ["Renderer", "FrameResult", "Buffer", "TEXTURE_UNITS", "sample_positions"]

@@ -7,6 +7,7 @@ from .clustered import Clustered
 from .fptl import Fptl
 from .hybrid import Hybrid
 from .perfect import Perfect
+from .raster import Raster
 from .tiled import Tiled
 from .tree import Tree
 from .zbin import ZBin
@@ -30,7 +31,7 @@ def unregister(name: str) -> None:
     REGISTRY.pop(name, None)
 
 
-for _t in (Brute(), Tiled(), Clustered(), Tree(), Hybrid(), ZBin(), Fptl(), Perfect()):
+for _t in (Brute(), Tiled(), Clustered(), Tree(), Hybrid(), ZBin(), Fptl(), Raster(), Perfect()):
     register(_t)
 
 

@@ -1,0 +1,93 @@
+#version 450
+// raster, the slides' cluster rasterizer (Drobot 2017): proxies mark the clusters (tile x
+// depth slice, cpu_prep.grid's listing-4 slices) of their light's volume; no depth test.
+//   u_mode 3  MARK: back faces of proxies the eye is outside of mark the clusters they
+//             conservatively touch in this pixel's column
+//          4  WALK (after every MARK): their front faces walk from their conservative depth
+//             to the farthest cluster of the column this light MARKed
+//          5  back faces of proxies holding the eye (or reaching the near plane) walk from
+//             the near plane (slice 0) to their conservative depth
+// Conservative depth of the triangle over the pixel, as the slides give it: w -+ (|dw/dx| +
+// |dw/dy|), clamped to the triangle's vertex depths (GetVertexParameterP0..2: here the
+// vertex shader computes all three corners, RASTER_TRI_BOUNDS), and never excluding w at
+// the pixel centre itself (a pixel centre the rasterizer covers a fraction of a pixel
+// outside the triangle extrapolates it).  The walk goes to the column's farthest MARK, not
+// to the first marked cluster: with several pixels in a column the first marked cluster
+// may be another pixel's nearer back face; the slides' version relies on neighbouring
+// pixels' MARK ranges (each widened by its footprint's depth spread) overlapping into one
+// run (they did in every test here), this one needs no such argument: the proxy's part in
+// the column is convex, so every slice from its nearest front to its farthest back is
+// touched (exact at cluster granularity, and the same marks in practice).
+//   RASTER_MSAA: each covered sample stands for the full-resolution pixel of its quadrant,
+//   at the (dilated) proxy's exact depth at that sample (raster.py's doc).
+// define: RASTER_MSAA RASTER_COMPACT WAVE_NATIVE
+#if RASTER_COMPACT && WAVE_NATIVE
+#extension GL_ARB_shader_ballot : require
+#extension GL_ARB_gpu_shader_int64 : require
+#define COMPACT 1
+#else
+#define COMPACT 0
+#endif
+#include "raster_common.glsl"
+#include "raster_slices.glsl"
+
+flat in vec2 v_tri_depth;     // min, max view depth of the triangle's three corners
+
+uint cell_word(ivec2 pixel, uint slice) {
+    ivec2 t = pixel / u_tile;
+    return (uint(t.y * u_tiles_x + t.x) * uint(u_slices) + slice) * u_words + v_light / 32u;
+}
+
+bool marked(ivec2 pixel, uint slice) {
+    return (BITS[cell_word(pixel, slice)] & (1u << (v_light & 31u))) != 0u;
+}
+
+// The clusters of the pixel's column this fragment marks, for depths [lo, hi] of the proxy.
+void column(ivec2 pixel, float lo, float hi) {
+    if (any(greaterThanEqual(pixel, u_size))) return;
+    uint s0 = slice_of(lo * (1.0 - SHADER_SLACK));
+    uint s1 = slice_of(hi * (1.0 + SHADER_SLACK));
+    if (u_mode == 5) s0 = 0u;                          // eye inside: from the near plane
+    if (u_mode == 4) {                                 // WALK: to the column's farthest MARK
+        uint top = uint(u_slices - 1);
+        s1 = top;
+        while (s1 > s0 && !marked(pixel, s1)) --s1;
+        if (s1 == s0 && !marked(pixel, s0)) s1 = top;  // no MARK at or past s0: to the end
+    }
+#if RASTER_STATS
+    atomicAdd(counters[2], 1u);
+#endif
+    // a column's pixels mark the same clusters over and over: read before the atomic (the
+    // bits only ever get set, so a stale read costs one redundant atomic at most)
+    uint bit = 1u << (v_light & 31u);
+    for (uint s = s0; s <= s1; ++s) {
+        uint w = cell_word(pixel, s);
+        if ((BITS[w] & bit) == 0u) mark(w);
+    }
+}
+
+void main() {
+    float inv_d = gl_FragCoord.w;                      // 1 / view depth: affine on screen
+    vec2 grad = vec2(dFdx(inv_d), dFdy(inv_d));
+    float w = 1.0 / inv_d;
+    float spread = abs(dFdx(w)) + abs(dFdy(w));
+    // helper invocations (there for the derivatives) leave now: they must not take part in
+    // WaveCompactValue's ballots, where one could be the first lane of a key and swallow
+    // the real lanes' atomic (a helper's atomics have no effect)
+    if (gl_HelperInvocation) return;
+#if RASTER_STATS
+    atomicAdd(counters[0], 1u);
+#endif
+#if RASTER_MSAA
+    ivec2 base = ivec2(gl_FragCoord.xy) * 2;
+    for (int k = 0; k < 4; ++k) {
+        if ((gl_SampleMaskIn[0] & (1 << k)) == 0) continue;
+        float d = 1.0 / (inv_d + dot(grad, u_sample_pos[k] - 0.5));
+        column(base + u_sample_pixel[k], d, d);
+    }
+#else
+    float lo = min(w, max(w - spread, v_tri_depth.x));
+    float hi = max(w, min(w + spread, v_tri_depth.y));
+    column(ivec2(gl_FragCoord.xy), lo, hi);
+#endif
+}

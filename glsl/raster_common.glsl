@@ -1,0 +1,60 @@
+// raster (Drobot 2017): what the tile and the cluster rasterizers' fragment shaders share:
+// the proxies, the bit arrays (tiles or clusters x words, bit N = sorted light N), the
+// untimed twin's counters, the slides' WaveCompactValue and the atomic mark.  The including
+// shader enables the extensions first (GLSL wants them before any declaration) and defines
+// COMPACT (WaveCompactValue on the native subgroup) to 0 or 1.
+// define: RASTER_STATS
+#include "generated.glsl"
+#include "raster_structs.glsl"
+
+layout(std430, binding = B_RASTER_PROXIES) readonly buffer Proxies { RasterProxy proxies[]; };
+layout(std430, binding = B_RASTER_BITS) buffer Bits { uint bits[]; };
+#if RASTER_STATS
+layout(std430, binding = B_RASTER_STATS_BITS) buffer StatsBits { uint stats_bits[]; };
+// x fragments shaded, y atomics issued, z (pixel, light) marks before any merging
+layout(std430, binding = B_RASTER_COUNTERS) buffer Counters { uint counters[4]; };
+layout(std430, binding = B_RASTER_LIGHT_TILES) buffer LightTiles { uint light_tiles[]; };
+#define BITS stats_bits
+#else
+#define BITS bits
+#endif
+
+uniform ivec2 u_size;         // full-resolution frame
+uniform int u_tile;
+uniform int u_tiles_x;
+uniform uint u_words;
+uniform int u_mode;           // the including shader's
+uniform int u_step;
+uniform ivec2 u_sample_pixel[4];   // MSAA: the full-res pixel of sample k in its 2x2 block
+uniform vec2 u_sample_pos[4];       //   and sample k's position in the low-res pixel
+
+flat in uint v_light;
+
+#if COMPACT
+// The slides' WaveCompactValue: this lane's index among the active lanes holding the same
+// value (0: the first of them).
+uint waveCompactValue(uint checkValue) {
+    uint64_t mask;
+    for (;;) {                                        // loop until all active lanes removed
+        uint firstValue = readFirstInvocationARB(checkValue);
+        mask = ballotARB(firstValue == checkValue);   // only for the remaining active lanes
+        if (firstValue == checkValue) break;          // exclude lanes with firstValue next time
+    }
+    uvec2 m = unpackUint2x32(mask & gl_SubGroupLtMaskARB);
+    return uint(bitCount(m.x) + bitCount(m.y));
+}
+#endif
+
+void mark(uint word) {
+    uint bit = 1u << (v_light & 31u);
+#if COMPACT
+    // key: the bit itself (the slides key on the word: lanes of other lights would be lost)
+    if (waveCompactValue(word * 32u + (v_light & 31u)) != 0u) return;
+#endif
+    uint before = atomicOr(BITS[word], bit);
+#if RASTER_STATS
+    atomicAdd(counters[1], 1u);
+    if ((before & bit) == 0u) atomicAdd(light_tiles[v_light], 1u);
+#endif
+}
+
