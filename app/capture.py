@@ -28,6 +28,8 @@ import time
 
 from pathlib import Path
 
+import numpy as np
+
 from . import cli
 
 IMAGE_SUFFIXES = (".png",)
@@ -45,6 +47,8 @@ def build_parser():
                    "view, with its colour bar)")
     p.add_argument("--classify", help="list/tree/mixed classification PNG (techniques with the "
                    "classes view)")
+    p.add_argument("--maps", metavar="DIR", help="heat maps of the technique's own structure "
+                   "(e.g. fptl's coarse and pruned lists per tile, zbin's bit arrays), one PNG each")
     p.add_argument("--check", metavar="DIR", help="compare with the reference technique; on a "
                    "difference write images to DIR, name the first differing pixel, exit 1")
     p.add_argument("--list", action="store_true", help="print builtin scenes and techniques")
@@ -104,6 +108,8 @@ def main(argv=None) -> None:
                                    f"{technique.name}: traversal per 8x8 wave")
     if args.dump:
         dump.write_dump(images.ensure_parent(args.dump), result)
+    if args.maps:
+        save_maps(technique, result, renderer, args.maps)
     m = result.meta
     print(json.dumps({
         "technique": technique.name, "scene": args.scene, "size": m["resolution"],
@@ -124,6 +130,24 @@ def _albedo(renderer):
     w, h = renderer.size
     raw = np.frombuffer(renderer.gbuffer.albedo.read(), np.uint8).reshape(h, w, 4)
     return raw[::-1, :, :3].astype(np.float32) / 255.0
+
+
+def save_maps(technique, result, renderer, out) -> None:
+    """One heat map per map of the technique's own structure, each cell shown over the
+    pixels it covers (the same heat-map definition as --heatmap), all on one scale so that
+    the maps compare (fptl's coarse against its pruned lists)."""
+    from . import images
+    maps = technique.maps(result, renderer.read)
+    if not maps:
+        print(f"{technique.name} has no maps of its own (--maps)", file=sys.stderr)
+    h, w = result.depth.shape
+    top = max([float(np.max(v)) for v, _ in maps.values() if np.size(v)] + [1.0])
+    for name, (values, label) in maps.items():
+        v = np.asarray(values)
+        ky, kx = -(-h // v.shape[0]), -(-w // v.shape[1])
+        full = np.repeat(np.repeat(v, ky, 0), kx, 1)[:h, :w]
+        images.save_heatmap(full, images.ensure_parent(Path(out) / f"{technique.name}-{name}.png"),
+                            vmax=top, label=label)
 
 
 def check_suffixes(args) -> None:

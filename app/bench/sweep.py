@@ -137,8 +137,9 @@ class Sweep:
         r["floor_position_pct"] = float("nan")
         return r
 
-    def keep_maps(self, job: Job, res) -> None:
-        """Block maps of the heat-map frame (figures 1 and 3)."""
+    def keep_maps(self, job: Job, res, renderer=None) -> None:
+        """Block maps of the heat-map frame (figures 1 and 3), and the maps of each
+        technique's own structure (Technique.maps: own/<technique>/<name>, its label beside)."""
         from ..images import block_mean
         p = self.p
         if not (job.study == "path" and job.scene == p.heat_scene and job.frame == 0
@@ -150,6 +151,15 @@ class Sweep:
         self.maps[f"cases/{job.technique}"] = (res.wave["case_bits"] & 3).astype(np.uint8)
         if job.technique == self.reference:
             self.maps["exact"] = block_mean(res.contrib_count.astype(np.float64), block)
+        if renderer is not None:
+            from ..techniques import REGISTRY
+            try:         # the renderer still holds this technique's frame (measure renders it last)
+                own = REGISTRY[job.technique].maps(res, renderer.read)
+            except KeyError:
+                own = {}
+            for name, (values, label) in own.items():
+                self.maps[f"own/{job.technique}/{name}"] = np.asarray(values)
+                self.maps[f"ownlabel/{job.technique}/{name}"] = np.array(label)
 
     def run(self) -> list[dict]:
         from ..pipeline.renderer import Renderer
@@ -174,7 +184,7 @@ class Sweep:
                 self.progress(i, total, job.describe())
                 row, res = self.measure(renderer, job)
                 self.rows.append(row)
-                self.keep_maps(job, res)
+                self.keep_maps(job, res, renderer)
                 del res
                 self._forget(job)
         finally:

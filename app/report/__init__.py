@@ -28,7 +28,7 @@ from .accuracy import fig_accuracy
 from .common import Colors, Roles, num, order, sel
 from .cpu import fig_cpu
 from .cutoff import EXPLANATION as CUTOFF_EXPLANATION, fig_cutoff
-from .maps import fig_classification, fig_heat
+from .maps import fig_classification, fig_heat, fig_own_maps
 from .notes import technique_notes
 from .options import fig_option, studied_options
 from .path import fig_path
@@ -73,6 +73,7 @@ def write_report(out: Path, rows: list[dict], maps: dict, info: dict) -> list[st
     for title, text in technique_notes(rows):
         section(title, None, [], text)
     section("Lights evaluated per pixel (tree paper figure 1)", *fig_heat(maps, out, info, roles))
+    section("Each technique's own structure (e.g. Mikkelsen figures 2.4-2.6)", *fig_own_maps(maps, out, info))
     section("Traversal per wave: list / tree / mixed (tree paper figure 3)",
             *fig_classification(rows, maps, out))
     section("The light cutoff: image error vs cost", *fig_cutoff(rows, out, colors, roles),

@@ -92,3 +92,40 @@ def fig_classification(rows, maps, out) -> tuple[str | None, list[str]]:
                                       label=CASE_NAMES[k]) for k in (1, 2, 3, 0)],
                        fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     return save(fig, out, "classification.png"), text
+
+
+def fig_own_maps(maps, out, info) -> tuple[str | None, list[str]]:
+    """Each technique's maps of its own structure (Technique.maps: fptl's coarse and pruned
+    lists per tile, the chapter's figures 2.4-2.6; zbin's bit arrays and z-bin ranges; the
+    rasterized bits), on one heat scale per technique."""
+    from ..images import HEAT_ZERO, fmt_tick, heat_cmap, heat_norm, heat_ticks
+    keys = sorted(k for k in maps if k.startswith("own/"))
+    if not keys:
+        return None, []
+    cmap = heat_cmap().with_extremes(bad=(HEAT_ZERO,) * 3)
+    cols = min(3, len(keys))
+    rws = math.ceil(len(keys) / cols)
+    fig, axes = plt().subplots(rws, cols, squeeze=False, dpi=DPI, figsize=(cols * 3.6 + 0.4, rws * 2.6 + 0.6))
+    for ax in axes.ravel():
+        ax.axis("off")
+    tops = {}
+    for k in keys:
+        t = k.split("/")[1]
+        tops[t] = max(tops.get(t, 1.0), float(np.max(maps[k])) if np.size(maps[k]) else 1.0)
+    text = []
+    for ax, k in zip(axes.ravel(), keys):
+        _, t, name = k.split("/", 2)
+        m = np.asarray(maps[k], np.float64)
+        label = str(maps.get(f"ownlabel/{t}/{name}", name))
+        im = ax.imshow(np.ma.masked_less_equal(m, 0.0), cmap=cmap, norm=heat_norm(tops[t]),
+                       interpolation="nearest")
+        lit = m[m > 0]
+        ax.set_title(f"{t}: {label}", fontsize=8)
+        bar = fig.colorbar(im, ax=ax, shrink=0.8)
+        ticks = heat_ticks(tops[t])
+        bar.set_ticks(ticks, labels=[fmt_tick(v) for v in ticks])
+        text.append(f"{t}, {label}: {lit.mean():.3g} where non-zero, at most {m.max():.0f}"
+                    if lit.size else f"{t}, {label}: all zero")
+    scene = info.get("config", {}).get("heat_scene", "")
+    fig.suptitle(f"each technique's own structure, {scene} frame 0 (log2(1 + n) scale)", fontsize=9)
+    return save(fig, out, "technique_maps.png", tight=False), text

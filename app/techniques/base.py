@@ -9,6 +9,9 @@
                   heat, diff and split; one with that structure adds tiles, slices, classes
     glsl          shader texts of its own by file name, beside glsl/ (usually empty: its
                   shaders are files in glsl/)
+    maps()        optional per-tile or per-pixel maps of its own structure for a rendered
+                  frame (capture --maps, the report's technique maps)
+    report_notes()  optional: its paper's figures beside a benchmark run's (app.report.notes)
     build()       the CPU stage: numpy in, GPU-layout arrays out, timed by step
     passes()      its GPU passes in order, the shading pass last (app.pipeline.passes)
 
@@ -16,6 +19,8 @@ A technique is one module and one line in the registry (app/techniques/__init__.
 renderer, capture, window, benchmark and report need no edit for it.
 """
 from __future__ import annotations
+
+import numpy as np
 
 from cpu_prep import frame as cpuframe, grid as gridmod, limits
 
@@ -44,6 +49,11 @@ class Technique:
             raise TypeError(f"{self.name}: options of type {type(opts).__name__}, "
                             f"expected {self.name}'s own ({self.Options.__qualname__})")
         return opts
+
+    def maps(self, result, read) -> dict[str, tuple[np.ndarray, str]]:
+        """{name: (2D array in image order, what a value counts)} of this technique's own
+        structure for a rendered frame (`read(name)`: a buffer of that frame read back)."""
+        return {}
 
     def build(self, frame: FrameInput, opts) -> Build:
         raise NotImplementedError

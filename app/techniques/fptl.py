@@ -278,6 +278,15 @@ class Fptl(Technique):
         """The chapter's figures beside this run's (app/report/notes.py)."""
         return _notes(rows)
 
+    def maps(self, result, read):
+        """The chapter's figures 2.4-2.6: lights per tile in the coarse list and after fine
+        pruning (per tile: its longest cell's list)."""
+        t = result.build.data.get("tile_counts")
+        if t is None:
+            return {}
+        return {"coarse": (t["coarse"], "coarse lights / tile"),
+                "pruned": (t["pruned"], "pruned lights / tile")}
+
 
 def read_counts(build, cells: np.ndarray) -> dict[str, np.ndarray]:
     """Per-tile figures in image order (row 0 = top), for heat maps (figures 2.4-2.6):

@@ -542,6 +542,15 @@ class Raster(Technique):
     def report_notes(self, rows):
         return _notes(rows)
 
+    def maps(self, result, read):
+        """Lights whose proxy marked each tile (the rasterized bit arrays; tile mode)."""
+        b = result.build
+        if b.grid.slices > 1:
+            return {}
+        from .zbin import tile_bit_maps
+        m = tile_bit_maps(read("raster_bits"), b.grid)
+        return {"raster_lights": (m["tile_lights"][0], "marked lights / tile")}
+
     # ---- GPU passes ----------------------------------------------------------------------
 
     def passes(self, build, opts):

@@ -138,6 +138,13 @@ class ZBin(Technique):
         """The slides' memory and optimization tables beside this run's (app/report/notes.py)."""
         return _notes(self, rows)
 
+    def maps(self, result, read):
+        """Lights in each tile's bit array, and in each pixel's z-bin range (the slides'
+        two culling structures, before their intersection)."""
+        b = result.build
+        return tile_bit_maps(b.buffers["tile_bits"], b.grid, result.depth,
+                             b.buffers.get("zbins"), b.data.get("bin_scale", 0.0))
+
     def passes(self, build, opts):
         opts = self.resolve_options(opts)
         masked, scalarized = variant_flags(opts.zbin_variant)
@@ -154,6 +161,21 @@ class ZBin(Technique):
             native_wave=opts.native_wave)
         return shade + [HostStep("wave counters", (WAVE_STATS,),
                                  lambda got: _wave_counters(build, got[WAVE_STATS]))]
+
+
+def tile_bit_maps(tile_bits, grid, depth=None, lut=None, bin_scale=0.0) -> dict:
+    """{"tile_lights": per tile (image order) the lights its bit array holds; with a z-bin
+    LUT, "zbin_lights": per pixel the lights of its z-bin range (0 on the sky)}."""
+    words = np.ascontiguousarray(tile_bits).view(np.uint32).reshape(grid.tiles_y, grid.tiles_x, -1)
+    per_tile = np.unpackbits(words.view(np.uint8), axis=-1).sum(-1, dtype=np.int64)
+    out = {"tile_lights": (per_tile[::-1], "lights / tile (bits)")}
+    if lut is not None and depth is not None:
+        lo, hi = zb.unpack_lut(lut)
+        b = np.minimum(np.floor(depth.astype(np.float32) * np.float32(bin_scale)), len(lo) - 1)
+        b = b.astype(np.int64)
+        count = np.where(hi[b] >= lo[b], hi[b] - lo[b] + 1, 0)
+        out["zbin_lights"] = (np.where(depth > 0, count, 0), "lights / z-bin range")
+    return out
 
 
 def _wave_counters(build, waves: np.ndarray):

@@ -130,3 +130,14 @@ def test_pngs_are_what_the_window_shows(tmp_path):
     dark = np.asarray(Image.open(tmp_path / "dark.png").convert("RGB"))
     covered = read_dump(tmp_path / "dark.npz")["depth"] > 0
     assert (dark.max(2)[covered] >= 5).mean() > 0.95
+
+
+def test_maps_of_a_techniques_own_structure(tmp_path):
+    """fptl's coarse and pruned lists per tile (Mikkelsen's figures 2.4-2.6) as heat maps on
+    one scale; a technique without maps says so."""
+    r = capture("--scene", "gallery", "--technique", "fptl", "--size", "96x54", "--maps", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fptl-coarse.png", "fptl-pruned.png"]
+    assert Image.open(tmp_path / "fptl-coarse.png").size[0] > 96
+    r = capture("--scene", "gallery", "--technique", "brute", "--size", "32x18", "--maps", str(tmp_path / "b"))
+    assert r.returncode == 0 and "no maps of its own" in r.stderr

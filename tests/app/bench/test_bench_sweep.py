@@ -115,3 +115,7 @@ def test_technique_notes_and_stats_column(sweep):
             assert f"## {name}: " in text
     if "zbin" in REGISTRY:
         assert "| 1,036,800 B |" in text and "+ 32,384 B" in text
+    # each technique's maps of its own structure, when any technique has them
+    if any(type(t).maps is not type(REGISTRY[with_role("reference").name]).maps
+           for t in REGISTRY.values()):
+        assert "](technique_maps.png)" in text
