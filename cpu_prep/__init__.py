@@ -1,10 +1,11 @@
 """CPU stage of the frame: numpy in, numpy GPU-layout arrays out.  No OpenGL here.
 
-The kernels are numba; the tree build, binning and packing loops are written for numba's
-prange, but run on ONE thread unless LAB_CPU_THREADS says otherwise: on a 2-core machine
-whose other core is busy (the GPU driver, llvmpipe, a test runner) a parallel region waits
-for a time slice and costs ~10 ms, far more than it saves.  The tree paper's figure 4 is
-single-threaded too.
+The kernels are numba.  The pack, the fill of the binning, listing 2 and the tree build
+each have a serial kernel and a prange one; the CPU stage runs on ONE thread, with the
+serial kernels, unless LAB_CPU_THREADS (or `bench cpu --threads`) says otherwise: on a
+2-core machine whose other core is busy (the GPU driver, llvmpipe, a test runner) a
+parallel region waits for a time slice and costs more than it saves (docs/cpu_stage.md
+measures it).  The tree paper's figure 4 is single-threaded too.  Both give the same bits.
 """
 import hashlib
 import os

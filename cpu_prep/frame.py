@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from . import grid as gridmod, lights as lightsmod
+from . import grid as gridmod, lights as lightsmod, limits
 from .arena import Arena
 from .camera import FrameCamera
 from .lights import PreparedLights
@@ -35,11 +35,11 @@ class StageTimes:
 def prepare_lights(scene_lights: np.ndarray, cam: FrameCamera, times: StageTimes,
                    sort_buckets: int = 0, arena: Arena | None = None) -> PreparedLights:
     with times.stage("cull"):
-        rows, spheres, shapes = lightsmod.view_and_cull(scene_lights, cam, arena)
+        keyed, depth = lightsmod.cull(scene_lights, cam, arena)
     with times.stage("sort"):
-        order = lightsmod.depth_order(-spheres[:, 2], sort_buckets)
+        keys = lightsmod.sort_ids(keyed, depth, sort_buckets, arena)
     with times.stage("pack"):
-        pl = lightsmod.pack(rows, spheres, shapes, order, arena)
+        pl = lightsmod.pack(scene_lights, cam, keys, arena)
     check_buffer("light buffer", pl.gpu.nbytes)
     return pl
 
@@ -48,13 +48,9 @@ def bin_cells(pl: PreparedLights, cam: FrameCamera, grid: gridmod.Grid, times: S
               arena: Arena | None = None):
     """CSR (offsets, entries) of the depth-sorted visible lights over the grid's cells."""
     with times.stage("bin"):
-        boxes = gridmod.rect_boxes(grid, pl.rect, pl.depth_lo, pl.depth_hi, arena)
-        offsets, entries = gridmod.scatter(grid, boxes, arena)
-    check_buffer("light index list", entries.nbytes)
+        offsets, entries, _ = gridmod.bin_rects(grid, pl.rect, pl.depth_lo, pl.depth_hi, arena)
     return offsets, entries
 
 
 def check_buffer(name: str, nbytes: int) -> None:
-    if nbytes > MAX_STORAGE_BYTES:
-        raise LimitError(f"{name} needs {nbytes / 2**20:.0f} MiB, over the "
-                         f"{MAX_STORAGE_BYTES >> 20} MiB storage-block limit")
+    limits.check_buffer(name, nbytes)

@@ -10,10 +10,25 @@ slice a whole slice's worth of lists apart (2.4x faster binning at 65,536 lights
 
 Lights arrive sorted by depth and the scatter walks them in that order, so every cell's list
 comes out depth-sorted with no per-cell sort (tree paper 3.2).
+
+The binning of a frame (bin_rects) is two passes over the lights and one over the cells:
+
+    boxes + count   each light's cell box from its rectangle and depth range, and its eight
+                    corners added to a 3D difference array (O(1) a light)
+    offsets         prefix sums of that array: every cell's count, the CSR offsets
+    fill            each light's index written into the cells of its box
+
+A light's slice range comes from a table of the depths where listing 4 steps (two
+logarithms a light were half the box pass), its tiles from a multiplication by the tile's
+reciprocal with an exact correction (four divisions a light); both give listing 4's and
+floor(x / tile)'s results (tests/cpu_prep/test_grid.py).  The fill writes 1M entries at
+65,536 lights into 14,720 lists: it is bound by those scattered stores (~3 ns an entry
+with cold caches), the cost the tree paper's figure 4 calls binning.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 import math
 
 import numba
@@ -22,7 +37,8 @@ import numpy as np
 from .arena import Arena, empty, zeros
 from .bounds import pixel_rect
 from .camera import FrameCamera
-from .limits import SLICE_DEPTH_REL_MARGIN
+from .intrinsics import bits_to_f64
+from .limits import SLICE_DEPTH_REL_MARGIN, check_buffer
 
 
 @dataclass(frozen=True)
@@ -91,7 +107,7 @@ def slice_index(depth, scale, bias, slices):
     return int(min(s, slices - 1.0))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _slices_of(depth, scale, bias, slices):
     out = np.empty(depth.shape[0], np.int64)
     for i in range(depth.shape[0]):
@@ -99,40 +115,105 @@ def _slices_of(depth, scale, bias, slices):
     return out
 
 
-@numba.njit(inline="always")
-def _box(x0, x1, y0, y1, d_lo, d_hi, tile, tiles_x, tiles_y, slices, scale, bias):
-    """Inclusive cell box (tx0, tx1, ty0, ty1, s0, s1) of a pixel rectangle and a depth
-    range, clamped to the grid; empty (tx0 > tx1 ...) off screen.  Pixel p (centre p+0.5)
-    lies in tile p // tile.  The depth range widens by SLICE_DEPTH_REL_MARGIN."""
-    tx0 = int(max(math.floor(x0 / tile), 0.0))
-    tx1 = int(min(math.floor(x1 / tile), tiles_x - 1.0))
-    ty0 = int(max(math.floor(y0 / tile), 0.0))
-    ty1 = int(min(math.floor(y1 / tile), tiles_y - 1.0))
-    s0 = slice_index(d_lo * (1.0 - SLICE_DEPTH_REL_MARGIN), scale, bias, slices)
-    s1 = slice_index(d_hi * (1.0 + SLICE_DEPTH_REL_MARGIN), scale, bias, slices)
-    return tx0, tx1, ty0, ty1, s0, s1
-
-
-@numba.njit(cache=True, nogil=True)
-def _boxes_from_rects(rect, d_lo, d_hi, tile, tiles_x, tiles_y, slices, scale, bias):
-    out = np.empty((rect.shape[0], 6), np.int32)
-    for i in range(rect.shape[0]):
-        out[i] = _box(rect[i, 0], rect[i, 1], rect[i, 2], rect[i, 3], d_lo[i], d_hi[i],
-                      tile, tiles_x, tiles_y, slices, scale, bias)
+@numba.njit(cache=True, error_model="numpy")
+def _slice_table(scale, bias, slices):
+    """The depths where slice_index() steps: table[k-1] is the smallest positive float64 d
+    with slice_index(d) >= k (bisection on the float64 bit patterns, which order positive
+    floats like their values; inf when no depth reaches slice k)."""
+    out = np.empty(max(slices - 1, 0))
+    for k in range(1, slices):
+        lo, hi = 0, 0x7FF0000000000000        # +0.0 (slice 0 < k), +inf (slice S-1 >= k)
+        while hi - lo > 1:
+            mid = lo + (hi - lo) // 2
+            if slice_index(bits_to_f64(mid), scale, bias, slices) >= k:
+                hi = mid
+            else:
+                lo = mid
+        out[k - 1] = bits_to_f64(hi)
     return out
 
 
-@numba.njit(cache=True, nogil=True, parallel=True)
+@lru_cache(maxsize=256)
+def _table_for(scale: float, bias: float, slices: int) -> np.ndarray:
+    """_slice_table() padded with NaN to 2^k - 1 entries (no depth compares >= NaN), for
+    slice_from_table()'s branch-free binary search."""
+    t = _slice_table(scale, bias, slices)
+    size = 1
+    while size - 1 < len(t):
+        size *= 2
+    out = np.full(size - 1, np.nan)
+    out[:len(t)] = t
+    out.flags.writeable = False
+    return out
+
+
+@numba.njit(inline="always")
+def slice_from_table(depth, table):
+    """slice_index() as the number of the table's steps at or below `depth`, by a branch-
+    free binary search (four compares for 16 slices) instead of a logarithm (two a light
+    were half of the binning's box cost).  Equal to slice_index() at every float64 where
+    that is monotone in depth (log is, to the ulp; tests/cpu_prep/test_grid.py checks both
+    sides of every step); a step moved by an ulp would be far inside the
+    SLICE_DEPTH_REL_MARGIN the depth ranges are widened by."""
+    s = 0
+    step = (table.shape[0] + 1) >> 1
+    while step > 0:
+        s += step if depth >= table[s + step - 1] else 0
+        step >>= 1
+    return s
+
+
+@numba.njit(inline="always")
+def tile_of(x, tile, inv_tile):
+    """floor(x / tile) as a float, without a division (four a light): the product with the
+    reciprocal is within an ulp of the quotient, so its floor is off by at most one, which
+    the comparisons with q * tile (products of integers below 2^53: exact) correct, giving
+    the floor of the true quotient for |x| < 2^40 pixels (beyond, a value past the grid
+    either way, clamped alike).  For an integer tile that is floor(fl(x / tile)) too (the
+    float just below tile * k is far enough below it that the rounded quotient stays below
+    k), except for a negative subnormal x, whose quotient underflows to -0: the true floor,
+    -1, is the right tile there (tests/cpu_prep/test_grid.py).  +-inf give +-inf."""
+    q = np.floor(x * inv_tile)       # (np.floor: a float; math.floor is an int64)
+    q = q - 1.0 if q * tile > x else q
+    return q + 1.0 if (q + 1.0) * tile <= x else q
+
+
+@numba.njit(inline="always")
+def _box(x0, x1, y0, y1, d_lo, d_hi, tile, tiles_x, tiles_y, table):
+    """Inclusive cell box (tx0, tx1, ty0, ty1, s0, s1) of a pixel rectangle and a depth
+    range, clamped to the grid; empty (tx0 > tx1 ...) off screen.  Pixel p (centre p+0.5)
+    lies in tile p // tile.  The depth range widens by SLICE_DEPTH_REL_MARGIN."""
+    inv = 1.0 / tile
+    tx0 = int(max(tile_of(x0, tile, inv), 0.0))
+    tx1 = int(min(tile_of(x1, tile, inv), tiles_x - 1.0))
+    ty0 = int(max(tile_of(y0, tile, inv), 0.0))
+    ty1 = int(min(tile_of(y1, tile, inv), tiles_y - 1.0))
+    s0 = slice_from_table(d_lo * (1.0 - SLICE_DEPTH_REL_MARGIN), table)
+    s1 = slice_from_table(d_hi * (1.0 + SLICE_DEPTH_REL_MARGIN), table)
+    return tx0, tx1, ty0, ty1, s0, s1
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _boxes_from_rects(rect, d_lo, d_hi, tile, tiles_x, tiles_y, table):
+    out = np.empty((rect.shape[0], 6), np.int32)
+    for i in range(rect.shape[0]):
+        out[i] = _box(rect[i, 0], rect[i, 1], rect[i, 2], rect[i, 3], d_lo[i], d_hi[i],
+                      tile, tiles_x, tiles_y, table)
+    return out
+
+
+@numba.njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def _light_boxes(center, radius, near, tan_x, tan_y, width, height,
-                 tile, tiles_x, tiles_y, slices, scale, bias, out):
+                 tile, tiles_x, tiles_y, table, out):
     for i in numba.prange(center.shape[0]):
         cx, cy, cz, r = center[i, 0], center[i, 1], center[i, 2], radius[i]
         x0, x1, y0, y1 = pixel_rect(cx, cy, cz, r, near, tan_x, tan_y, width, height)
-        out[i] = _box(x0, x1, y0, y1, -cz - r, -cz + r, tile, tiles_x, tiles_y, slices, scale, bias)
+        out[i] = _box(x0, x1, y0, y1, -cz - r, -cz + r, tile, tiles_x, tiles_y, table)
 
 
 def _grid_args(grid: Grid):
-    return (float(grid.tile), grid.tiles_x, grid.tiles_y, grid.slices, grid.slice_scale, grid.slice_bias)
+    return (float(grid.tile), grid.tiles_x, grid.tiles_y,
+            _table_for(grid.slice_scale, grid.slice_bias, grid.slices))
 
 
 def cell_boxes(grid: Grid, rect, depth_lo, depth_hi) -> np.ndarray:
@@ -150,14 +231,14 @@ def rect_boxes(grid: Grid, rect, depth_lo, depth_hi, arena: Arena | None = None)
     return out
 
 
-@numba.njit(cache=True, nogil=True)
-def _rect_boxes(rect, d_lo, d_hi, tile, tiles_x, tiles_y, slices, scale, bias, out):
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _rect_boxes(rect, d_lo, d_hi, tile, tiles_x, tiles_y, table, out):
     for i in range(rect.shape[0]):
         x0, x1, y0, y1, lo, hi = rect[i, 0], rect[i, 1], rect[i, 2], rect[i, 3], float(d_lo[i]), float(d_hi[i])
         if not (x0 <= x1 and y0 <= y1 and lo <= hi):     # nothing of the light can be seen
             out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = 1, 0, 1, 0, 1, 0
             continue
-        out[i] = _box(x0, x1, y0, y1, lo, hi, tile, tiles_x, tiles_y, slices, scale, bias)
+        out[i] = _box(x0, x1, y0, y1, lo, hi, tile, tiles_x, tiles_y, table)
 
 
 def light_boxes(grid: Grid, cam: FrameCamera, center, radius, arena: Arena | None = None) -> np.ndarray:
@@ -169,60 +250,160 @@ def light_boxes(grid: Grid, cam: FrameCamera, center, radius, arena: Arena | Non
 
 
 @numba.njit(inline="always")
-def _band(boxes, i, band, bands, tiles_y):
-    """Tile-row range of light i's box inside band `band` of `bands`."""
-    lo, hi = band * tiles_y // bands, (band + 1) * tiles_y // bands
-    return max(boxes[i, 2], lo), min(boxes[i, 3], hi - 1)
+def _add_corners(diff, x0, x1, y0, y1, s0, s1):
+    """Add a non-empty box to the 3D difference array (8 corners): O(1) a light, not
+    O(cells touched); the prefix sums over the three axes then give every cell's count.
+    (Unsigned indices: no negative-index wraparound code.)"""
+    x0, x1, y0, y1 = np.uint64(x0), np.uint64(x1 + 1), np.uint64(y0), np.uint64(y1 + 1)
+    s0, s1 = np.uint64(s0), np.uint64(s1 + 1)
+    diff[y0, x0, s0] += 1
+    diff[y0, x0, s1] -= 1
+    diff[y0, x1, s0] -= 1
+    diff[y0, x1, s1] += 1
+    diff[y1, x0, s0] -= 1
+    diff[y1, x0, s1] += 1
+    diff[y1, x1, s0] += 1
+    diff[y1, x1, s1] -= 1
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _box_corners(boxes, diff):
-    """Add each light's box to a 3D difference array (8 corners): O(lights), not O(cells
-    touched); the prefix sums over the three axes then give every cell's light count."""
     for i in range(boxes.shape[0]):
-        x0, x1, y0, y1, s0, s1 = boxes[i]
+        x0, x1, y0, y1, s0, s1 = boxes[i, 0], boxes[i, 1], boxes[i, 2], boxes[i, 3], boxes[i, 4], boxes[i, 5]
         if x0 > x1 or y0 > y1 or s0 > s1:
             continue
-        for k in range(4):
-            y = y0 if k < 2 else y1 + 1
-            x = x0 if k % 2 == 0 else x1 + 1
-            sign = 1 if (k == 0 or k == 3) else -1
-            diff[y, x, s0] += sign
-            diff[y, x, s1 + 1] -= sign
+        _add_corners(diff, x0, x1, y0, y1, s0, s1)
 
 
-def _count(boxes, grid: Grid, offsets) -> None:
-    """offsets[1:] = cumulative light count of the cells (tile-major order)."""
-    diff = np.zeros((grid.tiles_y + 1, grid.tiles_x + 1, grid.slices + 1), np.int64)
-    _box_corners(boxes, diff)
-    counts = diff.cumsum(0).cumsum(1).cumsum(2)[:-1, :-1, :-1]
-    np.cumsum(counts.ravel(), out=offsets[1:])
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _boxes_corners(rect, d_lo, d_hi, tile, tiles_x, tiles_y, table, out, diff):
+    """rect_boxes() and the difference-array count in one pass over the lights."""
+    for i in range(rect.shape[0]):
+        x0, x1, y0, y1, lo, hi = rect[i, 0], rect[i, 1], rect[i, 2], rect[i, 3], float(d_lo[i]), float(d_hi[i])
+        if not (x0 <= x1 and y0 <= y1 and lo <= hi):     # nothing of the light can be seen
+            out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = 1, 0, 1, 0, 1, 0
+            continue
+        a0, a1, b0, b1, s0, s1 = _box(x0, x1, y0, y1, lo, hi, tile, tiles_x, tiles_y, table)
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = a0, a1, b0, b1, s0, s1
+        if a0 <= a1 and b0 <= b1 and s0 <= s1:
+            _add_corners(diff, a0, a1, b0, b1, s0, s1)
 
 
-@numba.njit(cache=True, nogil=True, parallel=True)
-def _fill(boxes, tiles_x, tiles_y, slices, bands, cursor, entries):
-    """Each light's index into every cell of its box, lights in order (so each cell's list
-    keeps the depth order of the input); cursor starts as the cells' offsets."""
-    for band in numba.prange(bands):
-        for i in range(boxes.shape[0]):
-            y0, y1 = _band(boxes, i, band, bands, tiles_y)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _offsets(diff, offsets, cursor):
+    """Prefix sums of the difference array along slices, tiles x, tiles y (every cell's
+    light count), then offsets[1:] = their running total in cell order and cursor = offsets[:-1]
+    (the fill's write positions).  Returns the entry count."""
+    ny, nx, ns = diff.shape[0] - 1, diff.shape[1] - 1, diff.shape[2] - 1
+    for y in range(ny):
+        for x in range(nx):
+            acc = 0
+            for s in range(ns):
+                acc += diff[y, x, s]
+                diff[y, x, s] = acc
+    for y in range(ny):
+        for x in range(1, nx):
+            for s in range(ns):
+                diff[y, x, s] += diff[y, x - 1, s]
+    for y in range(1, ny):
+        for x in range(nx):
+            for s in range(ns):
+                diff[y, x, s] += diff[y - 1, x, s]
+    total = 0
+    c = 0
+    offsets[0] = 0
+    for y in range(ny):
+        for x in range(nx):
+            for s in range(ns):
+                cursor[c] = total
+                total += diff[y, x, s]
+                c += 1
+                offsets[c] = total
+    return total
+
+
+@numba.njit(inline="always")
+def _fill_band(boxes, tiles_x, tiles_y, slices, band, bands, cursor, entries):
+    """Each light's index into every cell of its box (rows of this band), lights in order
+    (so each cell's list keeps the depth order of the input); cursor starts as the cells'
+    offsets.  A box of one slice (most lights) writes along its tile rows with a stride.
+    Cell and entry indices are unsigned: numba then emits no negative-index wraparound
+    for them (a sixth of the fill's time)."""
+    S, TX = np.uint64(slices), np.uint64(tiles_x)
+    row0, row1 = band * tiles_y // bands, (band + 1) * tiles_y // bands - 1   # the band's rows
+    for i in range(boxes.shape[0]):
+        x0, x1, s0, s1 = boxes[i, 0], boxes[i, 1], boxes[i, 4], boxes[i, 5]
+        y0, y1 = max(boxes[i, 2], row0), min(boxes[i, 3], row1)
+        if x0 > x1 or y0 > y1 or s0 > s1:
+            continue
+        nx = np.uint64(x1 - x0 + 1)
+        v = np.uint32(i)
+        if s0 == s1:
             for ty in range(y0, y1 + 1):
-                for tx in range(boxes[i, 0], boxes[i, 1] + 1):
-                    first = (ty * tiles_x + tx) * slices
-                    for s in range(boxes[i, 4], boxes[i, 5] + 1):
-                        entries[cursor[first + s]] = i
-                        cursor[first + s] += 1
+                c = (np.uint64(ty) * TX + np.uint64(x0)) * S + np.uint64(s0)
+                for _ in range(nx):
+                    p = cursor[c]
+                    entries[np.uint64(p)] = v
+                    cursor[c] = p + np.uint32(1)
+                    c += S
+        else:
+            ns = np.uint64(s1 - s0 + 1)
+            for ty in range(y0, y1 + 1):
+                first = (np.uint64(ty) * TX + np.uint64(x0)) * S + np.uint64(s0)
+                for _ in range(nx):
+                    c = first
+                    for _ in range(ns):
+                        p = cursor[c]
+                        entries[np.uint64(p)] = v
+                        cursor[c] = p + np.uint32(1)
+                        c += np.uint64(1)
+                    first += S
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _fill1(boxes, tiles_x, tiles_y, slices, bands, cursor, entries):
+    for band in range(bands):
+        _fill_band(boxes, tiles_x, tiles_y, slices, band, bands, cursor, entries)
+
+
+@numba.njit(cache=True, nogil=True, parallel=True, error_model="numpy")
+def _fill2(boxes, tiles_x, tiles_y, slices, bands, cursor, entries):
+    for band in numba.prange(bands):
+        _fill_band(boxes, tiles_x, tiles_y, slices, band, bands, cursor, entries)
+
+
+def _count_arrays(grid: Grid, arena: Arena | None):
+    diff = zeros(arena, "bin_diff", (grid.tiles_y + 1, grid.tiles_x + 1, grid.slices + 1), np.int32)
+    offsets = empty(arena, "offsets", grid.cells + 1, np.int64)
+    cursor = empty(arena, "cursor", grid.cells, np.uint32)
+    return diff, offsets, cursor
+
+
+def _fill(grid: Grid, boxes, diff, offsets, cursor, arena: Arena | None) -> np.ndarray:
+    total = _offsets(diff, offsets, cursor)
+    check_buffer("light index list", 4 * total)   # before allocating; keeps the uint32 cursor exact
+    entries = empty(arena, "entries", total, np.uint32)
+    threads = numba.get_num_threads()
+    if threads > 1 and grid.tiles_y > 1:
+        _fill2(boxes, grid.tiles_x, grid.tiles_y, grid.slices, min(grid.tiles_y, threads), cursor, entries)
+    else:
+        _fill1(boxes, grid.tiles_x, grid.tiles_y, grid.slices, 1, cursor, entries)
+    return entries
 
 
 def scatter(grid: Grid, boxes, arena: Arena | None = None) -> tuple[np.ndarray, np.ndarray]:
     """CSR (offsets int64 of length cells+1, entries uint32) of lights per cell; `boxes` of
     lights in depth order, so each cell's entries come out depth-sorted."""
-    bands = min(grid.tiles_y, max(numba.get_num_threads(), 1))
-    args = (boxes, grid.tiles_x, grid.tiles_y, grid.slices, bands)
-    offsets = zeros(arena, "offsets", grid.cells + 1, np.int64)
-    _count(boxes, grid, offsets)
-    cursor = empty(arena, "cursor", grid.cells, np.int64)
-    cursor[:] = offsets[:-1]
-    entries = empty(arena, "entries", int(offsets[-1]), np.uint32)
-    _fill(*args, cursor, entries)
-    return offsets, entries
+    boxes = np.ascontiguousarray(boxes, np.int32)
+    diff, offsets, cursor = _count_arrays(grid, arena)
+    _box_corners(boxes, diff)
+    return offsets, _fill(grid, boxes, diff, offsets, cursor, arena)
+
+
+def bin_rects(grid: Grid, rect, depth_lo, depth_hi, arena: Arena | None = None):
+    """rect_boxes() then scatter(), with the boxes and the count made in one pass:
+    (offsets, entries, boxes)."""
+    boxes = empty(arena, "boxes", (len(rect), 6), np.int32)
+    diff, offsets, cursor = _count_arrays(grid, arena)
+    _boxes_corners(rect, depth_lo, depth_hi, *_grid_args(grid), boxes, diff)
+    return offsets, _fill(grid, boxes, diff, offsets, cursor, arena), boxes

@@ -6,36 +6,78 @@
 `cell.radius` is not defined in the paper; it is read here as half the cell's depth extent
 times `radius_scale` (a parameter, 1.0 by default, swept in the benchmark).  Cells of the last
 slice reach to infinity; their extent is clipped to the scene's max depth.
+
+plan_and_build() is what the hybrid technique runs: on one thread the choice and the trees
+come out of one pass over each cell's lights (cpu_prep.tree.plan_trees); with more threads
+(LAB_CPU_THREADS) choose_trees() runs first, in parallel, then build_trees().  Both give the
+same bits.
 """
 from __future__ import annotations
 
 import numba
 import numpy as np
 
+from . import tree as treemod
+from .arena import Arena
 from .grid import Grid
 
 
-@numba.njit(cache=True, nogil=True, parallel=True)
-def _choose(offsets, entries, depth_lo, depth_hi, slice_lo, slice_hi, slices, radius_scale):
-    cells = offsets.shape[0] - 1
-    out = np.zeros(cells, np.bool_)
-    for c in numba.prange(cells):
-        n = offsets[c + 1] - offsets[c]
-        if n == 0:
-            continue
-        s = c % slices                 # cells are tile-major (cpu_prep.grid)
-        lo, hi = slice_lo[s], slice_hi[s]
-        total = 0.0
-        for e in range(offsets[c], offsets[c + 1]):
-            i = entries[e]
-            total += max(min(float(depth_hi[i]), hi) - max(float(depth_lo[i]), lo), 0.0)
-        out[c] = total / n < 0.5 * (hi - lo) * radius_scale
-    return out
+@numba.njit(inline="always")
+def _choose_cell(c, offsets, entries, depth_lo, depth_hi, slice_lo, slice_hi, slices,
+                 radius_scale, out):
+    n = offsets[c + 1] - offsets[c]
+    if n == 0:
+        out[c] = False
+        return
+    s = c % slices                 # cells are tile-major (cpu_prep.grid)
+    lo, hi = slice_lo[s], slice_hi[s]
+    total = 0.0
+    for e in range(offsets[c], offsets[c + 1]):
+        i = entries[e]
+        total += max(min(float(depth_hi[i]), hi) - max(float(depth_lo[i]), lo), 0.0)
+    out[c] = total / n < 0.5 * (hi - lo) * radius_scale
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _choose1(offsets, entries, depth_lo, depth_hi, slice_lo, slice_hi, slices, radius_scale, out):
+    for c in range(offsets.shape[0] - 1):
+        _choose_cell(c, offsets, entries, depth_lo, depth_hi, slice_lo, slice_hi, slices,
+                     radius_scale, out)
+
+
+@numba.njit(cache=True, nogil=True, parallel=True, error_model="numpy")
+def _choose2(offsets, entries, depth_lo, depth_hi, slice_lo, slice_hi, slices, radius_scale, out):
+    for c in numba.prange(offsets.shape[0] - 1):
+        _choose_cell(c, offsets, entries, depth_lo, depth_hi, slice_lo, slice_hi, slices,
+                     radius_scale, out)
+
+
+def cell_depth_ranges(grid: Grid, max_depth: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each slice's depth range as listing 2 clips lights to it (the last slice's end at
+    the scene's max depth)."""
+    lo_s, hi_s = grid.slice_bounds()
+    return lo_s, np.minimum(hi_s, max(max_depth, lo_s[-1]))
 
 
 def choose_trees(grid: Grid, offsets, entries, depth_lo, depth_hi, max_depth: float,
                  radius_scale: float = 1.0) -> np.ndarray:
-    lo_s, hi_s = grid.slice_bounds()
-    hi_s = np.minimum(hi_s, max(max_depth, lo_s[-1]))
-    return _choose(offsets, entries, depth_lo, depth_hi, lo_s, hi_s,
-                   grid.slices, float(radius_scale))
+    lo_s, hi_s = cell_depth_ranges(grid, max_depth)
+    out = np.empty(len(offsets) - 1, np.bool_)
+    kernel = _choose2 if numba.get_num_threads() > 1 else _choose1
+    kernel(offsets, entries, depth_lo, depth_hi, lo_s, hi_s, grid.slices, float(radius_scale), out)
+    return out
+
+
+def plan_and_build(grid: Grid, offsets, entries, depth_lo, depth_hi, max_depth: float,
+                   radius_scale: float, lights_per_leaf: int, max_leaves: int,
+                   arena: Arena | None = None):
+    """Listing 2's choice and the cells' trees (a list: a one-leaf tree): (cell_ranges,
+    nodes, leaves per cell, is_tree), as choose_trees() then tree.build_trees() give them."""
+    if numba.get_num_threads() > 1:
+        is_tree = choose_trees(grid, offsets, entries, depth_lo, depth_hi, max_depth, radius_scale)
+        ranges, nodes, leaves = treemod.build_trees(offsets, entries, depth_lo, depth_hi, is_tree,
+                                                    lights_per_leaf, max_leaves, arena)
+        return ranges, nodes, leaves, is_tree
+    lo_s, hi_s = cell_depth_ranges(grid, max_depth)
+    return treemod.plan_trees(offsets, entries, depth_lo, depth_hi, lo_s, hi_s, grid.slices,
+                              radius_scale, lights_per_leaf, max_leaves, arena)

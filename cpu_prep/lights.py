@@ -1,10 +1,33 @@
 """Per-frame light preparation, one numba kernel per timed step (tree paper 4.1):
 
     scene lights (LIGHT_DTYPE, world)
-      --cull-->  visible: float32 view-space rows, float64 culling sphere, and each shape's
-                 conservative screen rectangle and depth range (cpu_prep.bounds.shape_bounds)
-      --sort-->  order by distance to the camera plane (LSD radix sort, stable: ties by id)
-      --pack-->  GPU_LIGHT[], GPU_BOUND[], rectangles, float32 depth ranges, in that order
+      --cull-->  the visible lights, in scene order, as (depth key << 32 | scene id) and
+                 the sphere-centre depth: the culling sphere against the frustum, branch-
+                 free, 12 bytes written a visible light
+      --sort-->  LSD radix sort of those uint64 on the key, three passes of 11 bits, the
+                 three histograms counted in one pass (stable: ties keep scene order)
+      --pack-->  gathers each light in depth order from the scene array (software
+                 prefetch) and writes, in that order, GPU_LIGHT[], GPU_BOUND[], the light
+                 types, its culling sphere, its shape's screen rectangle and the float32
+                 depth ranges (cpu_prep.bounds.shape_bounds); the GPU rows, bounds and
+                 spheres, which the CPU stage does not read again, with streaming stores
+
+The cull writes nothing the pack needs but the order: the pack recomputes a light's view-
+space values from the scene record it must read anyway (colour, angles, extents), with
+the same inline functions as the cull (`_position`, `_direction`, `_sphere`,
+`_view_light`), instead of the cull storing ~180 bytes a light for the pack to gather back
+in depth order (a cache miss a line: 1.5-3 ms at 65,536 lights, the earlier design).
+There is no fastmath here (bounds use inf sentinels; no reassociation, no fused
+multiply-add), so every evaluation of the same expressions gives the same bits, in a
+scalar loop or in SIMD lanes; tests/cpu_prep/test_prep_equivalence.py holds the outputs
+to the earlier kernels' bit for bit (the rectangles to 1e-6 pixel: bounds.project_axis).
+
+Every kernel is compiled with error_model="numpy": a float division by zero gives inf or
+NaN instead of raising, so no division carries a zero test and a branch, and loops of
+divisions and square roots can be vectorized.  Where a result is kept, no divisor is zero
+(each is bounded away from it where its branch is taken); the pack's SIMD rectangle loop
+evaluates the in-front-of-the-near-plane formula for every light of a block and keeps it
+only where it applies, which is why it needs this error model.
 """
 from __future__ import annotations
 
@@ -14,16 +37,19 @@ import math
 import numba
 import numpy as np
 
-from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_SPOT
+from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT
 
 from . import layouts
 from .arena import Arena, empty
-from .bounds import grow, shape_bounds, spot_sphere
+from .bounds import (grow, ndc_rect, project_axis_ahead, shape_bounds, sphere_only,
+                     spot_sphere)
 from .camera import FrameCamera
 from .layouts import (LIGHT_COLOR_COS_INNER as COLOR, LIGHT_DIR_COS_OUTER as DIR,
                       LIGHT_EXTENT_LENGTH as EXT, LIGHT_ID_TYPE as ID_TYPE,
                       LIGHT_POS_RADIUS as POS, LIGHT_RIGHT as RIGHT, LIGHT_WORDS)
 from .limits import PIXEL_MARGIN, RADIUS_REL_MARGIN
+from .intrinsics import (bits_to_f32, f32_to_bits, next_down_f32, next_up_f32, prefetch_ahead,
+                         store4_nt, store_fence)
 
 
 @dataclass
@@ -47,6 +73,14 @@ class PreparedLights:
         return -self.center[:, 2]
 
 
+def parallel() -> bool:
+    """Whether the CPU stage runs its parallel kernels (LAB_CPU_THREADS / set_num_threads > 1).
+    With one thread every step calls a plain serial kernel: a parallel=True kernel run on
+    one thread still pays numba's parallel-region entry and compiles its loop as an
+    outlined gufunc."""
+    return numba.get_num_threads() > 1
+
+
 @numba.njit(inline="always")
 def _rotate(m, v):
     """A world direction in view space (the view transform is rigid)."""
@@ -61,88 +95,184 @@ def _unit(x, y, z):
     return x * inv, y * inv, z * inv
 
 
-@numba.njit(cache=True, nogil=True)
-def _view_cull(lights, m, near, far, tan_x, tan_y, tan_rx, tan_ry, width, height,
-               rows, rows_u, sphere, shape):
-    """View transform (float64, stored float32 as the GPU sees it), culling sphere, and the
-    frustum test of that sphere against the near/far planes and the four side planes
-    widened by PIXEL_MARGIN (tan_x, tan_y).  Each visible light is written, in scene order,
-    as its finished GPU_LIGHT row (rows / rows_u: float and uint views of one array), its
-    float64 culling sphere and its shape's screen rectangle and depth range (tan_rx, tan_ry:
-    the camera's own), so the sort's permutation later moves one cache line per light."""
-    n = lights.shape[0]
+@numba.njit(inline="always")
+def _position_xyz(m, x, y, z):
+    """A world position (float64) in view space as stored (float64 transform, rounded to
+    float32).  m: the view matrix (an array, or a tuple of its top 12 entries)."""
+    px = np.float32(m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3])
+    py = np.float32(m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3])
+    pz = np.float32(m[2, 0] * x + m[2, 1] * y + m[2, 2] * z + m[2, 3])
+    return px, py, pz
+
+
+@numba.njit(inline="always")
+def _position(li, m):
+    """A light's view-space position as stored."""
+    return _position_xyz(m, float(li.position[0]), float(li.position[1]), float(li.position[2]))
+
+
+@numba.njit(inline="always")
+def _direction_xyz(m, x, y, z):
+    """A world direction (float64) in view space, unit length, as stored (float32)."""
+    x, y, z = (m[0, 0] * x + m[0, 1] * y + m[0, 2] * z, m[1, 0] * x + m[1, 1] * y + m[1, 2] * z,
+               m[2, 0] * x + m[2, 1] * y + m[2, 2] * z)
+    dx, dy, dz = _unit(x, y, z)
+    return np.float32(dx), np.float32(dy), np.float32(dz)
+
+
+@numba.njit(inline="always")
+def _direction(li, m):
+    """A light's view-space unit direction as stored (float32)."""
+    return _direction_xyz(m, float(li.direction[0]), float(li.direction[1]), float(li.direction[2]))
+
+
+@numba.njit(inline="always")
+def _sphere(t, li, px, py, pz, dx, dy, dz):
+    """The float64 culling sphere (centre, radius with the margins of grow()) of a light
+    from its stored position and direction (the direction is read for spots only)."""
+    cx, cy, cz, r = float(px), float(py), float(pz), float(li.radius)
+    if t == LIGHT_SPOT:
+        cx, cy, cz, r = spot_sphere(cx, cy, cz, float(dx), float(dy), float(dz), r, float(li.cos_outer))
+    elif t == LIGHT_CAPSULE:
+        r += 0.5 * float(li.length)
+    elif t == LIGHT_BOX:
+        e = li.extent
+        r = math.sqrt(float(e[0]) ** 2 + float(e[1]) ** 2 + float(e[2]) ** 2)
+    return cx, cy, cz, grow(r, cx, cy, cz)
+
+
+@numba.njit(inline="always")
+def _view_light(li, m):
+    """One scene light in view space: its stored float32 position, direction and box right
+    axis (as the GPU sees them: float64 transform, rounded once), and its float64 culling
+    sphere (centre, radius with the margins of grow())."""
+    px, py, pz = _position(li, m)
+    dx, dy, dz = _direction(li, m)
+    t = li.type
+    rx = ry = rz = np.float32(0.0)
+    if t == LIGHT_BOX:
+        # right = normalize(cross(direction, up)), up' = cross(right, direction) (DESIGN)
+        ux, uy, uz = _rotate(m, li.up)
+        fx, fy, fz = float(dx), float(dy), float(dz)
+        x, y, z = _unit(fy * uz - fz * uy, fz * ux - fx * uz, fx * uy - fy * ux)
+        rx, ry, rz = np.float32(x), np.float32(y), np.float32(z)
+    cx, cy, cz, r = _sphere(t, li, px, py, pz, dx, dy, dz)
+    return px, py, pz, dx, dy, dz, rx, ry, rz, cx, cy, cz, r
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _cull(lights, m, near, far, tan_x, tan_y, keyed, depth):
+    """Frustum test of each light's culling sphere against the near/far planes and the four
+    side planes widened by PIXEL_MARGIN (tan_x, tan_y).  The visible lights, in scene order:
+    keyed[k] = sort key << 32 | scene id (the key: the float32 bits of the sphere-centre
+    depth made to order like the values) and depth[k], that depth in float64.  Returns
+    their count.
+
+    The sphere is the pack's (_sphere on the same stored position), computed without the
+    direction unless the light is a spot.  The side test is the plane distance
+    (c.x + tan_x * depth) / |n| < -r with the division by |n| = sqrt(1 + tan_x^2) moved to
+    the right side (a multiplication, not four divisions a light): the two differ by a
+    rounding of the last bit, a 1e-16 relative shift of a plane that PIXEL_MARGIN already
+    moved out by a pixel (~1e-3 of the depth), so the test stays conservative."""
     norm_x, norm_y = math.sqrt(1.0 + tan_x * tan_x), math.sqrt(1.0 + tan_y * tan_y)
+    near_lo, far_hi = near * (1 - RADIUS_REL_MARGIN), far * (1 + RADIUS_REL_MARGIN)
     k = 0
-    for i in range(n):
+    for i in range(lights.shape[0]):
         li = lights[i]
-        x, y, z = float(li.position[0]), float(li.position[1]), float(li.position[2])
-        px = np.float32(m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3])
-        py = np.float32(m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3])
-        pz = np.float32(m[2, 0] * x + m[2, 1] * y + m[2, 2] * z + m[2, 3])
-        x, y, z = _rotate(m, li.direction)
-        dx, dy, dz = _unit(x, y, z)
-        dx, dy, dz = np.float32(dx), np.float32(dy), np.float32(dz)
+        px, py, pz = _position(li, m)
         t = li.type
-        rx = ry = rz = np.float32(0.0)
-        cx, cy, cz, r = float(px), float(py), float(pz), float(li.radius)
+        dx = dy = dz = np.float32(0.0)
         if t == LIGHT_SPOT:
-            cx, cy, cz, r = spot_sphere(cx, cy, cz, float(dx), float(dy), float(dz), r, float(li.cos_outer))
-        elif t == LIGHT_CAPSULE:
-            r += 0.5 * float(li.length)
-        elif t == LIGHT_BOX:
-            # right = normalize(cross(direction, up)), up' = cross(right, direction) (DESIGN)
-            ux, uy, uz = _rotate(m, li.up)
-            fx, fy, fz = float(dx), float(dy), float(dz)
-            x, y, z = _unit(fy * uz - fz * uy, fz * ux - fx * uz, fx * uy - fy * ux)
-            rx, ry, rz = np.float32(x), np.float32(y), np.float32(z)
-            e = li.extent
-            r = math.sqrt(float(e[0]) ** 2 + float(e[1]) ** 2 + float(e[2]) ** 2)
-        r = grow(r, cx, cy, cz)
-        depth = -cz
-        if depth + r < near * (1 - RADIUS_REL_MARGIN) or depth - r > far * (1 + RADIUS_REL_MARGIN):
-            continue
-        if (cx + tan_x * depth) / norm_x < -r or (-cx + tan_x * depth) / norm_x < -r:
-            continue
-        if (cy + tan_y * depth) / norm_y < -r or (-cy + tan_y * depth) / norm_y < -r:
-            continue
-        # GPU_LIGHT, field by field through the word offsets generated from its dtype
-        rows[k, POS], rows[k, POS + 1], rows[k, POS + 2], rows[k, POS + 3] = px, py, pz, li.radius
-        for a in range(3):
-            rows[k, COLOR + a] = li.color[a] * li.intensity
-        rows[k, COLOR + 3] = li.cos_inner
-        rows[k, DIR], rows[k, DIR + 1], rows[k, DIR + 2], rows[k, DIR + 3] = dx, dy, dz, li.cos_outer
-        rows_u[k, ID_TYPE], rows_u[k, ID_TYPE + 1] = i, li.type
-        rows_u[k, ID_TYPE + 2], rows_u[k, ID_TYPE + 3] = 0, 0
-        rows[k, EXT], rows[k, EXT + 1], rows[k, EXT + 2] = li.extent[0], li.extent[1], li.extent[2]
-        rows[k, EXT + 3] = li.length
-        rows[k, RIGHT], rows[k, RIGHT + 1], rows[k, RIGHT + 2], rows[k, RIGHT + 3] = rx, ry, rz, 0.0
-        sphere[k, 0], sphere[k, 1], sphere[k, 2], sphere[k, 3] = cx, cy, cz, r
-        # bounds of what the float32 light the GPU tests covers (its stored values)
-        shape[k] = shape_bounds(t, float(px), float(py), float(pz), float(dx), float(dy), float(dz),
-                                float(rx), float(ry), float(rz), float(li.radius),
-                                float(li.cos_outer), float(li.length), float(li.extent[0]),
-                                float(li.extent[1]), float(li.extent[2]), cx, cy, cz, r,
-                                near, tan_rx, tan_ry, width, height)
-        k += 1
+            dx, dy, dz = _direction(li, m)
+        cx, cy, cz, r = _sphere(t, li, px, py, pz, dx, dy, dz)
+        d = -cz
+        rx, ry = r * norm_x, r * norm_y
+        # branch-free: a quarter of the lights fail at random, which a branch mispredicts
+        # (the tests as the rejections they are: a NaN sphere is kept, never dropped)
+        out = ((d + r < near_lo) | (d - r > far_hi) |
+               (cx + tan_x * d < -rx) | (-cx + tan_x * d < -rx) |
+               (cy + tan_y * d < -ry) | (-cy + tan_y * d < -ry))
+        key = np.uint64(_float_key(f32_to_bits(np.float32(d))))
+        keyed[k] = (key << np.uint64(32)) | np.uint64(i)   # written always, kept when visible
+        depth[k] = d
+        k += 0 if out else 1
     return k
 
 
-def view_and_cull(lights: np.ndarray, cam: FrameCamera, arena: Arena | None = None):
-    """(GPU_LIGHT rows (K, words) float32, culling spheres (K,4) float64, shape bounds (K,6)
-    float64: x0, x1, y0, y1, depth lo, depth hi) of the K visible lights, in scene order."""
+def cull(lights: np.ndarray, cam: FrameCamera, arena: Arena | None = None):
+    """(keyed uint64 (K,): depth sort key << 32 | scene id, sphere-centre depths float64
+    (K,)) of the K visible lights, in scene order."""
     tx = cam.tan_half_x * (1.0 + 2.0 * PIXEL_MARGIN / cam.width)
     ty = cam.tan_half_y * (1.0 + 2.0 * PIXEL_MARGIN / cam.height)
     n = len(lights)
-    rows = empty(arena, "visible_rows", (n, LIGHT_WORDS), np.float32)
-    sphere = empty(arena, "visible_spheres", (n, 4), np.float64)
-    shape = empty(arena, "visible_shapes", (n, 6), np.float64)
-    k = _view_cull(lights, cam.view_from_world, cam.near, cam.far, tx, ty, cam.tan_half_x,
-                   cam.tan_half_y, float(cam.width), float(cam.height), rows,
-                   rows.view(np.uint32), sphere, shape)
-    return rows[:k], sphere[:k], shape[:k]
+    keyed = empty(arena, "visible_keys", n, np.uint64)
+    depth = empty(arena, "visible_depths", n, np.float64)
+    k = _cull(lights, cam.view_from_world, cam.near, cam.far, tx, ty, keyed, depth)
+    return keyed[:k], depth[:k]
 
 
-@numba.njit(cache=True, nogil=True)
+# ---- sort ------------------------------------------------------------------------------
+RADIX_BITS = 11
+RADIX = 1 << RADIX_BITS
+
+
+@numba.njit(inline="always")
+def _float_key(f32_bits):
+    """float32 bits made to order like the values: flip all bits of negatives, the sign of
+    positives (-0.0 sorts just before +0.0, as the earlier sort did)."""
+    if f32_bits >> np.uint32(31):
+        return ~f32_bits
+    return f32_bits | np.uint32(0x80000000)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _radix_sort(a, b):
+    """Stable LSD radix sort of the uint64 values in `a` on their high 32 bits (the key),
+    three passes of 11, 11 and 10 bits, the histograms of all three counted in one pass; a
+    pass whose digit is the same for every value is skipped.  Returns the sorted array
+    (a or b; the other is scratch)."""
+    n = a.shape[0]
+    hist = np.zeros((3, RADIX), np.int64)
+    mask = np.uint64(RADIX - 1)
+    for k in range(n):
+        key = a[k] >> np.uint64(32)
+        hist[0, key & mask] += 1
+        hist[1, (key >> np.uint64(RADIX_BITS)) & mask] += 1
+        hist[2, key >> np.uint64(2 * RADIX_BITS)] += 1
+    src, dst = a, b
+    for p in range(3):
+        h = hist[p]
+        if h.max() == n:
+            continue                       # every key has this digit: the pass moves nothing
+        total = 0
+        for d in range(RADIX):
+            c = h[d]
+            h[d] = total
+            total += c
+        shift = np.uint64(32 + RADIX_BITS * p)
+        for k in range(n):
+            v = src[k]
+            d = (v >> shift) & mask
+            dst[np.uint64(h[d])] = v
+            h[d] += 1
+        src, dst = dst, src
+    return src
+
+
+def sort_ids(keyed: np.ndarray, depth: np.ndarray, buckets: int = 0,
+             arena: Arena | None = None) -> np.ndarray:
+    """The visible lights (cull()'s keyed values) in depth order, uint64, scene ids in the
+    low 32 bits.  Ties keep scene order.  buckets > 0 gives depth_order()'s approximate
+    bucket sort instead.  `keyed` (the cull's array) is used as scratch."""
+    n = len(keyed)
+    b = empty(arena, "sort_scratch", n, np.uint64)
+    if buckets > 0 and n:
+        np.take(keyed, _bucket_order(np.ascontiguousarray(depth, np.float64), buckets), out=b)
+        return b
+    return _radix_sort(keyed, b)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _radix_order(keys):
     """Stable LSD radix sort (4 passes of 8 bits) of uint32 keys: the sorting permutation."""
     n = keys.shape[0]
@@ -164,7 +294,7 @@ def _radix_order(keys):
     return order
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _bucket_order(depth, buckets):
     """Counting sort into `buckets` equal depth buckets; input order within a bucket."""
     n = depth.shape[0]
@@ -200,35 +330,180 @@ def depth_order(depth: np.ndarray, buckets: int = 0) -> np.ndarray:
     return _radix_order(key)
 
 
-@numba.njit(cache=True, nogil=True, parallel=True)
-def _pack(order, rows, sphere, shape, gpu, spheres_out, rect, bound, lo, hi):
-    for j in numba.prange(order.shape[0]):
-        i = order[j]
-        for a in range(rows.shape[1]):
-            gpu[j, a] = rows[i, a]
-        for a in range(4):
-            spheres_out[j, a] = sphere[i, a]
-            rect[j, a] = shape[i, a]
-        r = sphere[i, 3]
-        for a in range(3):
-            bound[j, a] = sphere[i, a]
+# ---- pack ------------------------------------------------------------------------------
+
+# GPU_LIGHT's six 16-byte fields (POS, COLOR, DIR, ID_TYPE, EXT, RIGHT in _row_nt) by word
+# offset: the order the streaming stores write them in
+_ROW_ORDER = tuple(int(k) for k in np.argsort([POS, COLOR, DIR, ID_TYPE, EXT, RIGHT]))
+assert sorted([POS, COLOR, DIR, ID_TYPE, EXT, RIGHT]) == list(range(0, LIGHT_WORDS, 4))
+PACK_BLOCK = 128      # lights a block: its temporaries stay in L1 between the block's loops
+_WX, _WY, _WZ, _UX, _UY, _UZ, _RAD = 0, 1, 2, 3, 4, 5, 6        # gathered (world)
+_COS, _LEN, _EX, _EY, _EZ = 7, 8, 9, 10, 11                        # gathered (shape)
+_PX, _PY, _PZ, _DX, _DY, _DZ = 12, 13, 14, 15, 16, 17             # stored position, direction
+_RX, _RY, _RZ = 18, 19, 20                                        # stored box right axis
+_CX, _CY, _CZ, _R = 21, 22, 23, 24                                # culling sphere
+_X0, _X1, _Y0, _Y1 = 25, 26, 27, 28                               # screen rectangle
+_CR, _CG, _CB, _CIN = 29, 30, 31, 32                              # colour * intensity, cos inner
+_TEMPS = 33
+
+
+@numba.njit(inline="always")
+def _f32(tmp, k, jj):
+    """A temporary holding a float32 value, as the float32 it is (exact)."""
+    return np.float32(tmp[k, jj])
+
+
+@numba.njit(inline="always")
+def _row_nt(rows, j, tmp, jj, i, t):
+    """Row j of GPU_LIGHT from the block temporaries, one streaming 16-byte store a field."""
+    fields = ((POS, _f32(tmp, _PX, jj), _f32(tmp, _PY, jj), _f32(tmp, _PZ, jj), _f32(tmp, _RAD, jj)),
+              (COLOR, _f32(tmp, _CR, jj), _f32(tmp, _CG, jj), _f32(tmp, _CB, jj), _f32(tmp, _CIN, jj)),
+              (DIR, _f32(tmp, _DX, jj), _f32(tmp, _DY, jj), _f32(tmp, _DZ, jj), _f32(tmp, _COS, jj)),
+              (ID_TYPE, bits_to_f32(np.uint32(i)), bits_to_f32(np.uint32(t)), bits_to_f32(np.uint32(0)),
+               bits_to_f32(np.uint32(0))),
+              (EXT, _f32(tmp, _EX, jj), _f32(tmp, _EY, jj), _f32(tmp, _EZ, jj), _f32(tmp, _LEN, jj)),
+              (RIGHT, _f32(tmp, _RX, jj), _f32(tmp, _RY, jj), _f32(tmp, _RZ, jj), np.float32(0.0)))
+    for f in _ROW_ORDER:
+        w, a, b, c, d = fields[f]
+        store4_nt(rows, j, w, a, b, c, d)
+
+
+@numba.njit(inline="always")
+def _pack_block(j0, j1, lights, sorted_ids, m, near, tan_x, tan_y, width, height,
+                rows, types, sphere, rect, bound, lo, hi, tmp, kind, slow):
+    """Lights j0 .. j1-1 of the depth order, as a few loops over the block.  The scalar
+    loops gather scene records and write the GPU rows, one 16-byte field at a time with
+    streaming stores (through the word offsets generated from the dtype); the arithmetic of
+    the common case runs in loops over block temporaries laid out one array per value,
+    which LLVM turns into SIMD code (the view transform, the direction's square root and
+    division, grow()'s square root, the screen rectangle's square roots and divisions).
+    The cases off the common path (a light not a point, a sphere reaching the near plane,
+    a shape with its own cover) are then redone by the scalar functions: every value is
+    the one _view_light() and shape_bounds() give, bit for bit (the same IEEE operations
+    in the same order; no fastmath, so no reassociation or fused multiply-add)."""
+    nb = j1 - j0
+    J0 = np.uint64(j0)
+    # 1. gather: scene record -> temporaries, and the GPU row's fields copied from it
+    for j in range(J0, np.uint64(j1)):                 # unsigned: no wraparound code
+        jj = j - J0
+        prefetch_ahead(lights, sorted_ids, j)
+        i = sorted_ids[j] & np.uint64(0xFFFFFFFF)
+        li = lights[i]
+        tmp[_WX, jj], tmp[_WY, jj], tmp[_WZ, jj] = float(li.position[0]), float(li.position[1]), float(li.position[2])
+        tmp[_UX, jj], tmp[_UY, jj], tmp[_UZ, jj] = float(li.direction[0]), float(li.direction[1]), float(li.direction[2])
+        tmp[_RAD, jj], tmp[_COS, jj], tmp[_LEN, jj] = float(li.radius), float(li.cos_outer), float(li.length)
+        tmp[_EX, jj], tmp[_EY, jj], tmp[_EZ, jj] = float(li.extent[0]), float(li.extent[1]), float(li.extent[2])
+        t = li.type
+        kind[jj] = t
+        types[j] = t
+        slow[jj] = 0 if sphere_only(t, float(li.cos_outer), float(li.length)) else 1
+        tmp[_CR, jj], tmp[_CG, jj] = li.color[0] * li.intensity, li.color[1] * li.intensity
+        tmp[_CB, jj], tmp[_CIN, jj] = li.color[2] * li.intensity, li.cos_inner
+    # 2. SIMD: view transform, unit direction, a point light's culling sphere
+    m00, m01, m02, m03 = m[0, 0], m[0, 1], m[0, 2], m[0, 3]
+    m10, m11, m12, m13 = m[1, 0], m[1, 1], m[1, 2], m[1, 3]
+    m20, m21, m22, m23 = m[2, 0], m[2, 1], m[2, 2], m[2, 3]
+    for jj in range(np.uint64(nb)):
+        x, y, z = tmp[_WX, jj], tmp[_WY, jj], tmp[_WZ, jj]
+        # (np.float64, not float(): numba's float() of a float32 stays a float32)
+        px = np.float64(np.float32(m00 * x + m01 * y + m02 * z + m03))
+        py = np.float64(np.float32(m10 * x + m11 * y + m12 * z + m13))
+        pz = np.float64(np.float32(m20 * x + m21 * y + m22 * z + m23))
+        x, y, z = tmp[_UX, jj], tmp[_UY, jj], tmp[_UZ, jj]
+        ux, uy, uz = (m00 * x + m01 * y + m02 * z, m10 * x + m11 * y + m12 * z,
+                      m20 * x + m21 * y + m22 * z)
+        ux, uy, uz = _unit(ux, uy, uz)
+        tmp[_PX, jj], tmp[_PY, jj], tmp[_PZ, jj] = px, py, pz
+        tmp[_DX, jj], tmp[_DY, jj], tmp[_DZ, jj] = np.float32(ux), np.float32(uy), np.float32(uz)
+        tmp[_RX, jj], tmp[_RY, jj], tmp[_RZ, jj] = 0.0, 0.0, 0.0
+        tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj] = px, py, pz
+        tmp[_R, jj] = grow(tmp[_RAD, jj], px, py, pz)
+    # 3. scalar: the other shapes' spheres (and a box's right axis); the rows' view fields
+    for j in range(J0, np.uint64(j1)):
+        jj = j - J0
+        if kind[jj] != LIGHT_POINT:
+            li = lights[sorted_ids[j] & np.uint64(0xFFFFFFFF)]
+            _, _, _, _, _, _, rx, ry, rz, cx, cy, cz, r = _view_light(li, m)
+            tmp[_RX, jj], tmp[_RY, jj], tmp[_RZ, jj] = rx, ry, rz
+            tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj], tmp[_R, jj] = cx, cy, cz, r
+        # the whole row, its 16-byte fields in memory order, so that the streaming stores of
+        # consecutive rows fill whole cache lines in the write-combining buffers
+        _row_nt(rows, j, tmp, jj, sorted_ids[j] & np.uint64(0xFFFFFFFF), kind[jj])
+        cx, cy, cz, r = tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj], tmp[_R, jj]
+        store4_nt(sphere, j, 0, cx, cy, cz, r)     # (not read again in the CPU stage)
         # float32, rounded outwards: the GPU's float32 comparisons stay conservative.
         # (The stored centre's rounding is in grow()'s 4-ulp term; round the radius up.)
-        bound[j, 3] = np.nextafter(np.float32(r), np.float32(np.inf))
-        lo[j] = np.nextafter(np.float32(shape[i, 4]), np.float32(-np.inf))
-        hi[j] = np.nextafter(np.float32(shape[i, 5]), np.float32(np.inf))
+        store4_nt(bound, j, 0, np.float32(cx), np.float32(cy), np.float32(cz), next_up_f32(np.float32(r)))
+    # 4. SIMD: the rectangle and depth range of a sphere in front of the near plane
+    zn = -near
+    for jj in range(np.uint64(nb)):
+        cx, cy, cz, r = tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj], tmp[_R, jj]
+        lx, hx = project_axis_ahead(cx, cz, r, tan_x)
+        ly, hy = project_axis_ahead(cy, cz, r, tan_y)
+        tmp[_X0, jj], tmp[_X1, jj], tmp[_Y0, jj], tmp[_Y1, jj] = ndc_rect(lx, hx, ly, hy, width, height)
+        lo[J0 + jj] = next_down_f32(np.float32(-cz - r))
+        hi[J0 + jj] = next_up_f32(np.float32(-cz + r))
+        slow[jj] |= 0 if cz + r < zn else 1
+    # 5. scalar: the rest through shape_bounds() (on the stored float32 values, as the
+    #    GPU tests them); the rectangles
+    for j in range(J0, np.uint64(j1)):
+        jj = j - J0
+        if slow[jj]:
+            x0, x1, y0, y1, d0, d1 = shape_bounds(
+                kind[jj], _f32(tmp, _PX, jj), _f32(tmp, _PY, jj), _f32(tmp, _PZ, jj),
+                _f32(tmp, _DX, jj), _f32(tmp, _DY, jj), _f32(tmp, _DZ, jj),
+                _f32(tmp, _RX, jj), _f32(tmp, _RY, jj), _f32(tmp, _RZ, jj),
+                _f32(tmp, _RAD, jj), _f32(tmp, _COS, jj), _f32(tmp, _LEN, jj),
+                _f32(tmp, _EX, jj), _f32(tmp, _EY, jj), _f32(tmp, _EZ, jj),
+                tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj], tmp[_R, jj],
+                near, tan_x, tan_y, width, height)
+            tmp[_X0, jj], tmp[_X1, jj], tmp[_Y0, jj], tmp[_Y1, jj] = x0, x1, y0, y1
+            lo[j] = next_down_f32(np.float32(d0))
+            hi[j] = next_up_f32(np.float32(d1))
+        rect[j, 0], rect[j, 1], rect[j, 2], rect[j, 3] = tmp[_X0, jj], tmp[_X1, jj], tmp[_Y0, jj], tmp[_Y1, jj]
+    store_fence()
 
 
-def pack(rows, sphere, shape, order, arena: Arena | None = None) -> PreparedLights:
-    """GPU_LIGHT / GPU_BOUND, rectangles and the float32 depth ranges, in depth order."""
-    n = len(order)
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _pack1(lights, sorted_ids, m, near, tan_x, tan_y, width, height,
+           rows, types, sphere, rect, bound, lo, hi):
+    n = sorted_ids.shape[0]
+    tmp = np.empty((_TEMPS, PACK_BLOCK))
+    kind = np.empty(PACK_BLOCK, np.uint8)
+    slow = np.empty(PACK_BLOCK, np.uint8)
+    for j0 in range(0, n, PACK_BLOCK):
+        _pack_block(j0, min(j0 + PACK_BLOCK, n), lights, sorted_ids, m, near, tan_x, tan_y,
+                    width, height, rows, types, sphere, rect, bound, lo, hi, tmp, kind, slow)
+
+
+@numba.njit(cache=True, nogil=True, parallel=True, error_model="numpy")
+def _pack2(lights, sorted_ids, m, near, tan_x, tan_y, width, height,
+           rows, types, sphere, rect, bound, lo, hi):
+    n = sorted_ids.shape[0]
+    for b in numba.prange((n + PACK_BLOCK - 1) // PACK_BLOCK):
+        j0 = b * PACK_BLOCK
+        tmp = np.empty((_TEMPS, PACK_BLOCK))
+        kind = np.empty(PACK_BLOCK, np.uint8)
+        slow = np.empty(PACK_BLOCK, np.uint8)
+        _pack_block(j0, min(j0 + PACK_BLOCK, n), lights, sorted_ids, m, near, tan_x, tan_y,
+                    width, height, rows, types, sphere, rect, bound, lo, hi, tmp, kind, slow)
+
+
+def pack(lights: np.ndarray, cam: FrameCamera, sorted_ids: np.ndarray,
+         arena: Arena | None = None) -> PreparedLights:
+    """GPU_LIGHT / GPU_BOUND, culling spheres, rectangles and the float32 depth ranges of
+    the lights `sorted_ids` (sort_ids(): ids in the low 32 bits), in that order."""
+    n = len(sorted_ids)
     gpu = empty(arena, "gpu_lights", (n, LIGHT_WORDS), np.float32)
     spheres = empty(arena, "sorted_spheres", (n, 4), np.float64)
     rect = empty(arena, "sorted_rects", (n, 4), np.float64)
     bound = empty(arena, "gpu_bounds", (n, 4), np.float32)
     lo, hi = empty(arena, "depth_lo", n, np.float32), empty(arena, "depth_hi", n, np.float32)
-    _pack(order, rows, sphere, shape, gpu, spheres, rect, bound, lo, hi)
+    types = empty(arena, "light_types", n, np.uint8)
+    kernel = _pack2 if parallel() else _pack1
+    kernel(lights, sorted_ids, cam.view_from_world, cam.near, cam.tan_half_x, cam.tan_half_y,
+           float(cam.width), float(cam.height), gpu, types, spheres, rect, bound, lo, hi)
     rec = gpu.view(layouts.GPU_LIGHT).reshape(n)
-    return PreparedLights(ids=rec["id_type"][:, 0], type=rec["id_type"][:, 1].astype(np.uint8),
+    return PreparedLights(ids=rec["id_type"][:, 0], type=types,
                           center=spheres[:, :3], bound_radius=spheres[:, 3], rect=rect, gpu=rec,
                           bounds=bound.view(layouts.GPU_BOUND).reshape(n), depth_lo=lo, depth_hi=hi)

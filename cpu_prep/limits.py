@@ -33,6 +33,15 @@ WINDOW_ALL = 0xFFFFFFFF            # one window holding every position
 # the app also checks the context's own value before allocating).
 MAX_STORAGE_BYTES = 128 << 20
 
+
+
+def check_buffer(name: str, nbytes: int) -> None:
+    """Refuse a buffer past the storage-block limit, naming it."""
+    if nbytes > MAX_STORAGE_BYTES:
+        raise LimitError(f"{name} needs {nbytes / 2**20:.0f} MiB, over the "
+                         f"{MAX_STORAGE_BYTES >> 20} MiB storage-block limit")
+
+
 # ---- Float margins: CPU bounds are conservative with respect to the float32 GPU test. ----
 # The GPU decides "affects" as dot(P-L, P-L) < r*r in float32.  P-L is correctly rounded per
 # component and the dot product adds at most ~5 ulp, so the GPU can accept a point whose true

@@ -11,6 +11,21 @@ for the stackless traversal of listing 3, packed into the 16-byte node of listin
 A cell stored as a list is a one-node tree whose root is a leaf (paper 3.4).  Fallback for
 the 16-bit light count: a cell whose lights would overflow one leaf gets more leaves
 (ceil(n / 65535), rounded to a power of two), so a "list" of 70,000 lights is a two-leaf tree.
+
+One kernel builds every cell (`_build_range`), in one of two modes:
+
+  given   the leaf count of each cell is known (tree: every cell a tree; build_trees());
+  plan    the hybrid (cpu_prep.hybrid.plan_and_build): one pass over a cell's lights sums
+          listing 2's depth overlap and takes the min/max of their depth ranges; a list
+          cell (most of them, two thirds of the entries at 65,536 lights) is then written
+          from that pass alone as its one leaf, and only a tree cell reads its lights a
+          second time (from cache) for its leaves.  choose_trees() followed by
+          build_trees() read every light of every cell twice.
+
+On one thread the cells are built in order and each tree is written where the last one
+ended; with more threads (LAB_CPU_THREADS) chunks of cells are built in parallel at offsets
+known beforehand (plan mode: the listing-2 choice is made in a first parallel pass).
+Leaf boundaries are shifts, not divisions (the leaf count is a power of two).
 """
 from __future__ import annotations
 
@@ -60,65 +75,217 @@ def _all_tables(max_leaves: int):
     return order, skip, offs
 
 
+def _check_leaf_args(lights_per_leaf: int, max_leaves: int) -> None:
+    if lights_per_leaf < 1 or max_leaves < 1 or max_leaves & (max_leaves - 1):
+        raise ValueError("lights_per_leaf must be >= 1 and max_leaves a power of two")
+
+
+def _check_skip(max_leaves_used: int) -> None:
+    if 2 * max_leaves_used - 1 > NODE_MAX_SKIP:
+        raise LimitError(f"a tree of {max_leaves_used} leaves needs a skip count past 15 bits")
+
+
 def leaves_per_cell(counts, is_tree, lights_per_leaf: int, max_leaves: int) -> np.ndarray:
     """Leaf count of each cell: a power of two near count / lights_per_leaf, capped at
     max_leaves; list cells one leaf; more leaves wherever a leaf would pass 65,535 lights."""
-    if lights_per_leaf < 1 or max_leaves < 1 or max_leaves & (max_leaves - 1):
-        raise ValueError("lights_per_leaf must be >= 1 and max_leaves a power of two")
+    _check_leaf_args(lights_per_leaf, max_leaves)
     want = np.minimum(_next_pow2(-(-counts // lights_per_leaf)), max_leaves)
     leaves = np.where(is_tree, want, 1)
     leaves = np.maximum(leaves, _next_pow2(-(-counts // NODE_MAX_LIGHTS)))
-    if leaves.size and 2 * leaves.max() - 1 > NODE_MAX_SKIP:
-        raise LimitError(f"a tree of {leaves.max()} leaves needs a skip count past 15 bits")
+    if leaves.size:
+        _check_skip(int(leaves.max()))
     return np.where(counts > 0, leaves, 0)
 
 
-@numba.njit(cache=True, nogil=True, parallel=True)
-def _build(offsets, entries, depth_lo, depth_hi, leaves, node_start,
-           tab_order, tab_skip, tab_off, nodes_f, nodes_u, chunks):
-    # Trees are independent (paper 4.1: built in parallel); chunks of cells share scratch.
-    for chunk in numba.prange(chunks):
-        _build_cells(offsets, entries, depth_lo, depth_hi, leaves, node_start, tab_order,
-                     tab_skip, tab_off, nodes_f, nodes_u,
-                     chunk * leaves.shape[0] // chunks, (chunk + 1) * leaves.shape[0] // chunks)
+# ---- the kernel ------------------------------------------------------------------------
+
+@numba.njit(inline="always")
+def _pow2_at_least(x):
+    p = 1
+    while p < x:
+        p <<= 1
+    return p
 
 
-@numba.njit(nogil=True)
-def _build_cells(offsets, entries, depth_lo, depth_hi, leaves, node_start,
-                 tab_order, tab_skip, tab_off, nodes_f, nodes_u, c_begin, c_end):
-    max_l = max(leaves.max(), 1)
-    bf_min = np.empty(2 * max_l - 1, np.float32)
-    bf_max = np.empty(2 * max_l - 1, np.float32)
-    bf_first = np.empty(2 * max_l - 1, np.int64)
-    bf_count = np.empty(2 * max_l - 1, np.int64)
+@numba.njit(inline="always")
+def tree_leaves(n, lights_per_leaf, max_leaves):
+    """Leaves of a tree cell of n > 0 lights (leaves_per_cell, is_tree True)."""
+    want = min(_pow2_at_least(-(-n // lights_per_leaf)), max_leaves)
+    return max(want, _pow2_at_least(-(-n // NODE_MAX_LIGHTS)))
+
+
+@numba.njit(inline="always")
+def list_leaves(n):
+    """Leaves of a list cell of n > 0 lights: one, unless the 16-bit count overflows."""
+    return _pow2_at_least(-(-n // NODE_MAX_LIGHTS))
+
+
+@numba.njit(inline="always")
+def _log2(x):
+    k = 0
+    while (1 << k) < x:
+        k += 1
+    return k
+
+
+@numba.njit(inline="always")
+def _scan(o, n, entries, depth_lo, depth_hi, plan, lo_s, hi_s):
+    """One pass over a cell's lights: the min and max of their depth ranges (the root's
+    bounds) and, in plan mode, listing 2's sum of their depth extents clipped to the cell,
+    in entry order as cpu_prep.hybrid.choose_trees sums them (the same bits)."""
+    total = 0.0
+    lo, hi = np.float32(np.inf), np.float32(-np.inf)
+    for e in range(np.uint64(o), np.uint64(o + n)):     # unsigned: no wraparound code
+        i = entries[e]
+        dl, dh = depth_lo[i], depth_hi[i]
+        lo = min(lo, dl)
+        hi = max(hi, dh)
+        if plan:
+            total += max(min(float(dh), hi_s) - max(float(dl), lo_s), 0.0)
+    return total, lo, hi
+
+
+@numba.njit(inline="always")
+def _leaves(o, n, W, entries, depth_lo, depth_hi, bf_min, bf_max, bf_first, bf_count):
+    """The W-leaf tree of a cell's lights (entries o .. o+n-1) in breadth-first scratch:
+    leaves are balanced runs of its depth-sorted lights, parents the min/max of their
+    children, the first light of the left one and the light count of the subtree."""
+    k = _log2(W)                    # W is a power of two: (j * n) // W == (j * n) >> k
+    b = o
+    for j in range(W):
+        a, b = b, o + (((j + 1) * n) >> k)
+        lo, hi = np.float32(np.inf), np.float32(-np.inf)
+        for e in range(np.uint64(a), np.uint64(b)):
+            i = entries[e]
+            lo = min(lo, depth_lo[i])
+            hi = max(hi, depth_hi[i])
+        q = W - 1 + j
+        bf_min[q], bf_max[q], bf_first[q], bf_count[q] = lo, hi, a, b - a
+    for q in range(W - 2, -1, -1):
+        bf_min[q] = min(bf_min[2 * q + 1], bf_min[2 * q + 2])
+        bf_max[q] = max(bf_max[2 * q + 1], bf_max[2 * q + 2])
+        bf_first[q] = bf_first[2 * q + 1]
+        bf_count[q] = bf_count[2 * q + 1] + bf_count[2 * q + 2]
+
+
+@numba.njit(inline="always")
+def _emit(L, base, bf_min, bf_max, bf_first, bf_count, tab_order, tab_skip, tab_off,
+          nodes_f, nodes_u):
+    """The top 2L-1 nodes of the scratch tree (a tree of L leaves), depth-first, at base."""
+    t = np.uint64(tab_off[_log2(L)])
+    base = np.uint64(base)
+    for q in range(np.uint64(2 * L - 1)):                 # unsigned: no wraparound code
+        src, skip = np.uint64(tab_order[t + q]), tab_skip[t + q]
+        leaf = 1 if skip == 1 else 0
+        nodes_f[base + q, NODE_MIN_DEPTH] = bf_min[src]
+        nodes_f[base + q, NODE_MAX_DEPTH] = bf_max[src]
+        nodes_u[base + q, NODE_FIRST_LIGHT] = bf_first[src]
+        nodes_u[base + q, NODE_BITS] = node_bits(leaf, bf_count[src] * leaf, skip)
+
+
+@numba.njit(inline="always")
+def _build_range(c_begin, c_end, offsets, entries, depth_lo, depth_hi, leaves, plan,
+                 is_tree, slice_lo, slice_hi, slices, radius_scale, lights_per_leaf,
+                 max_leaves, scratch, tab_order, tab_skip, tab_off, nodes_f, nodes_u,
+                 ranges_u, base):
+    """Cells c_begin .. c_end-1, their trees written one after another from node `base`.
+    given mode (plan False): leaves[c] is each cell's leaf count; plan mode: leaves[c] and
+    is_tree[c] are written.  Returns the node count written."""
+    bf_min = np.empty(scratch, np.float32)
+    bf_max = np.empty(scratch, np.float32)
+    bf_first = np.empty(scratch, np.int64)
+    bf_count = np.empty(scratch, np.int64)
+    start = base
+    s = c_begin % slices            # the cell's slice: cells are tile-major (cpu_prep.grid)
     for c in range(c_begin, c_end):
-        L = leaves[c]
-        if L == 0:
-            continue
+        if c > c_begin:
+            s = s + 1 if s + 1 < slices else 0      # (a counter, not a division a cell)
         o, n = offsets[c], offsets[c + 1] - offsets[c]
-        # leaves: balanced runs of the cell's depth-sorted lights
-        for j in range(L):
-            a, b = o + (j * n) // L, o + ((j + 1) * n) // L
-            lo, hi = np.float32(np.inf), np.float32(-np.inf)
-            for e in range(a, b):
-                lo = min(lo, depth_lo[entries[e]])
-                hi = max(hi, depth_hi[entries[e]])
-            q = L - 1 + j
-            bf_min[q], bf_max[q], bf_first[q], bf_count[q] = lo, hi, a, b - a
-        # parents bottom-up, breadth-first numbering
-        for q in range(L - 2, -1, -1):
-            bf_min[q] = min(bf_min[2 * q + 1], bf_min[2 * q + 2])
-            bf_max[q] = max(bf_max[2 * q + 1], bf_max[2 * q + 2])
-            bf_first[q], bf_count[q] = bf_first[2 * q + 1], 0
-        # breadth-first -> depth-first through the table of this L
-        t = tab_off[int(np.log2(L))]
-        base = node_start[c]
-        for q in range(2 * L - 1):
-            src, skip = tab_order[t + q], tab_skip[t + q]
-            nodes_f[base + q, NODE_MIN_DEPTH] = bf_min[src]
-            nodes_f[base + q, NODE_MAX_DEPTH] = bf_max[src]
-            nodes_u[base + q, NODE_FIRST_LIGHT] = bf_first[src]
-            nodes_u[base + q, NODE_BITS] = node_bits(1 if skip == 1 else 0, bf_count[src], skip)
+        if n == 0:
+            ranges_u[c, 0], ranges_u[c, 1] = base, 0
+            if plan:
+                leaves[c] = 0
+                is_tree[c] = False
+            continue
+        if plan:
+            lo_s, hi_s = slice_lo[s], slice_hi[s]
+            total, lo, hi = _scan(o, n, entries, depth_lo, depth_hi, True, lo_s, hi_s)
+            tree = total / n < 0.5 * (hi_s - lo_s) * radius_scale
+            L = tree_leaves(n, lights_per_leaf, max_leaves) if tree else list_leaves(n)
+            is_tree[c] = tree
+            leaves[c] = L
+        else:
+            L = leaves[c]
+            if L == 1:
+                total, lo, hi = _scan(o, n, entries, depth_lo, depth_hi, False, 0.0, 0.0)
+        if L == 1:
+            # a list: one leaf over all the cell's lights (its bounds are the scan's)
+            b = np.uint64(base)
+            nodes_f[b, NODE_MIN_DEPTH], nodes_f[b, NODE_MAX_DEPTH] = lo, hi
+            nodes_u[b, NODE_FIRST_LIGHT], nodes_u[b, NODE_BITS] = o, node_bits(1, n, 1)
+        else:
+            # a tree (the lights are read again, from cache): a second pass for its leaves
+            _leaves(o, n, L, entries, depth_lo, depth_hi, bf_min, bf_max, bf_first, bf_count)
+            _emit(L, base, bf_min, bf_max, bf_first, bf_count, tab_order, tab_skip, tab_off,
+                  nodes_f, nodes_u)
+        ranges_u[c, 0], ranges_u[c, 1] = base, 2 * L - 1
+        base += 2 * L - 1
+    return base - start
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _build1(offsets, entries, depth_lo, depth_hi, leaves, plan, is_tree, slice_lo, slice_hi,
+            slices, radius_scale, lights_per_leaf, max_leaves, scratch, tab_order, tab_skip,
+            tab_off, nodes_f, nodes_u, ranges_u):
+    """One thread: every cell in order, trees back to back.  Returns the node count."""
+    return _build_range(0, offsets.shape[0] - 1, offsets, entries, depth_lo, depth_hi, leaves,
+                        plan, is_tree, slice_lo, slice_hi, slices, radius_scale,
+                        lights_per_leaf, max_leaves, scratch, tab_order, tab_skip, tab_off,
+                        nodes_f, nodes_u, ranges_u, 0)
+
+
+@numba.njit(cache=True, nogil=True, parallel=True, error_model="numpy")
+def _build_par(offsets, entries, depth_lo, depth_hi, leaves, node_start, slice_lo, slice_hi,
+               slices, scratch, tab_order, tab_skip, tab_off, nodes_f, nodes_u, ranges_u,
+               chunks):
+    """Threads: chunks of cells in parallel (trees are independent, paper 4.1), leaf counts
+    given, each chunk from its first cell's node_start."""
+    cells = offsets.shape[0] - 1
+    dummy = np.zeros(0, np.bool_)
+    for k in numba.prange(chunks):
+        c0, c1 = k * cells // chunks, (k + 1) * cells // chunks
+        _build_range(c0, c1, offsets, entries, depth_lo, depth_hi, leaves, False, dummy,
+                     slice_lo, slice_hi, slices, 1.0, 1, 1, scratch, tab_order, tab_skip,
+                     tab_off, nodes_f, nodes_u, ranges_u, node_start[c0])
+
+
+def _outputs(cells: int, nodes: int, arena: Arena | None):
+    raw = empty(arena, "nodes", (nodes, NODE_WORDS), np.float32)
+    ranges = empty(arena, "tree_ranges", cells, layouts.CELL_RANGE)
+    return raw, ranges
+
+
+def _build_given(offsets, entries, depth_lo, depth_hi, leaves, arena):
+    """Trees of known leaf counts (leaves_per_cell)."""
+    cells = len(leaves)
+    node_counts = np.where(leaves > 0, 2 * leaves - 1, 0)
+    total = int(node_counts.sum())
+    raw, ranges = _outputs(cells, total, arena)
+    max_l = int(max(leaves.max(initial=1), 1))
+    tab_order, tab_skip, tab_off = _all_tables(max_l)
+    no_slices = np.zeros(1)
+    if numba.get_num_threads() > 1:
+        node_start = np.zeros(cells + 1, np.int64)
+        np.cumsum(node_counts, out=node_start[1:])
+        _build_par(offsets, entries, depth_lo, depth_hi, leaves, node_start, no_slices,
+                   no_slices, 1, 2 * max_l - 1, tab_order, tab_skip, tab_off, raw,
+                   raw.view(np.uint32), ranges.view(np.uint32).reshape(cells, 2),
+                   min(cells, 8 * numba.get_num_threads()) or 1)
+    else:
+        _build1(offsets, entries, depth_lo, depth_hi, leaves, False, np.zeros(0, np.bool_),
+                no_slices, no_slices, 1, 1.0, 1, 1, 2 * max_l - 1, tab_order, tab_skip,
+                tab_off, raw, raw.view(np.uint32), ranges.view(np.uint32).reshape(cells, 2))
+    return ranges, raw.view(layouts.TREE_NODE).reshape(-1)
 
 
 def build_trees(offsets, entries, depth_lo, depth_hi, is_tree,
@@ -130,14 +297,47 @@ def build_trees(offsets, entries, depth_lo, depth_hi, is_tree,
     Returns (cell_ranges CELL_RANGE[cells], nodes TREE_NODE[], leaves per cell)."""
     counts = np.diff(offsets)
     leaves = leaves_per_cell(counts, is_tree, lights_per_leaf, max_leaves)
-    node_counts = np.where(leaves > 0, 2 * leaves - 1, 0)
-    node_start = np.zeros(len(counts) + 1, np.int64)
-    np.cumsum(node_counts, out=node_start[1:])
-    raw = empty(arena, "nodes", (int(node_start[-1]), NODE_WORDS), np.float32)   # all written
-    tab_order, tab_skip, tab_off = _all_tables(int(max(leaves.max(initial=1), 1)))
-    _build(offsets, entries, depth_lo, depth_hi, leaves, node_start, tab_order, tab_skip,
-           tab_off, raw, raw.view(np.uint32), 8 * numba.get_num_threads())
-    ranges = np.zeros(len(counts), layouts.CELL_RANGE)
-    ranges["offset_count"][:, 0] = node_start[:-1]
-    ranges["offset_count"][:, 1] = node_counts
-    return ranges, raw.view(layouts.TREE_NODE).reshape(-1), leaves
+    ranges, nodes = _build_given(offsets, entries, depth_lo, depth_hi, leaves, arena)
+    return ranges, nodes, leaves
+
+
+def plan_trees(offsets, entries, depth_lo, depth_hi, slice_lo, slice_hi, slices: int,
+               radius_scale: float, lights_per_leaf: int, max_leaves: int,
+               arena: Arena | None = None):
+    """The hybrid's cells: listing 2's choice (slice_lo/hi: each slice's depth range as
+    cpu_prep.hybrid.choose_trees clips it) and the trees, in one pass over the lights on one
+    thread.  Returns (cell_ranges, nodes, leaves per cell, is_tree)."""
+    _check_leaf_args(lights_per_leaf, max_leaves)
+    cells = len(offsets) - 1
+    counts = np.diff(offsets)
+    n_max = int(counts.max(initial=0))
+    w_max = _np_tree_leaves(n_max, lights_per_leaf, max_leaves) if n_max else 1
+    # the nodes buffer holds the worst case (every non-empty cell a tree of its W leaves)
+    bound = _node_bound(offsets, lights_per_leaf, max_leaves)
+    raw, ranges = _outputs(cells, bound, arena)
+    leaves = np.empty(cells, np.int64)
+    is_tree = np.empty(cells, np.bool_)
+    tab_order, tab_skip, tab_off = _all_tables(w_max)
+    total = _build1(offsets, entries, depth_lo, depth_hi, leaves, True, is_tree,
+                    slice_lo, slice_hi, slices, float(radius_scale), lights_per_leaf,
+                    max_leaves, 2 * w_max - 1, tab_order, tab_skip, tab_off, raw,
+                    raw.view(np.uint32), ranges.view(np.uint32).reshape(cells, 2))
+    if cells:
+        _check_skip(int(leaves.max()))
+    return ranges, raw[:total].view(layouts.TREE_NODE).reshape(-1), leaves, is_tree
+
+
+def _np_tree_leaves(n: int, lights_per_leaf: int, max_leaves: int) -> int:
+    """tree_leaves() in Python (a tree cell of n > 0 lights)."""
+    pow2 = lambda x: 1 << max(int(x) - 1, 0).bit_length()
+    return max(min(pow2(-(-n // lights_per_leaf)), max_leaves), pow2(-(-n // NODE_MAX_LIGHTS)))
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _node_bound(offsets, lights_per_leaf, max_leaves):
+    total = 0
+    for c in range(offsets.shape[0] - 1):
+        n = offsets[c + 1] - offsets[c]
+        if n > 0:
+            total += 2 * tree_leaves(n, lights_per_leaf, max_leaves) - 1
+    return total

@@ -26,10 +26,11 @@ class Hybrid(Technique):
 
     def build(self, frame, opts):
         b, offsets, entries = prepare_binned(frame, opts, opts.slices, opts.sort_buckets)
-        with b.times.stage("build"):
-            is_tree = hybridmod.choose_trees(b.grid, offsets, entries, b.lights.depth_lo,
-                                             b.lights.depth_hi, frame.max_depth, opts.radius_scale)
-        tree_buffers(b, offsets, entries, is_tree, opts, frame.arena)
+        with b.times.stage("build"):      # listing 2's choice and the trees, one pass
+            *built, is_tree = hybridmod.plan_and_build(
+                b.grid, offsets, entries, b.lights.depth_lo, b.lights.depth_hi, frame.max_depth,
+                opts.radius_scale, opts.lights_per_leaf, opts.max_leaves, frame.arena)
+        tree_buffers(b, offsets, entries, is_tree, opts, frame.arena, built)
         return b
 
     def passes(self, build, opts):

@@ -17,11 +17,14 @@ from .options import ListOptions, TileOptions, TreeOptions
 SHARED_TREE_NODES = 128   # shared-memory copy of one tree: 128 x 16 B = 2 KiB
 
 
-def tree_buffers(b, offsets, entries, is_tree, opts, arena=None):
-    with b.times.stage("build"):
-        ranges, nodes, leaves = treemod.build_trees(
-            offsets, entries, b.lights.depth_lo, b.lights.depth_hi, is_tree,
-            opts.lights_per_leaf, opts.max_leaves, arena)
+def tree_buffers(b, offsets, entries, is_tree, opts, arena=None, built=None):
+    """built: (ranges, nodes, leaves) already made (the hybrid's cpu_prep.hybrid.plan_and_build)."""
+    if built is None:
+        with b.times.stage("build"):
+            built = treemod.build_trees(
+                offsets, entries, b.lights.depth_lo, b.lights.depth_hi, is_tree,
+                opts.lights_per_leaf, opts.max_leaves, arena)
+    ranges, nodes, leaves = built
     with b.times.stage("pack"):
         list_buffers(b, offsets, entries, opts.duplicated)
         b.buffers["ranges"] = ranges
