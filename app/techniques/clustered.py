@@ -17,7 +17,7 @@ import numpy as np
 from cpu_prep import frame as cpuframe, layouts
 
 from .base import Technique, grid_uniforms, prepare_binned, shading_passes
-from .options import ListOptions, SliceOptions, WaveOptions, option
+from .options import ListOptions, ScalarizeOptions, SliceOptions, WaveOptions
 
 
 def list_buffers(b, offsets, entries, duplicated: bool) -> None:
@@ -45,11 +45,8 @@ class Clustered(Technique):
     views = Technique.views + ("tiles", "slices")
 
     @dataclass(frozen=True)
-    class Options(SliceOptions, ListOptions, WaveOptions):
-        scalarize: bool = option(False, "the wave walks its distinct cells one at a time, each "
-                                        "list from a wave-uniform address (Drobot 2017: "
-                                        "hierarchical container scalarized over containers)",
-                                 study=(False, True))
+    class Options(SliceOptions, ListOptions, WaveOptions, ScalarizeOptions):
+        pass
 
     def build(self, frame, opts):
         b, offsets, entries = prepare_binned(frame, opts, opts.slices)

@@ -147,6 +147,14 @@ class WaveOptions(TechniqueOptions):
                                       "(else the emulated 64-lane wave)")
 
 
+@dataclass(frozen=True)
+class ScalarizeOptions(TechniqueOptions):
+    scalarize: bool = option(False, "the wave walks its distinct cells (hybrid: its list cells) "
+                                    "one at a time, each from a wave-uniform address (Drobot "
+                                    "2017: hierarchical container scalarized over containers)",
+                             study=(False, True))
+
+
 def all_specs(option_classes) -> dict[str, OptionSpec]:
     """{name: spec} over several techniques' Options; one name, one declaration."""
     out: dict[str, OptionSpec] = {}
@@ -159,4 +167,4 @@ def all_specs(option_classes) -> dict[str, OptionSpec]:
 
 
 __all__ = ["option", "OptionSpec", "TechniqueOptions", "TileOptions", "SliceOptions",
-           "ListOptions", "TreeOptions", "WaveOptions", "all_specs", "replace"]
+           "ListOptions", "TreeOptions", "WaveOptions", "ScalarizeOptions", "all_specs", "replace"]

@@ -35,13 +35,13 @@ def tree_buffers(b, offsets, entries, is_tree, opts, arena=None, built=None):
     return leaves
 
 
-def tree_passes(build, opts, shader: str, native_wave: bool = False):
+def tree_passes(build, opts, shader: str, native_wave: bool = False, defines=None):
     """The shading pass of a technique whose cells hold trees (tree.glsl); a pixel meets at
     most its cell's lights (the leaves split the cell's list)."""
     return shading_passes(build, shader, list_reads(opts.duplicated) + ("nodes",),
                           build.data["longest_list"],
-                          defines={"LIGHTS_DUPLICATED": int(opts.duplicated),
-                                   "SHARED_TREE_NODES": SHARED_TREE_NODES},
+                          defines=dict(defines or {}, LIGHTS_DUPLICATED=int(opts.duplicated),
+                                       SHARED_TREE_NODES=SHARED_TREE_NODES),
                           uniforms=grid_uniforms(build.grid), native_wave=native_wave)
 
 

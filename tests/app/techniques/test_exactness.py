@@ -26,9 +26,9 @@ def test_builtin_scenes_are_exact(gl, name, distribution):
     dict(tile=16, slices=8), dict(tile=64, slices=24), dict(duplicated=True),
     dict(sort_buckets=512), dict(lights_per_leaf=1, max_leaves=8), dict(radius_scale=8.0),
     dict(native_wave=True), dict(tile=20, slices=4), dict(scalarize=True),
-    dict(scalarize=True, native_wave=True, duplicated=True)],
+    dict(scalarize=True, native_wave=True, duplicated=True), dict(specialised=False)],
     ids=["t16s8", "t64s24", "duplicated", "buckets", "tiny-leaves", "tree-heavy", "native-wave", "t20",
-         "scalarized-cells", "scalarized-cells-native"])
+         "scalarized-cells", "scalarized-cells-native", "general-paths"])
 def test_options_keep_exactness(gl, opts):
     scene = load_scene("arena", lights=4096, seed=3)
     scene.resolution = SIZE

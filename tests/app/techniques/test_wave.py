@@ -70,3 +70,28 @@ def test_scalarized_cells_walk_every_distinct_cell(gl):
             assert (sc.wave["iterations"][busy] > plain.wave["iterations"][busy]).all()
     finally:
         r.release()
+
+
+def test_hybrid_counts_what_listing_2_chose(gl):
+    """Waves are classified by the heuristic's choice: with every cell chosen a list
+    (radius_scale tiny) there is no tree or mixed wave and no tree in the stats; the per-path
+    counters of the meta come from the waves themselves; the general traversal visits the
+    same nodes as the specialised paths."""
+    scene = load_scene("city", lights=8192, seed=1)
+    r = Renderer(scene, (96, 54))
+    try:
+        lists = r.render(REGISTRY["hybrid"], 0, {"radius_scale": 1e-3})
+        spec = r.render(REGISTRY["hybrid"], 0, {})
+        general = r.render(REGISTRY["hybrid"], 0, {"specialised": False})
+    finally:
+        r.release()
+    st = lists.meta["stats"]
+    assert st["trees"] == 0 and st["lists"] > 0
+    assert set(np.unique(lists.wave["case_bits"] & 3).tolist()) <= {0, 1}
+    assert st["waves_tree"] == st["waves_mixed"] == 0 and st["waves_list"] > 0
+    s = spec.meta["stats"]
+    assert s["trees"] > 0 and s["waves_tree"] + s["waves_mixed"] > 0
+    assert s["waves_list"] == int(((spec.wave["case_bits"] & 3) == 1).sum())
+    for f in ("contrib_hash", "evaluated", "nodes"):
+        assert np.array_equal(getattr(spec, f), getattr(general, f)), f
+    assert general.meta["stats"]["waves_shared_tree"] == 0 < s["waves_shared_tree"]
