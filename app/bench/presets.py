@@ -35,14 +35,14 @@ class Preset:
 
 
 QUICK = Preset(
-    name="quick", size=(320, 180), scenes=("arena", "city", "hangar", "gallery"),
-    lights=(1024, 4096), frames=8, repeat=3, heavy_repeat=2, heavy_eval_pp=256.0,
+    name="quick", size=(320, 180), scenes=("arena", "city", "hangar", "gallery", "corridor"),
+    lights=(1024, 4096), frames=6, repeat=3, heavy_repeat=2, heavy_eval_pp=256.0,
     cutoffs=(256, 1024, 4096, 16384, 65536), cutoff_scenes=("arena", "city"), cutoff_lights=2048,
     study_scene="arena", study_lights=4096, heat_scene="city", cpu_scene="arena",
     cpu_size=(1920, 1080), cpu_lights=(1024, 4096, 16384, 65536), cpu_repeat=5)
 
 FULL = Preset(
-    name="full", size=(1920, 1080), scenes=("arena", "city", "hangar", "gallery"),
+    name="full", size=(1920, 1080), scenes=("arena", "city", "hangar", "gallery", "corridor"),
     lights=(8192, 16384, 32768, 65536), frames=64, repeat=5, heavy_repeat=2,
     heavy_eval_pp=4096.0, cutoffs=(256, 1024, 4096, 16384, 65536), cutoff_scenes=("arena", "city"),
     cutoff_lights=16384, study_scene="arena", study_lights=32768, heat_scene="city",
