@@ -10,7 +10,7 @@
 // View ids (VIEW_*) and texture units (*_UNIT) are defines from app/window/views.py and
 // passes.py; the display and heat functions are present_common.glsl (app/images.py's twins).
 // define: STASH VIEW_SHADED VIEW_HEAT VIEW_TILES VIEW_SLICES VIEW_CLASSES VIEW_DIFF VIEW_SPLIT
-// define: REF_COLOR_UNIT REF_STATS_UNIT SPLIT_COLOR_UNIT SPLIT_STATS_UNIT
+// define: REF_COLOR_UNIT REF_STATS_UNIT SPLIT_COLOR_UNIT SPLIT_STATS_UNIT MAP_UNIT VIEW_MAPS
 #include "generated.glsl"
 #include "present_common.glsl"
 
@@ -37,6 +37,7 @@ layout(std430, binding = B_WAVE_STATS) readonly buffer WaveStatsBuffer { WaveSta
 layout(binding = REF_STATS_UNIT) uniform usampler2D u_ref_stats;
 layout(binding = SPLIT_COLOR_UNIT) uniform sampler2D u_split_color;
 layout(binding = SPLIT_STATS_UNIT) uniform usampler2D u_split_stats;
+layout(binding = MAP_UNIT) uniform sampler2D u_map;        // maps view: a count per pixel
 out vec4 frag;
 
 uniform ivec2 u_viewport;      // the target's size: the render is scaled to it
@@ -58,6 +59,7 @@ uniform ivec4 u_cursor_tile;   // inspect: the tile under the cursor (x0, y0, x1
 uniform ivec2 u_cursor;        // inspect: the cursor's pixel (-1: none)
 uniform vec4 u_light_sphere;   // inspect: bounding sphere (view space) of the picked light, w <= 0 none
 uniform vec2 u_tan_half;       // tan of half the field of view, x and y
+uniform float u_map_max;       // maps view: top of its heat scale
 
 // Tree paper listing 4 (cpu_prep.grid: scale = (S - 1) / (logMax - logMin)).
 int slice_of(float depth) {
@@ -127,6 +129,8 @@ void main() {
             uvec4 r = texelFetch(u_ref_stats, p, 0);
             c = (r.y != st.y || r.z != st.z) ? MARK : grey;
         }
+    } else if (u_view == VIEW_MAPS) {
+        c = heat_color(uint(texelFetch(u_map, p, 0).r + 0.5), u_map_max, true);
     } else if (u_view == VIEW_SPLIT) {
         bool right = p.x >= u_split_x;
         uvec4 st = uvec4(0u);

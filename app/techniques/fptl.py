@@ -202,7 +202,7 @@ def scan_windows(frame, n: int) -> list[tuple[int, int]]:
 class Fptl(Technique):
     name = "fptl"
     summary = "16x16 tiles, GPU screen-AABB coarse lists fine-pruned per pixel (Mikkelsen)"
-    views = Technique.views + ("tiles", "slices")
+    views = Technique.views + ("tiles", "slices", "maps")
     glsl = {"fptl_structs.glsl": structs_glsl()}
 
     @dataclass(frozen=True)

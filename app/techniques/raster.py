@@ -460,7 +460,7 @@ class Raster(Technique):
     name = "raster"
     summary = "light proxy meshes rasterized into tile bit arrays with atomics (Drobot 2017)"
     evaluates_per_wave = True          # the zbin loop's scalarized variants (zbin.py)
-    views = tuple(getattr(Technique, "views", ())) + ("tiles", "slices")   # slices: --cluster
+    views = Technique.views + ("tiles", "slices", "maps")   # slices: --cluster
     glsl = {"raster_structs.glsl": STRUCTS_GLSL}
 
     @dataclass(frozen=True)

@@ -85,7 +85,7 @@ class ZBin(Technique):
     # and images do not.
     evaluates_per_wave = True
     # the window's views (app.window.views): the common ones and the bit arrays' tile grid
-    views = tuple(getattr(Technique, "views", ())) + ("tiles",)
+    views = Technique.views + ("tiles", "maps")
 
     @dataclass(frozen=True)
     class Options(WaveOptions):

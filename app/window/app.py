@@ -117,6 +117,9 @@ class LabWindow(mglw.WindowConfig):
         self.frame_key, self.key_since = None, time.perf_counter()
         self.mouse = self._parse_cursor(a.cursor)
         self.inspection: Inspection | None = None
+        self.map_index = 0                # the maps view: which of the technique's maps
+        self.map_shown = ("", "", 0.0)    # its name, label and heat-scale top
+        self._map_tex = None
         self.uniforms: dict = {}
         self.view_shown = self.state.view
         self._shot_fbo = None
@@ -275,6 +278,13 @@ class LabWindow(mglw.WindowConfig):
             elif name == "i":
                 s.inspect = not s.inspect
                 s.changed()
+            elif name == "m":
+                if "maps" in s.views():
+                    self.map_index += s.view == "maps"     # the first M shows the first map
+                    s.view = "maps"
+                    s.changed()
+                else:
+                    self.say(f"{s.technique} has no maps of its own")
             elif name == "p":
                 self.toggle_play()
             elif name == "c":
@@ -433,10 +443,14 @@ class LabWindow(mglw.WindowConfig):
         stats, extra = self._view_stats(ref_valid)
         render_ms = (time.perf_counter() - t0) * 1e3
         self.overlay = Overlay.of(result.build.grid)
+        if s.view == "maps":
+            self._upload_map(tech, result, size)
         exposure = images.exposure_from_histogram(extra["hist"]) if s.exposure_auto else s.exposure_manual
         s.exposure_now = exposure
         self.inspection = self._inspect(result, debug_pixel, size) if debug_pixel is not None else None
         self.figures = self._figures(result, stats, extra, cam, exposure, ref_valid, split_fig)
+        if s.view == "maps":
+            self.figures["map"] = self.map_shown[0]
         self.view_shown = s.view
         self.uniforms = self._present_uniforms(fc, size, exposure, ref_valid, split_fig)
         self._draw(self.wnd.fbo, self._buffer_size())
@@ -614,7 +628,33 @@ class LabWindow(mglw.WindowConfig):
                 "u_cursor_tile": tuple(int(v) for v in tile),
                 "u_cursor": tuple(ins.pixel) if ins is not None else (-1, -1),
                 "u_light_sphere": tuple(ins.sphere) if ins is not None and ins.sphere else (0.0, 0.0, 0.0, 0.0),
-                "u_tan_half": (float(fc.tan_half_x), float(fc.tan_half_y))}
+                "u_tan_half": (float(fc.tan_half_x), float(fc.tan_half_y)),
+                "u_map_max": float(self.map_shown[2] or 1.0)}
+
+    def _upload_map(self, tech, result, size) -> None:
+        """The maps view: the technique's map number map_index (Technique.maps, read from this
+        frame), each cell over the pixels it covers, into a float texture at MAP_UNIT; one
+        heat scale over all of this technique's maps, so that they compare."""
+        maps = tech.maps(result, self.renderer.read)
+        if not maps:
+            self.map_shown = ("", "", 0.0)
+            return
+        names = list(maps)
+        name = names[self.map_index % len(names)]
+        values, label = maps[name]
+        top = max(max(float(np.max(v)) for v, _ in maps.values() if np.size(v)), 1.0)
+        w, h = size
+        v = np.asarray(values, np.float32)
+        ky, kx = -(-h // v.shape[0]), -(-w // v.shape[1])
+        full = np.ascontiguousarray(np.repeat(np.repeat(v, ky, 0), kx, 1)[:h, :w][::-1])  # GL rows
+        if self._map_tex is None or self._map_tex.size != (w, h):
+            if self._map_tex is not None:
+                self._map_tex.release()
+            import moderngl
+            self._map_tex = self.ctx.texture((w, h), 1, dtype="f4")
+            self._map_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self._map_tex.write(full.tobytes())
+        self.map_shown = (name, label, top)
 
     def _split_x(self, size) -> int:
         """The split's column: split_at of the width, or (0, auto) the middle of what the
@@ -636,6 +676,8 @@ class LabWindow(mglw.WindowConfig):
         r.gbuffer.bind_textures()
         self.ref_stash.bind()
         self.split_stash.bind()
+        if self._map_tex is not None:
+            self._map_tex.use(passes.UNITS["MAP_UNIT"])
         r.run([passes.present_pass(target, r.size, viewport, self.view_shown, self.uniforms)])
         self.ui.frame(self, target, viewport, for_shot=for_shot)
 
@@ -654,9 +696,11 @@ class LabWindow(mglw.WindowConfig):
             status.append(f"REC {len(self.recording)} keys")
         if self.path is not None and self.playing:
             status.append(f"replay {self.path_frame % len(self.path) + 1}/{len(self.path)}")
+        map_name, map_label, map_top = self.map_shown
         note = view_note(f["view"], s.technique, self.overlay, f["heat_max"], heat_of=f["heat_of"],
                          overlay_mode=f["heat_overlay"], reference=self.reference.name,
-                         differ=f["differ"], split=s.split_with, split_view=s.split_view)
+                         differ=f["differ"], split=s.split_with, split_view=s.split_view,
+                         map_name=map_name, map_label=map_label, map_top=map_top)
         lines = hud_lines(f, position=f"{self.names.index(s.technique) + 1}/{len(self.names)}",
                           role=s.tech.role, software=self.renderer.limits.software,
                           playing=self.playing, options=s.options.hud_line(s.tech), note=note,

@@ -13,7 +13,7 @@ import argparse
 # W/A/S/D/Q/E: (forward, right, up) axes of the fly camera.
 MOVE_KEYS = {"w": (1, 0, 0), "s": (-1, 0, 0), "d": (0, 1, 0), "a": (0, -1, 0),
              "e": (0, 0, 1), "q": (0, 0, -1)}
-KEY_NAMES = tuple("123456789") + tuple(MOVE_KEYS) + ("v", "o", "i", "p", "c", "r", "h", "k", "f1",
+KEY_NAMES = tuple("123456789") + tuple(MOVE_KEYS) + ("v", "o", "i", "m", "p", "c", "r", "h", "k", "f1",
                                                      "f12", "+", "-", "]", "[", "escape")
 # +, -, [ and ] arrive as characters (on_unicode_char_entered): keyboard layouts do not matter.
 CHAR_KEYS = {"+": "+", "=": "+", "-": "-", "_": "-", "]": "+", "[": "-"}
@@ -21,6 +21,7 @@ CHAR_KEYS = {"+": "+", "=": "+", "-": "-", "_": "-", "]": "+", "[": "-"}
 HELP = [
     ("1-9", "technique (registry order)"), ("V", "next view of this technique"),
     ("O", "heat map over the shaded image"), ("I", "inspect the cursor"),
+    ("M", "next map of the technique's own structure"),
     ("WASD QE", "fly (Shift faster, wheel: speed)"), ("drag", "look"),
     ("P", "play / stop the camera path"), ("C", "record a camera path / stop and save"),
     ("R", "reset the camera"), ("+ -", "double / halve the lights"), ("K F12", "screenshot"),
@@ -61,7 +62,7 @@ def key_names(keys) -> dict:
     lacks, None or "undefined", are left out)."""
     pairs = [(getattr(keys, f"NUMBER_{i}", None), str(i)) for i in range(1, 10)]
     pairs += [(getattr(keys, f"NUMPAD_{i}", None), str(i)) for i in range(1, 10)]
-    pairs += [(getattr(keys, c.upper(), None), c) for c in "wasdqevoiprchk"]
+    pairs += [(getattr(keys, c.upper(), None), c) for c in "wasdqevoimprchk"]
     pairs += [(getattr(keys, "F1", None), "f1"), (getattr(keys, "F12", None), "f12"),
               (getattr(keys, "ESCAPE", None), "escape")]
     return {code: name for code, name in pairs if code not in (None, "undefined")}

@@ -30,7 +30,8 @@ VIEW_EXTRA = "view_extra"
 EXTRA_HEAD = ("lit", "max_exact", "reserved", "differ")      # then the histogram
 STATS_BLOCK = 32                     # pixels a side of one view_stats group (present_stats.comp)
 EXTRA_WORDS = len(EXTRA_HEAD) + images.HIST_BINS
-UNITS = {"REF_COLOR_UNIT": 4, "REF_STATS_UNIT": 5, "SPLIT_COLOR_UNIT": 6, "SPLIT_STATS_UNIT": 7}
+UNITS = {"REF_COLOR_UNIT": 4, "REF_STATS_UNIT": 5, "SPLIT_COLOR_UNIT": 6, "SPLIT_STATS_UNIT": 7,
+         "MAP_UNIT": 8}
 FULL = (-1.0, -1.0, 1.0, 1.0)        # u_rect of a full-viewport quad (NDC x0, y0, x1, y1)
 
 

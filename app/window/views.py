@@ -9,6 +9,8 @@
     diff     pixels whose set of lights (contrib_count, contrib_hash) differs from the
              reference's (brute), red; it should be empty
     split    the current technique left, a second one right (shaded or heat)
+    maps     the technique's own structure (Technique.maps: fptl's coarse and pruned lists
+             per tile, zbin's bit arrays and z-bin ranges, raster's marked tiles), M: next
 
 A technique offers the views in its `views` attribute (app.techniques.base.Technique.views:
 shaded, heat, diff, split for every one; tiles, slices, classes where it has that structure):
@@ -18,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-VIEWS = ("shaded", "heat", "tiles", "slices", "classes", "diff", "split")
+VIEWS = ("shaded", "heat", "tiles", "slices", "classes", "diff", "split", "maps")
 SPLIT_VIEWS = ("shaded", "heat")
 HEAT_OF = ("evaluated", "exact")
 
@@ -68,7 +70,8 @@ class Overlay:
 
 def view_note(view: str, technique: str, overlay: Overlay, heat_top: float, *,
               heat_of: str = "evaluated", overlay_mode: bool = False, reference: str = "brute",
-              differ: int | None = None, split: str = "", split_view: str = "shaded") -> str | None:
+              differ: int | None = None, split: str = "", split_view: str = "shaded",
+              map_name: str = "", map_label: str = "", map_top: float = 0.0) -> str | None:
     """The HUD line that explains the current view (None: the shaded view needs none)."""
     if view == "heat":
         what = "lights evaluated" if heat_of == "evaluated" else "exact lights"
@@ -93,4 +96,8 @@ def view_note(view: str, technique: str, overlay: Overlay, heat_top: float, *,
         return f"diff vs {reference}: {differ} pixels differ (red)"
     if view == "split":
         return f"split: {technique} left | {split} right ({split_view})"
+    if view == "maps":
+        if not map_name:
+            return f"maps: {technique} has none for this frame"
+        return f"map {map_name}: {map_label}, 0 .. {map_top:g}, log2(1 + n) turbo (M: next)"
     return None

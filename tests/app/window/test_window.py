@@ -382,3 +382,17 @@ def test_fly_camera():
     fly.turn(math.pi / 2, 0.0)                        # quarter turn right: looks along +x
     f2 = np.array(fly.forward())
     assert f2[0] > 0.99 and abs(f2[2]) < 0.2
+
+
+def test_maps_view_shows_the_techniques_own_structure(tmp_path):
+    """fptl's coarse and pruned lists per tile (Mikkelsen's figures 2.4-2.6) in the window:
+    the maps view, M to the next map; a technique without maps has no maps view."""
+    frames, _, _ = run_window(["--scene", "gallery", "--size", "96x54", "--technique", "fptl",
+                               "--frames", "3", "--keys", "m,m", "--screenshot", str(tmp_path / "m.png")])
+    assert [f["view"] for f in frames] == ["maps"] * 3
+    assert [f.get("map") for f in frames] == ["coarse", "pruned", "pruned"]
+    img = load_rgb(tmp_path / "m.png")
+    assert img.std() > 1.0
+    proc = run(["app.window", "--window", "headless", "--scene", "gallery", "--size", "32x18",
+                "--technique", "brute", "--view", "maps", "--frames", "1"])
+    assert proc.returncode == 2 and "maps" in proc.stderr
