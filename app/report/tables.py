@@ -34,7 +34,9 @@ def floor_table(rows, roles) -> tuple[str, list[str]]:
             if rivals:
                 s += f"; within spread of {', '.join(rivals)}"
             if below(others[best], f["shade"]):
-                s += f"; {best} shades faster than the floor beyond spread"
+                s += (f"; {best} shades faster than the floor beyond spread: the floor bounds the "
+                      f"lights evaluated, not the time, and its per-pixel lists are read "
+                      f"incoherently across a wave where {best}'s lists are shared")
             elif not below(f["shade"], others[best]):
                 s += f"; the floor is within spread of {best}"
             text.append(s + ".")
