@@ -74,12 +74,14 @@ PIXEL_STATS = np.dtype([
 ])
 assert PIXEL_STATS.itemsize == 16
 
-# Per 8x8 group (one emulated wave): its longest lane loop (the wave's scalar iterations) and
-# the traversal case bits (1 list, 2 tree, 3 mixed; 4: tree read from shared memory).
+# Per 8x8 group (one emulated wave): its longest lane loop (the wave's scalar iterations),
+# the traversal case bits (1 list, 2 tree, 3 mixed; 4: tree read from shared memory), and,
+# where a technique has a per-lane loop beside its scalar one (zbin), that loop's sum over
+# the lanes and its longest lane.
 WAVE_STATS = np.dtype([
     ("iterations", np.uint32),
     ("case_bits", np.uint32),
-    ("reserved", np.uint32, 2),
+    ("lane_loops", np.uint32, 2),
 ])
 assert WAVE_STATS.itemsize == 16
 

@@ -12,8 +12,8 @@
 // Dispatch windows (pixel.glsl): a pixel's sequence position of light N is N itself, so a
 // window [lo, hi) takes the words of lights lo..hi-1 and masks the bits outside it.
 // Wave statistics (8x8 group): iterations = the wave's loop iterations (scalarized: the merged
-// loop; per lane: its longest lane), reserved.x = sum over lanes of each lane's own bits (the
-// per-lane loop's iterations), reserved.y = the longest lane's own bits (per dispatch window).
+// loop; per lane: its longest lane), lane_loops.x = sum over lanes of each lane's own bits (the
+// per-lane loop's iterations), lane_loops.y = the longest lane's own bits (per dispatch window).
 // define: ZBIN_MASKED SCALARIZED ZBIN_WIDE ZBIN_EMPTY_MIN ZBIN_PRINTED_MASK
 #include "generated.glsl"
 #include "wave.glsl"
@@ -179,7 +179,7 @@ void main() {
     write_wave_stats(wave_iterations, 1u);
     if (own != 0u) {
         uint g = group_index();
-        atomicAdd(wave_stats[g].reserved.x, own);
-        atomicMax(wave_stats[g].reserved.y, own);
+        atomicAdd(wave_stats[g].lane_loops.x, own);
+        atomicMax(wave_stats[g].lane_loops.y, own);
     }
 }

@@ -42,8 +42,8 @@ z-bins' job).  Where the project departs from the slides, and why:
     images do not.
 
 Counters (per 8x8 group, WAVE_STATS): `iterations` = the wave's light loop (scalarized: the
-merged loop; per lane: the longest lane), `reserved[0]` = the sum over lanes of each lane's
-own bits (what the per-lane loop iterates), `reserved[1]` = the longest lane's own bits (with
+merged loop; per lane: the longest lane), `lane_loops[0]` = the sum over lanes of each lane's
+own bits (what the per-lane loop iterates), `lane_loops[1]` = the longest lane's own bits (with
 several dispatch windows: its longest window).  Their frame sums are in the meta stats
 (wave_iterations, lane_iterations, lane_max_iterations, waves_active), read back by an
 untimed host step after the shading pass.
@@ -184,9 +184,9 @@ def _wave_counters(build, waves: np.ndarray):
     waves = waves.view(layouts.WAVE_STATS)
     build.stats.update(
         wave_iterations=int(waves["iterations"].sum(dtype=np.int64)),
-        lane_iterations=int(waves["reserved"][:, 0].sum(dtype=np.int64)),
-        lane_max_iterations=int(waves["reserved"][:, 1].sum(dtype=np.int64)),
-        waves_active=int((waves["reserved"][:, 0] > 0).sum()))
+        lane_iterations=int(waves["lane_loops"][:, 0].sum(dtype=np.int64)),
+        lane_max_iterations=int(waves["lane_loops"][:, 1].sum(dtype=np.int64)),
+        waves_active=int((waves["lane_loops"][:, 0] > 0).sum()))
     return {}, []
 
 

@@ -104,12 +104,12 @@ def test_every_variant_is_exact_and_counts_its_loops(gl, hangar, native):
         masked, scalarized = variant_flags(v)
         wave, ev = got.wave, got.evaluated.astype(np.int64)
         lane = res[v & 1].evaluated.astype(np.int64)     # the per-lane loop of the same masks
-        # reserved.x: the lanes' own iterations (the per-lane loop), reserved.y: the longest
-        assert np.array_equal(wave["reserved"][..., 0], per_wave(lane, wave.shape, np.sum))
-        assert np.array_equal(wave["reserved"][..., 1], per_wave(lane, wave.shape, np.max))
+        # lane_loops.x: the lanes' own iterations (the per-lane loop), lane_loops.y: the longest
+        assert np.array_equal(wave["lane_loops"][..., 0], per_wave(lane, wave.shape, np.sum))
+        assert np.array_equal(wave["lane_loops"][..., 1], per_wave(lane, wave.shape, np.max))
         # iterations: the wave's loop; the per-lane loop runs as long as its longest lane
         assert np.array_equal(wave["iterations"], per_wave(ev, wave.shape, np.max))
-        assert (wave["iterations"] >= wave["reserved"][..., 1]).all()
+        assert (wave["iterations"] >= wave["lane_loops"][..., 1]).all()
         assert (ev[shading] >= lane[shading]).all() and (ev[~shading] == 0).all()
         if scalarized and not native:
             # one scalar loop per 64-lane wave: every shading lane runs all of it
@@ -119,7 +119,7 @@ def test_every_variant_is_exact_and_counts_its_loops(gl, hangar, native):
         s = got.meta["stats"]
         assert s["wave_iterations"] == int(wave["iterations"].sum())
         assert s["lane_iterations"] == int(lane.sum())
-        assert s["lane_max_iterations"] == int(wave["reserved"][..., 1].sum())
+        assert s["lane_max_iterations"] == int(wave["lane_loops"][..., 1].sum())
     # z-bins only remove lights (the mask is exact: a subset of the tile's per pixel)
     assert (res[1].evaluated <= res[0].evaluated).all()
     assert res[1].evaluated.sum() < res[0].evaluated.sum()
@@ -257,7 +257,7 @@ def test_dispatch_windows_give_the_same_frame(gl, hangar, monkeypatch, window):
         for f in ("image", "evaluated", "contrib_count", "contrib_hash"):
             assert np.array_equal(getattr(got, f), getattr(one[v], f)), (v, f)
         assert np.array_equal(got.wave["iterations"], one[v].wave["iterations"])
-        assert np.array_equal(got.wave["reserved"][..., 0], one[v].wave["reserved"][..., 0])
+        assert np.array_equal(got.wave["lane_loops"][..., 0], one[v].wave["lane_loops"][..., 0])
 
 
 def test_past_65536_lights_the_lut_widens(gl):
