@@ -600,10 +600,14 @@ class LabWindow(mglw.WindowConfig):
         return float(max(top, 1))
 
     def heat_scale(self):
-        """(top, label) of the colour bar when the view shows a heat map, else None."""
+        """(top, label) of the colour bar when the view shows a heat map or a technique's map
+        (both log2(1 + n) on turbo), else None."""
         f = self.figures
         if not f:
             return None
+        if self.view_shown == "maps":
+            name, label, top = self.map_shown
+            return (float(top), f"{name}: {label}, log2(1 + n)") if name else None
         heat = self.view_shown == "heat" or (self.view_shown == "split" and self.state.split_view == "heat")
         if not heat:
             return None

@@ -5,7 +5,7 @@ integration (moderngl_window.integrations.imgui_bundle):
     panel      right: every control of app.window.panel (technique, its declared options,
                lights, display, compare, inspect, camera), the timers (rolling median, min
                and a history graph per GPU pass and CPU stage), the cursor's inspection
-    colour bar bottom left, in the heat views: app.images' ramp and ticks
+    colour bar bottom left, in the heat and maps views: app.images' ramp and ticks
 
 A widget that changes does not change the state at once: it queues (key, value) for
 Panel.apply at the start of the next frame (the frame on screen has rendered already), the
