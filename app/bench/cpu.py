@@ -24,6 +24,7 @@ from ..errors import UserError
 from ..pipeline.passes import FrameInput
 from ..results import CPU_STAGES, UPLOAD, stats
 from ..techniques import get
+from .presets import int_list
 
 
 def cpu_stage_samples(technique, scene, size, opts, repeat: int, frame: int = 0,
@@ -72,16 +73,6 @@ def set_cpu_threads(n: int) -> int:
     return int(numba.get_num_threads())
 
 
-def _light_counts(text: str) -> list[int]:
-    try:
-        counts = [int(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise UserError(f"--sweep: expected light counts like 8192,65536, got '{text}'") from None
-    if not counts or min(counts) < 0:
-        raise UserError(f"--sweep: expected light counts like 8192,65536, got '{text}'")
-    return counts
-
-
 def cpu_main(argv) -> None:
     p = cli.Parser(prog="python -m app.bench cpu",
                    description="CPU stage of one technique, no GL context")
@@ -102,7 +93,7 @@ def cpu_main(argv) -> None:
     technique = get(args.technique)
     opts = cli.options_for(technique, args)
     threads = set_cpu_threads(args.threads)
-    counts = _light_counts(args.sweep) if args.sweep else [args.lights]
+    counts = list(int_list(args.sweep, "--sweep")) if args.sweep else [args.lights]
     keys = list(CPU_STAGES) + ["total"]
     rows = []
     for n in counts:

@@ -114,7 +114,8 @@ from ..pipeline.passes import (WAVE_STATS, Buffer, Draw, HostStep, Pass, Stencil
                                image_groups)
 from .base import Technique, prepare, shading_passes
 from .options import option
-from .zbin import VARIANTS as SHADE_VARIANTS, ZBin, _wave_counters, tile_boxes, variant_flags
+from .zbin import (VARIANTS as SHADE_VARIANTS, ZBin, _wave_counters, attach_zbins, tile_boxes,
+                   variant_flags)
 
 VARIANTS = ("atomic", "atomic + 4xMSAA", "atomic + compaction", "atomic + compaction + 4xMSAA")
 PROXY_SPHERE, PROXY_CONE, PROXY_CAPSULE, PROXY_BOX = 0, 1, 2, 3
@@ -501,11 +502,7 @@ class Raster(Technique):
         g = b.grid
         masked = masked and not opts.cluster
         if masked:
-            with b.times.stage("bin"):
-                lut, scale = zb.zbin_lut(b.lights.depth_lo, b.lights.depth_hi, opts.zbins,
-                                         frame.max_depth)
-            b.buffers["zbins"] = lut
-            b.data["bin_scale"] = float(scale)
+            attach_zbins(b, opts.zbins, frame.max_depth)
         dilation, quad = 0.0, np.zeros((MSAA_SAMPLES, 2), np.int32)
         positions = np.full((MSAA_SAMPLES, 2), 0.5, np.float32)
         if msaa:

@@ -72,6 +72,15 @@ def tile_boxes(pl, grid, arena=None) -> np.ndarray:
     return gridmod.rect_boxes(grid, pl.rect, pl.depth_lo, pl.depth_hi, arena)
 
 
+def attach_zbins(b, zbins: int, max_depth: float) -> None:
+    """Drobot's Z-bins over the build's depth-sorted lights: the look-up table into
+    b.buffers["zbins"] and its depth scale into b.data["bin_scale"] (zbin and raster)."""
+    with b.times.stage("bin"):
+        lut, scale = zb.zbin_lut(b.lights.depth_lo, b.lights.depth_hi, zbins, max_depth)
+    b.buffers["zbins"] = lut
+    b.data["bin_scale"] = float(scale)
+
+
 def variant_flags(variant: int) -> tuple[bool, bool]:
     """(z-bin masked, scalarized) of a `zbin_variant`."""
     return bool(variant & 1), bool(variant & 2)
@@ -114,11 +123,7 @@ class ZBin(Technique):
                                    limits.DEFAULT_NEAR_SLICE_DEPTH)
         g = b.grid
         if masked:
-            with b.times.stage("bin"):
-                lut, scale = zb.zbin_lut(b.lights.depth_lo, b.lights.depth_hi, opts.zbins,
-                                         frame.max_depth)
-            b.buffers["zbins"] = lut
-            b.data["bin_scale"] = float(scale)
+            attach_zbins(b, opts.zbins, frame.max_depth)
         with b.times.stage("bin"):
             boxes = tile_boxes(b.lights, g, frame.arena)
         with b.times.stage("build"):
