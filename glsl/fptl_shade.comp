@@ -1,8 +1,15 @@
 #version 430
 // fptl, deferred lighting: every pixel of a tile (or 2.5D cell) pulls the same fine-pruned
-// list (fptl_lists.comp), in class order (spheres and capsules, cones, boxes: each class one
-// contiguous run, so evaluate_light's type branch is uniform over a run), then the cell's
-// spill of lists longer than 24.  A cell the spill pool could not hold shades every light.
+// list (fptl_lists.comp), then the cell's spill of lists longer than 24.  A cell the spill
+// pool could not hold shades every light.
+//
+// The chapter's fixed sequence of per-type loops (its step 1(b)): the lights are sorted by
+// shape on the CPU (point, capsule | spot | box: the chapter's sphere/capsule, cone and box
+// classes, app/techniques/fptl.py), so every run of a list is points, then capsules, spots,
+// boxes.  Each loop evaluates one shape with its type a constant (evaluate_light_as: only
+// that shape's code) and stops at the first entry of another shape; a shape the scene lacks
+// compiles no loop (HAS_*, features.glsl), one the tile lacks runs none.  Every pixel of a
+// cell walks the same list, so the loops' exits are uniform over the cell's pixels.
 #include "generated.glsl"
 #include "fptl_structs.glsl"
 #include "wave.glsl"
@@ -14,6 +21,41 @@ layout(std430, binding = B_FPTL_CELLS) readonly buffer Cells { FptlCell fptl_cel
 layout(std430, binding = B_FPTL_SPILL_HEADS) readonly buffer Heads { uvec2 fptl_spill_heads[]; };
 layout(std430, binding = B_FPTL_SPILL) readonly buffer Spill { uint fptl_spill[]; };
 
+// Entry k of a run: the cell's packed blocks, or a spill window's flat indices.
+uint run_entry(uint first, uint k, bool spill) {
+    return spill ? fptl_spill[first + k] : fptl_get(fptl_lists[first + fptl_word(k)], k);
+}
+
+// Entries [k, end) of one shape; returns where the run leaves that shape.
+uint type_loop(inout PixelState s, uint first, uint k, uint end, bool spill, uint type) {
+    for (; k < end; ++k) {
+        GpuLight L = lights[run_entry(first, k, spill)];
+        if (L.id_type.y != type) break;
+        evaluate_light_as(s, L, type);
+    }
+    return k;
+}
+
+// One class-ordered run of `count` entries, the part of it in this dispatch's window.
+void shade_run(inout PixelState s, uint first, uint count, bool spill) {
+    uvec2 w = window_part(s, count);
+    uint k = w.x;
+#if HAS_POINT
+    k = type_loop(s, first, k, w.y, spill, LIGHT_POINT);
+#endif
+#if HAS_CAPSULE
+    k = type_loop(s, first, k, w.y, spill, LIGHT_CAPSULE);
+#endif
+#if HAS_SPOT
+    k = type_loop(s, first, k, w.y, spill, LIGHT_SPOT);
+#endif
+#if HAS_BOX
+    k = type_loop(s, first, k, w.y, spill, LIGHT_BOX);
+#endif
+    // empty when the run is in shape order (tested); if it were not, exact all the same
+    for (; k < w.y; ++k) evaluate_light(s, lights[run_entry(first, k, spill)]);
+}
+
 void main() {
     PixelState s = load_pixel();
     if (s.shading) {
@@ -22,15 +64,11 @@ void main() {
         if ((c.flags & FPTL_POOL_FULL) != 0u) {
             evaluate_all_lights(s);
         } else {
-            uint first = cell * FPTL_LIST_WORDS;
-            uvec2 w = window_part(s, min(c.pruned, FPTL_CAP));
-            for (uint k = w.x; k < w.y; ++k)
-                evaluate_light(s, lights[fptl_get(fptl_lists[first + fptl_word(k)], k)]);
+            shade_run(s, cell * FPTL_LIST_WORDS, min(c.pruned, FPTL_CAP), false);
             if (c.pruned > FPTL_CAP)
                 for (uint scan = 0u; scan < u_scans; ++scan) {
                     uvec2 head = fptl_spill_heads[scan * u_cells + cell];
-                    uvec2 part = window_part(s, head.y);
-                    for (uint k = part.x; k < part.y; ++k) evaluate_light(s, lights[fptl_spill[head.x + k]]);
+                    shade_run(s, head.x, head.y, true);
                 }
         }
     }

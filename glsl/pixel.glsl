@@ -88,12 +88,13 @@ uvec2 window_part(inout PixelState s, uint count) {
 // The first dispatch of a pass counts the work that every window repeats (tree nodes).
 bool first_window() { return u_window.x == 0u; }
 
-// Evaluate one light for the pixel: the only place any technique decides "affects".
-void evaluate_light(inout PixelState s, GpuLight L) {
+// Evaluate one light of shape `type` for the pixel: the only place any technique decides
+// "affects".  A per-type loop passes its constant type and compiles that shape's code alone.
+void evaluate_light_as(inout PixelState s, GpuLight L, uint type) {
     s.evaluated++;
     precise vec3 d = s.P - L.pos_radius.xyz;
     precise float d2 = dot(d, d);
-    if (light_affects(L, d, d2)) {
+    if (light_affects_as(L, d, d2, type)) {
 #if DEBUG_PIXEL
         if (s.pixel == u_debug_pixel) {
             uint k = atomicAdd(debug_count, 1u);
@@ -103,10 +104,13 @@ void evaluate_light(inout PixelState s, GpuLight L) {
         s.count++;
         s.hash ^= mix_hash(L.id_type.x);
         vec3 l;
-        vec3 arriving = light_radiance(L, d, d2, s.N, l);
+        vec3 arriving = light_radiance_as(L, d, d2, s.N, l, type);
         s.radiance += arriving * surface_response(s.N, normalize(-s.P), l, s.albedo, s.roughness, s.metallic);
     }
 }
+
+// Evaluate a light of any shape compiled in (one type test per shape but the last).
+void evaluate_light(inout PixelState s, GpuLight L) { evaluate_light_as(s, L, L.id_type.y); }
 
 // Every visible light in this dispatch's window (brute, and tiles whose list overflowed).
 void evaluate_all_lights(inout PixelState s) {

@@ -47,17 +47,21 @@ SPECULAR = "specular"         # a material feature: some surface has GGX specula
 
 @lru_cache(maxsize=None)   # the same text objects every frame: cache keys hash once
 def features_glsl(features: tuple[str, ...]) -> str:
-    """light_affects / light_radiance for exactly the shapes present: one type test per
-    shape but the last (a scene of one shape tests no type); SPECULAR 1 only when some
-    surface has a specular material (material.glsl)."""
+    """light_affects_as / light_radiance_as for exactly the shapes present, each taking the
+    light's type: one type test per shape but the last (a scene of one shape tests no type),
+    and a caller that passes a constant type (a per-type loop) gets that shape's code alone
+    once the compiler inlines and folds.  HAS_<SHAPE> 1 for each shape compiled, 0 for the
+    others; SPECULAR 1 only when some surface has a specular material (material.glsl)."""
     present = [t for t in LIGHT_TYPES if t in features]
-    out = [f"#define SPECULAR {int(SPECULAR in features)}", '#include "light_window.glsl"']
+    out = [f"#define SPECULAR {int(SPECULAR in features)}"]
+    out += [f"#define HAS_{t.upper()} {int(t in present)}" for t in LIGHT_TYPES]
+    out += ['#include "light_window.glsl"']
     out += [f'#include "{SHAPES[t][0]}"' for t in present if SHAPES[t][0]]
-    for fn, col, ret in (("light_affects", 1, "bool"), ("light_radiance", 2, "vec3")):
-        args = "GpuLight L, vec3 d, float d2" + (", vec3 N, out vec3 l" if fn == "light_radiance" else "")
-        out.append(f"{ret} {fn}({args}) {{")
+    for fn, col, ret in (("light_affects_as", 1, "bool"), ("light_radiance_as", 2, "vec3")):
+        extra = ", vec3 N, out vec3 l" if col == 2 else ""
+        out.append(f"{ret} {fn}(GpuLight L, vec3 d, float d2{extra}, uint type) {{")
         for t in present[:-1]:
-            out.append(f"    if (L.id_type.y == LIGHT_{t.upper()}) return {SHAPES[t][col]};")
+            out.append(f"    if (type == LIGHT_{t.upper()}) return {SHAPES[t][col]};")
         out.append(f"    return {SHAPES[present[-1]][col]};\n}}")
     return "\n".join(out) + "\n"
 

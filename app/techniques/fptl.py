@@ -3,7 +3,8 @@ of the lights whose screen-space AABB meets the tile, fine-pruned on the GPU by 
 pixel of the tile against each light's true shape, packed as R10G10B10A2 blocks.
 
     CPU    prepare (cull, depth sort, pack)  ->  fptl_order: the lights sorted by shape class
-           (sphere/capsule, cone, box; depth order within a class), as the chapter's step 1(b)
+           (sphere/capsule, cone, box), as the chapter's step 1(b): point, capsule, spot, box,
+           depth order within a shape
     light_aabb   fptl_aabb.comp   per light, in class order: the tight screen AABB + depth
                                   range (step 1(c)) -> fptl_aabbs[k]        (32 B a light)
     fptl_lists   fptl_lists.comp  per 16x16 tile one 64-invocation group (step 2):
@@ -15,7 +16,8 @@ pixel of the tile against each light's true shape, packed as R10G10B10A2 blocks.
                                   -> fptl_lists[cell]  (8 blocks: 3 x 10-bit index + 2-bit count)
                                   -> fptl_cells[cell]  (coarse, pruned, flags)   (16 B a cell)
                                   -> fptl_spill_heads / fptl_spill (lists past 24)
-    shade        fptl_shade.comp  the pixel's cell list (+ its spill) -> evaluate_light
+    shade        fptl_shade.comp  the pixel's cell list (+ its spill), the chapter's fixed
+                                  sequence of per-type loops -> evaluate_light_as
     counts       (host step)      per-tile coarse / pruned counts -> meta stats, build.data
 
 Variants (`fptl_variant`, bit flags like zbin's): 0 fine-pruned per tile (the chapter),
@@ -37,10 +39,9 @@ Where the lab departs from the chapter, and why (nothing is ever dropped silentl
   * more than 1,024 visible lights (10-bit indices): the lists take a documented wider
     format for that frame: 16-bit indices (two a word, 12 words = 48 B a cell) up to
     65,536 lights, 32-bit (24 words = 96 B) beyond; stat index_bits;
-  * the chapter's per-type shading loops: the list is in class order, so a tile's lights of
-    one class are one contiguous run and the type branch in evaluate_light is uniform over
-    each run; the loop is one loop over the runs (per-class specialised light code would
-    need per-class functions from app/pipeline/features.py);
+  * the chapter's per-type loops run per shape, not per class: its sphere/capsule class is
+    one execution path in its engine, here a point's test and a capsule's are different
+    code, so the class is sorted point before capsule and each gets its own loop;
   * the AABB pass computes in double precision, with the float32 test's margins
     (cpu_prep.limits) on the convex bound and a pixel margin: conservative for all shapes;
   * on a driver with a loop limit (llvmpipe) list building runs as scan windows of
@@ -69,10 +70,14 @@ CELL_SLICES = limits.DEFAULT_SLICES
 
 VARIANTS = ("fine per tile", "coarse per tile", "fine per cell", "coarse per cell")
 
-# Shape classes (chapter 2.4: sphere/capsule one execution path, cone/wedge one, box one).
+# Shape classes (chapter 2.4: sphere/capsule one execution path, cone/wedge one, box one),
+# and the order of fptl_shade.comp's per-type loops, which keeps each class contiguous.
 CLASS_OF_TYPE = {LIGHT_POINT: 0, LIGHT_CAPSULE: 0, LIGHT_SPOT: 1, LIGHT_BOX: 2}
-assert set(CLASS_OF_TYPE) == set(range(len(LIGHT_TYPES)))
+LOOP_ORDER = (LIGHT_POINT, LIGHT_CAPSULE, LIGHT_SPOT, LIGHT_BOX)
+assert set(CLASS_OF_TYPE) == set(LOOP_ORDER) == set(range(len(LIGHT_TYPES)))
+assert [CLASS_OF_TYPE[t] for t in LOOP_ORDER] == sorted(CLASS_OF_TYPE.values())
 _CLASS_LUT = np.array([CLASS_OF_TYPE[t] for t in range(len(LIGHT_TYPES))], np.uint8)
+_LOOP_RANK = np.array([LOOP_ORDER.index(t) for t in range(len(LIGHT_TYPES))], np.uint8)
 
 # Cell flags: the tile's coarse list passed 64 (pruned batch by batch); the cell's list
 # passed 24 (the rest in the spill); the spill pool ran short (the cell shades every light).
@@ -121,8 +126,9 @@ def list_words(bits: int) -> int:
 
 
 def class_order(types: np.ndarray) -> np.ndarray:
-    """Positions of the (depth-sorted) lights sorted by shape class, stable (step 1(b))."""
-    return np.argsort(_CLASS_LUT[np.asarray(types, np.intp)], kind="stable").astype(np.uint32)
+    """Positions of the (depth-sorted) lights sorted by shape class (step 1(b)), and within
+    the sphere/capsule class points first: the shading's loop order; stable."""
+    return np.argsort(_LOOP_RANK[np.asarray(types, np.intp)], kind="stable").astype(np.uint32)
 
 
 def cell_bounds(rect: np.ndarray, grid: gridmod.Grid, d_lo=None, d_hi=None) -> np.ndarray:

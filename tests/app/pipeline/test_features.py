@@ -12,8 +12,9 @@ def test_point_only_source_has_no_cone_test():
     point = features.features_glsl(("point",))
     general = features.features_glsl(("point", "spot"))
     assert "spot" not in point and "cos_outer" not in point
-    assert "spot_cone_contains" in general and "id_type.y" in general
-    assert "id_type.y" not in features.features_glsl(("spot",))   # spots only: no type test
+    assert "spot_cone_contains" in general and "type == LIGHT_POINT" in general
+    assert "type ==" not in features.features_glsl(("spot",))   # spots only: no type test
+    assert "#define HAS_SPOT 0" in point and "#define HAS_SPOT 1" in general
 
 
 def test_feature_set_follows_visible_types():

@@ -50,8 +50,9 @@ def test_class_order_sorts_by_shape_class_stably():
     types = np.array([LIGHT_BOX, LIGHT_POINT, LIGHT_SPOT, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_BOX,
                       LIGHT_SPOT], np.uint8)
     order = fptl.class_order(types)
-    # sphere/capsule first, then cones, then boxes; depth order (input order) within a class
-    assert order.tolist() == [1, 3, 4, 2, 6, 0, 5]
+    # sphere/capsule first (points, then capsules), then cones, then boxes; depth order
+    # (input order) within a shape: the shading's per-type loop order
+    assert order.tolist() == [1, 4, 3, 2, 6, 0, 5]
     assert fptl.class_order(np.zeros(0, np.uint8)).size == 0
 
 
