@@ -140,7 +140,8 @@ class LabWindow(mglw.WindowConfig):
     # ---- start-up -------------------------------------------------------------------------
     def _start_fastest(self, candidates) -> None:
         """The fastest of the candidates on this scene and machine (probe.fastest), or the
-        one the last probe chose for the same scene, lights, size, renderer and techniques."""
+        one the last probe chose for the same scene (and file), lights, size, renderer,
+        techniques and code version."""
         if len(candidates) == 1:
             self.state.technique = candidates[0]
             self.started = f"{candidates[0]}: the only technique that takes the given options"
@@ -148,7 +149,8 @@ class LabWindow(mglw.WindowConfig):
         a = self.args
         key = json.dumps([a.scene, len(self.scene.lights), a.seed, a.distribution,
                           list(self.renderer.size), self.renderer.limits.renderer, sorted(candidates),
-                          sorted(self.state.options.given.items())], default=str)
+                          sorted(self.state.options.given.items()), probe.code_version(),
+                          probe.file_stamp(a.scene)], default=str)
         got = None if a.reprobe else probe.remembered(key)
         if got and got.get("technique") in candidates:
             name, times, size = got["technique"], got.get("times", {}), tuple(got.get("size", self.renderer.size))

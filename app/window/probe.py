@@ -11,9 +11,10 @@
                 (tiled: 2x slower per pixel at half size on the city).  The probe stops
                 after PROBE_BUDGET_S (6 s; LAB_PROBE_BUDGET_S sets it): a cold numba cache
                 compiles each technique's kernels on its first frame, seconds each.  A
-                complete probe's choice is remembered per scene, light draw, size, renderer
-                and technique set in the user's cache folder (cache_file), so a later start
-                takes no probe at all (--reprobe measures again).
+                complete probe's choice is remembered per scene, light draw, size, renderer,
+                technique set and code version (code_version: an edited shader or kernel
+                probes again) in the user's cache folder (cache_file), so a later start takes
+                no probe at all (--reprobe measures again).
     FrameCosts  the wall time of each technique's frames as measured (the probe's, the
                 window's own), scaled to another pixel and light count; a technique never
                 measured is estimated from one frame at a reduced size (after one that
@@ -25,6 +26,8 @@
 """
 from __future__ import annotations
 
+from functools import lru_cache
+import hashlib
 import json
 import os
 from pathlib import Path
@@ -84,6 +87,31 @@ def fastest(renderer, candidates, opts_of, lights, cam, max_pixels: int = PROBE_
     if not times:
         return None, times, size, skipped
     return min(times, key=times.get), times, size, skipped
+
+
+ROOT = Path(__file__).resolve().parents[2]
+COST_SOURCES = ("glsl/*", "cpu_prep/*.py", "app/pipeline/*.py", "app/techniques/*.py")
+
+
+@lru_cache(maxsize=None)
+def code_version(root: Path = ROOT) -> str:
+    """A hash of the sources a frame's cost depends on (shaders, CPU stage, pipeline,
+    techniques): a remembered choice is only reused by the code that measured it."""
+    h = hashlib.sha1()
+    for pattern in COST_SOURCES:
+        for p in sorted(root.glob(pattern)):
+            h.update(str(p.relative_to(root)).encode() + p.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def file_stamp(scene: str) -> list | None:
+    """Size and modification time of a scene file (None for a builtin name): an edited
+    file probes again."""
+    try:
+        st = Path(scene).stat()
+    except OSError:
+        return None
+    return [st.st_size, st.st_mtime_ns]
 
 
 def cache_file() -> Path:
