@@ -167,43 +167,17 @@ class Renderer:
         (FrameResult.debug_lights, sorted)."""
         opts = technique.resolve_options(opts)
         fin = self.frame_input(frame, frames, lights, camera)
-        w, h = self.size
-        records, build = [], None
+        self._begin_frame(debug_pixel)
+        records, stats = [], None
         for k in range(max(int(samples), 1)):
-            if k == 0:
-                self._frame = _Frame()
-                if debug_pixel is not None:
-                    x, row = debug_pixel
-                    self._frame.debug_pixel = (int(x), h - 1 - int(row))
-                    self.buffer(DEBUG_SLOT, 4 + 4 * DEBUG_MAX_IDS).clear()
-            self.timer.take()
-            self._run_pass(self.gbuffer.pass_for(fin.camera), {"generated.glsl": feat.generated_glsl()},
-                           {}, {}, record=False)
-            self.gbuffer.bind_textures()
-            try:
-                build = technique.build(fin, opts)
-            except LimitError as exc:
-                raise UserError(str(exc)) from None
-            t0 = time.perf_counter()
-            for name, array in build.buffers.items():
-                self.upload(name, array)
-            cpu_ms = dict(build.times.ms, upload=(time.perf_counter() - t0) * 1e3)
-            features = feat.feature_set(build.lights.type, self.gbuffer.specular)
-            frame_uniforms = {"u_size": (w, h), "u_light_count": len(build.lights.gpu),
-                              "u_window": (0, WINDOW_ALL)}
-            virtual = dict(feat.virtual_files(features), **getattr(technique, "glsl", {}))
-            env = (virtual, dict(defines or {}), frame_uniforms)
-            if k == 0:
-                self.run(technique.passes(build, opts), *env, technique=technique.name)
+            build, features, record = self._sample(technique, fin, opts, defines, first=k == 0)
+            if stats is None:
                 stats = dict(build.stats)       # host steps of the first sample add to them
-            else:
-                for p in self._frame.timed:
-                    self._run_pass(p, *env, technique.name)
-            records.append({"cpu_ms": cpu_ms, "gpu_ms": self.timer.take()})
+            records.append(record)
         missing = [n for n in FRAME_OUTPUTS if n not in self._frame.provided]
         if missing:
             raise UserError(f"technique '{technique.name}': no pass writes {', '.join(missing)}")
-
+        w, h = self.size
         meta = {
             "technique": technique.name, "options": opts.as_dict(), "features": list(features),
             "wave": "native" if self._frame.native else "emulated-64",
@@ -221,6 +195,42 @@ class Renderer:
             raw = np.frombuffer(self.buffers[DEBUG_SLOT].read(), np.uint32)
             result.debug_lights = np.unique(raw[1:1 + min(int(raw[0]), DEBUG_MAX_IDS)])
         return result
+
+    def _begin_frame(self, debug_pixel) -> None:
+        """A new frame record; with a debug pixel (x, row from the top), its id buffer cleared."""
+        self._frame = _Frame()
+        if debug_pixel is not None:
+            x, row = debug_pixel
+            self._frame.debug_pixel = (int(x), self.size[1] - 1 - int(row))
+            self.buffer(DEBUG_SLOT, 4 + 4 * DEBUG_MAX_IDS).clear()
+
+    def _sample(self, technique, fin, opts, defines, first: bool):
+        """One sample of the frame: G-buffer, CPU stage, upload, then every step of the
+        technique (the first sample: compiles, host steps included) or its timed passes
+        again.  -> (build, feature set, {"cpu_ms", "gpu_ms"})."""
+        self.timer.take()
+        self._run_pass(self.gbuffer.pass_for(fin.camera), {"generated.glsl": feat.generated_glsl()},
+                       {}, {}, record=False)
+        self.gbuffer.bind_textures()
+        try:
+            build = technique.build(fin, opts)
+        except LimitError as exc:
+            raise UserError(str(exc)) from None
+        t0 = time.perf_counter()
+        for name, array in build.buffers.items():
+            self.upload(name, array)
+        cpu_ms = dict(build.times.ms, upload=(time.perf_counter() - t0) * 1e3)
+        features = feat.feature_set(build.lights.type, self.gbuffer.specular)
+        frame_uniforms = {"u_size": self.size, "u_light_count": len(build.lights.gpu),
+                          "u_window": (0, WINDOW_ALL)}
+        virtual = dict(feat.virtual_files(features), **getattr(technique, "glsl", {}))
+        env = (virtual, dict(defines or {}), frame_uniforms)
+        if first:
+            self.run(technique.passes(build, opts), *env, technique=technique.name)
+        else:
+            for p in self._frame.timed:
+                self._run_pass(p, *env, technique.name)
+        return build, features, {"cpu_ms": cpu_ms, "gpu_ms": self.timer.take()}
 
     # ---- executing steps -----------------------------------------------------------
 
