@@ -8,13 +8,18 @@ What is read, and how it converts (every rule below is this lab's, stated once h
   conversion: glTF is right-handed, +Y up, metres, cameras and lights look down their node's
   -Z, exactly as this lab.
 - **Geometry.**  Each mesh instance's TRIANGLES and TRIANGLE_STRIP primitives, in world space,
-  one `Mesh` each, then merged by albedo (fewer draws).  POINTS and LINES primitives hold no
+  one `Mesh` each, then merged by material (fewer draws).  POINTS and LINES primitives hold no
   surface and are left out (counted in the warning line); TRIANGLE_FAN is refused.  A node
   whose transform has a negative determinant gets its winding flipped (glTF rule).  Skins and
   morph targets are ignored (the bind pose is drawn).
-- **Albedo.**  The primitive's `material.pbrMetallicRoughness.baseColorFactor` RGB, exactly as
-  written (glTF's default 1, 1, 1 without a material); textures, vertex colours and alpha are
-  not used, nor are metallicFactor / roughnessFactor: surfaces are matte (Mesh.roughness 0).
+- **Material.**  The primitive's `material.pbrMetallicRoughness`: albedo = baseColorFactor RGB
+  exactly as written; metallic = metallicFactor and roughness = roughnessFactor (glTF's
+  defaults 1 and 1, and its default material, white rough metal, without a material), onto
+  the lab's GGX material (glsl/material.glsl: F0 0.04 mixed to the albedo by metallic, the
+  same metallic-roughness model).  A roughness below MIN_ROUGHNESS (0.045, Filament's
+  smallest perceptual roughness) is raised to it: glTF's 0 is a perfect mirror, a delta no
+  light loop evaluates, and the lab's roughness 0 means matte (no specular code).
+  Textures, vertex colours and alpha are not used.
 - **Lights** (`KHR_lights_punctual`), one per node that references one, in walk order:
   position = the node's world origin; a spot's direction = the node's world -Z, normalised;
   `color` as is (linear RGB); `intensity` (candela for point and spot) times
@@ -100,7 +105,7 @@ COMPONENT_SIZE = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
 TYPE_SIZE = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 INDEX_TYPES = (5121, 5123, 5125)           # unsigned byte / short / int
 # Required extensions this reader honours: lights are read here; material and texture
-# extensions change shading this lab does not do (it reads baseColorFactor only).
+# extensions change shading this lab does not do (it reads the metallic-roughness factors).
 SUPPORTED_REQUIRED = ("KHR_lights_punctual", "KHR_texture_transform", "KHR_texture_basisu",
                       "EXT_texture_webp", "KHR_materials_")
 
@@ -341,9 +346,13 @@ def _accessor(ctx: FieldChecker, h: dict, buffers: list[bytes], idx, field: str,
     return i
 
 
-def _albedo(ctx: FieldChecker, h: dict, p: dict, f: str) -> tuple[float, float, float]:
+MIN_ROUGHNESS = 0.045
+
+
+def _material(ctx: FieldChecker, h: dict, p: dict, f: str) -> tuple[tuple, float, float]:
+    """(albedo RGB, roughness, metallic) of a primitive (module docstring, "Material")."""
     if "material" not in p:
-        return (1.0, 1.0, 1.0)                      # glTF's default material
+        return (1.0, 1.0, 1.0), 1.0, 1.0             # glTF's default material
     materials = ctx.arr(h.get("materials", []), "materials")
     k = _index(ctx, p["material"], f + ".material", materials, "materials")
     fm = f"materials[{k}]"
@@ -354,12 +363,15 @@ def _albedo(ctx: FieldChecker, h: dict, p: dict, f: str) -> tuple[float, float, 
     if not isinstance(c, (list, tuple)) or len(c) != 4:
         ctx.fail(fc, f"must be an array of 4 numbers in [0, 1] (got {jtype(c)} {show(c)})")
     rgba = [ctx.num(x, f"{fc}[{i}]", 0.0, 1.0) for i, x in enumerate(c)]
-    return tuple(rgba[:3])
+    fp = fm + ".pbrMetallicRoughness."
+    metallic = ctx.num(pbr.get("metallicFactor", 1.0), fp + "metallicFactor", 0.0, 1.0)
+    roughness = ctx.num(pbr.get("roughnessFactor", 1.0), fp + "roughnessFactor", 0.0, 1.0)
+    return tuple(rgba[:3]), max(float(roughness), MIN_ROUGHNESS), float(metallic)
 
 
 def _decode(ctx: FieldChecker, h: dict, buffers: list[bytes], prims: list[tuple]) -> list:
     """[(vertices (V,3) float64, faces (F,3) int64)] of `prims` [(pos accessor, index accessor
-    or None, mode, field, albedo)], decoded by trimesh from a pruned copy of the file."""
+    or None, mode, field, material)], decoded by trimesh from a pruned copy of the file."""
     from trimesh.exchange.gltf import load_gltf
     acc_map, view_map, accessors, views = {}, {}, [], []
 
@@ -415,7 +427,7 @@ def _decode(ctx: FieldChecker, h: dict, buffers: list[bytes], prims: list[tuple]
 def _geometry(ctx: FieldChecker, h: dict, buffers: list[bytes], walk, notes: list) -> list[Mesh]:
     gltf_meshes = ctx.arr(h.get("meshes", []), "meshes")
     nodes = h.get("nodes", [])
-    prims = []            # each (mesh, primitive) once: (POSITION, indices, mode, field, albedo)
+    prims = []            # each (mesh, primitive) once: (POSITION, indices, mode, field, material)
     index = {}            # (mesh, primitive) -> its row in prims, NO_SURFACE, or None (empty)
     instances = []        # (row in prims, node world matrix, node)
     skipped = 0
@@ -453,12 +465,12 @@ def _geometry(ctx: FieldChecker, h: dict, buffers: list[bytes], walk, notes: lis
             ctx.fail(f"nodes[{n}]", "its transformed vertices overflow float32")
         if np.linalg.det(world[:3, :3]) < 0:
             faces = faces[:, ::-1]
-        out.append(Mesh(w.astype(np.float32), np.ascontiguousarray(faces, np.int32), prims[k][4]))
+        out.append(Mesh(w.astype(np.float32), np.ascontiguousarray(faces, np.int32), *prims[k][4]))
     return merge_meshes(out)
 
 
 def _primitive(ctx: FieldChecker, h: dict, buffers: list[bytes], p, f: str):
-    """(POSITION, indices or None, mode, field, albedo) of a triangle primitive, checked;
+    """(POSITION, indices or None, mode, field, material) of a triangle primitive, checked;
     NO_SURFACE for points and lines, None for a strip of fewer than 3 vertices."""
     ctx.obj(p, f)
     mode = p.get("mode", 4)
@@ -479,10 +491,10 @@ def _primitive(ctx: FieldChecker, h: dict, buffers: list[bytes], p, f: str):
     if mode == 4 and count % 3:
         ctx.fail(f + (".indices" if ind is not None else ".attributes.POSITION"),
                  f"TRIANGLES need a multiple of 3 vertices (got {count})")
-    albedo = _albedo(ctx, h, p, f)
+    material = _material(ctx, h, p, f)
     if mode == 5 and count < 3:
         return None
-    return (pos, ind, mode, f, albedo)
+    return (pos, ind, mode, f, material)
 
 
 # ------------------------------------------------------------------------------ lights

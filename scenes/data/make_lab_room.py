@@ -3,12 +3,13 @@
 No installed package ships a .glb or .gltf file (checked in .venv/lib/python3.11/site-packages),
 so the lab's "real model" test (tests/scenes/test_gltf.py) reads this one: its bytes come from
 trimesh.exchange.gltf.export_glb (an independent writer: node matrices, uint32 indices,
-baseColorFactor quantised to 8-bit steps), with the KHR_lights_punctual lights and the camera
+baseColorFactor quantised to 8-bit steps, metallic and roughness factors), with the KHR_lights_punctual lights and the camera
 added to the exported tree by `tree_postprocessor` (trimesh writes neither).
 
     .venv/bin/python scenes/data/make_lab_room.py      # rewrites scenes/data/lab_room.glb
 
-A 20 x 20 m floor, columns, boxes, a sphere and a torus (about 2,000 triangles); eight point
+A 20 x 20 m floor, columns, boxes, a sphere and a torus (about 2,000 triangles; rough
+dielectrics, a glossy sphere and a metal torus); eight point
 lights without range (their radius comes from the cutoff rule), two spot lights with range,
 one directional light (skipped by the loader, with its warning line) and a perspective camera
 looking into the room.
@@ -26,17 +27,17 @@ from trimesh.transformations import quaternion_from_matrix, rotation_matrix, tra
 OUT = Path(__file__).with_name("lab_room.glb")
 
 
-def _material(rgb):
-    return trimesh.visual.TextureVisuals(
-        material=trimesh.visual.material.PBRMaterial(baseColorFactor=[*rgb, 1.0]))
+def _material(rgb, roughness, metallic):
+    return trimesh.visual.TextureVisuals(material=trimesh.visual.material.PBRMaterial(
+        baseColorFactor=[*rgb, 1.0], roughnessFactor=roughness, metallicFactor=metallic))
 
 
 # trimesh builds cylinders and tori around +Z: stood up (+Z to +Y) by this node rotation
 UPRIGHT = rotation_matrix(-math.pi / 2, (1.0, 0.0, 0.0))
 
 
-def _add(scene, mesh, rgb, name, t=(0.0, 0.0, 0.0), upright=False):
-    mesh.visual = _material(rgb)
+def _add(scene, mesh, rgb, name, t=(0.0, 0.0, 0.0), upright=False, roughness=0.8, metallic=0.0):
+    mesh.visual = _material(rgb, roughness, metallic)
     m = translation_matrix(t) @ (UPRIGHT if upright else np.eye(4))
     scene.add_geometry(mesh, node_name=name, geom_name=name, transform=m)
 
@@ -50,9 +51,10 @@ def room() -> trimesh.Scene:
              f"column{k}", (x, 2.5, z), upright=True)
     _add(s, trimesh.creation.box(extents=(3.0, 1.5, 2.0)), (0.7, 0.3, 0.25), "crate", (-2.5, 0.75, -3.0))
     _add(s, trimesh.creation.box(extents=(1.5, 3.0, 1.5)), (0.25, 0.45, 0.7), "tower", (3.0, 1.5, -1.0))
-    _add(s, trimesh.creation.icosphere(subdivisions=3, radius=1.2), (0.9, 0.9, 0.85), "sphere", (0.0, 1.2, 1.5))
+    _add(s, trimesh.creation.icosphere(subdivisions=3, radius=1.2), (0.9, 0.9, 0.85), "sphere", (0.0, 1.2, 1.5),
+         roughness=0.3)
     _add(s, trimesh.creation.torus(major_radius=1.5, minor_radius=0.3, major_sections=32, minor_sections=12),
-         (0.35, 0.65, 0.35), "torus", (-4.0, 0.3, 5.0), upright=True)
+         (0.35, 0.65, 0.35), "torus", (-4.0, 0.3, 5.0), upright=True, roughness=0.4, metallic=1.0)
     return s
 
 

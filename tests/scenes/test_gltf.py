@@ -14,7 +14,7 @@ import pytest
 import trimesh
 from trimesh import transformations as tf
 
-from scenes import LIGHT_DTYPE, SceneError, load_scene
+from scenes import LIGHT_DTYPE, SceneError, gltf, load_scene
 from scenes.gltf import CUTOFF_T
 from scenes.model import LIGHT_POINT, LIGHT_SPOT
 
@@ -304,6 +304,40 @@ def test_lights_option_and_draw_arguments(files, capsys):
         load_scene(str(files[1]), seed=4)
 
 
+# ------------------------------------------------------------------------------ materials
+def test_metallic_roughness_factors_become_the_ggx_material(tmp_path):
+    """metallicFactor / roughnessFactor as written, glTF's defaults (1, 1) where absent and for
+    a primitive without a material, and roughness 0 (a mirror) raised to MIN_ROUGHNESS."""
+    doc = Doc()
+    pbr = [{"baseColorFactor": [0.5, 0.5, 0.5, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.35},
+           {"baseColorFactor": [0.2, 0.3, 0.4, 1.0]},
+           {"baseColorFactor": [0.9, 0.8, 0.1, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.0}]
+    doc.h["materials"] = [{"pbrMetallicRoughness": m} for m in pbr]
+    for k in range(4):
+        prim = {"attributes": {"POSITION": doc.positions(CUBE.vertices + [3 * k, 0, 0])},
+                "indices": doc.indices(CUBE.faces)}
+        if k < 3:
+            prim["material"] = k
+        doc.node(mesh=doc.mesh(prim))
+    s = load_scene(str(doc.write_glb(tmp_path / "materials.glb")))
+    got = {m.albedo: (m.roughness, m.metallic) for m in s.meshes}
+    assert got == {(0.5, 0.5, 0.5): (0.35, 0.0), (0.2, 0.3, 0.4): (1.0, 1.0),
+                   (0.9, 0.8, 0.1): (gltf.MIN_ROUGHNESS, 1.0), (1.0, 1.0, 1.0): (1.0, 1.0)}
+
+
+def test_specular_materials_compile_and_render_exact(tmp_path, gl):
+    """A glTF scene's GGX materials compile the specular code and keep techniques exact."""
+    from app.pipeline.renderer import Renderer
+    from tests.helpers import assert_exact, render_on
+    r = Renderer(load_scene(str(ROOM)), size=(160, 90))
+    try:
+        res = render_on(r, techniques=["brute", "clustered", "fptl"])
+    finally:
+        r.release()
+    assert "specular" in res["brute"].meta["features"]
+    assert_exact(res, "lab_room")
+
+
 # ------------------------------------------------------------------------------ defaults
 def _single_mesh_doc(**camera):
     doc = Doc()
@@ -319,7 +353,8 @@ def test_default_camera_frames_the_bounds(tmp_path, capsys):
     s = load_scene(str(_single_mesh_doc().write_glb(tmp_path / "nocam.glb")))
     assert capsys.readouterr().err == ""          # nothing skipped: no warning line
     assert s.resolution == (960, 540) and len(s.lights) == 0
-    assert s.meshes[0].albedo == (1.0, 1.0, 1.0)    # glTF's default material
+    m = s.meshes[0]                                 # glTF's default material: white rough metal
+    assert (m.albedo, m.roughness, m.metallic) == ((1.0, 1.0, 1.0), 1.0, 1.0)
     lo, hi = s.bounds()
     centre, radius = (lo + hi) / 2, np.linalg.norm(hi - lo) / 2
     c = s.camera
@@ -452,6 +487,12 @@ BAD = [
      "meshes[0].primitives[0].material:"),
     ("base_color_over_one", _set(["materials", 0, "pbrMetallicRoughness", "baseColorFactor"], [1.5, 0, 0, 1]),
      "materials[0].pbrMetallicRoughness.baseColorFactor[0]:"),
+    ("metallic_over_one", _set(["materials", 0, "pbrMetallicRoughness", "metallicFactor"], 1.01),
+     "materials[0].pbrMetallicRoughness.metallicFactor:"),
+    ("roughness_negative", _set(["materials", 1, "pbrMetallicRoughness", "roughnessFactor"], -0.1),
+     "materials[1].pbrMetallicRoughness.roughnessFactor:"),
+    ("roughness_not_number", _set(["materials", 0, "pbrMetallicRoughness", "roughnessFactor"], "0.5"),
+     "materials[0].pbrMetallicRoughness.roughnessFactor:"),
     ("node_cycle", _set(["nodes", 1, "children"], [0]), "nodes[0]: is reached twice"),
     ("node_child_invalid", _set(["nodes", 0, "children"], [1, 77]), "nodes[0].children[1]:"),
     ("node_children_not_array", _set(["nodes", 9, "children"], 10), "nodes[9].children: must be an array"),
