@@ -10,11 +10,13 @@
 // that shape's code) and stops at the first entry of another shape; a shape the scene lacks
 // compiles no loop (HAS_*, features.glsl), one the tile lacks runs none.  Every pixel of a
 // cell walks the same list, so the loops' exits are uniform over the cell's pixels.
+// FPTL_TYPE_LOOPS 0 (the `type_loops` option off): one loop, the light code branching on type.
 #include "generated.glsl"
 #include "fptl_structs.glsl"
 #include "wave.glsl"
 #include "common.glsl"
 #include "fptl_common.glsl"
+// define: FPTL_TYPE_LOOPS
 
 layout(std430, binding = B_FPTL_LISTS) readonly buffer Lists { uint fptl_lists[]; };
 layout(std430, binding = B_FPTL_CELLS) readonly buffer Cells { FptlCell fptl_cells[]; };
@@ -40,6 +42,7 @@ uint type_loop(inout PixelState s, uint first, uint k, uint end, bool spill, uin
 void shade_run(inout PixelState s, uint first, uint count, bool spill) {
     uvec2 w = window_part(s, count);
     uint k = w.x;
+#if FPTL_TYPE_LOOPS
 #if HAS_POINT
     k = type_loop(s, first, k, w.y, spill, LIGHT_POINT);
 #endif
@@ -51,6 +54,7 @@ void shade_run(inout PixelState s, uint first, uint count, bool spill) {
 #endif
 #if HAS_BOX
     k = type_loop(s, first, k, w.y, spill, LIGHT_BOX);
+#endif
 #endif
     // empty when the run is in shape order (tested); if it were not, exact all the same
     for (; k < w.y; ++k) evaluate_light(s, lights[run_entry(first, k, spill)]);

@@ -23,7 +23,9 @@ pixel of the tile against each light's true shape, packed as R10G10B10A2 blocks.
 Variants (`fptl_variant`, bit flags like zbin's): 0 fine-pruned per tile (the chapter),
 1 coarse only (what pruning buys: the chapter's 5.4 ms -> 1.4 ms lighting), 2 fine-pruned
 per 2.5D cell (16 depth slices, listing 4; the chapter's "negates the need for cells"),
-3 coarse per cell (the cell's depth range instead of the pixels' shapes).
+3 coarse per cell (the cell's depth range instead of the pixels' shapes).  `type_loops`
+(on by default) shades with the chapter's per-type loops; off, one loop whose light code
+branches on each light's type: what the sort by shape buys.
 
 Where the lab departs from the chapter, and why (nothing is ever dropped silently):
   * coarse lists past 64: the chapter keeps at most 64 coarse lights in LDS.  Here the
@@ -216,6 +218,9 @@ class Fptl(Technique):
         fptl_variant: int = option(0, "0 fine-pruned lists per 16x16 tile (the chapter), 1 coarse "
                                       "AABB lists only, 2 fine-pruned per 2.5D cell (16 depth "
                                       "slices), 3 coarse per cell", lo=0, hi=3, study=(0, 1, 2, 3))
+        type_loops: bool = option(True, "fptl shading: the chapter's fixed sequence of per-type "
+                                        "loops, each compiled for one light shape; off: one loop "
+                                        "whose light code branches on the type", study=(True, False))
 
     def build(self, frame, opts):
         opts = self.resolve_options(opts)
@@ -275,7 +280,8 @@ class Fptl(Technique):
         # a pixel meets at most every visible light (its list, or every light when flagged)
         shade = shading_passes(build, "fptl_shade.comp",
                                ("fptl_lists", "fptl_cells", "fptl_spill_heads", "fptl_spill"),
-                               longest=n, defines=common, uniforms=grid_u)
+                               longest=n, defines=dict(common, FPTL_TYPE_LOOPS=int(opts.type_loops)),
+                               uniforms=grid_u)
         counts = HostStep("fptl counts", ("fptl_cells", "fptl_counter"),
                           lambda got: _counts(build, got["fptl_cells"], got["fptl_counter"]))
         return [aabb] + lists + shade + [counts]

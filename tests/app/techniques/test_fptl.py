@@ -491,6 +491,27 @@ def test_variants_are_exact_and_ordered(gl, rng):
     assert res[2].meta["bytes"]["fptl_lists"] == res[0].meta["bytes"]["fptl_lists"] * fptl.CELL_SLICES
 
 
+def test_per_type_loops_shade_like_the_one_loop(gl):
+    """The chapter's per-type loops (type_loops, the default) and one loop branching on the
+    type evaluate the same lights in the same order, the spill included: same counts and
+    hashes as brute, same per-pixel work, the same image up to rounding."""
+    rng = np.random.default_rng(7)
+    L = np.concatenate([crowd(40, radius=9.0), random_shapes(rng, 200, (-14, -1, -34), (14, 7, 6))])
+    assert len(np.unique(L["type"])) == 4
+    r = Renderer(make_scene(L, size=(64, 48), camera=CAMERA))
+    try:
+        loops, one = render(r), render(r, {"type_loops": False})
+        ref = render_on(r, techniques=["brute"])
+    finally:
+        r.release()
+    assert loops.meta["options"]["type_loops"] and not one.meta["options"]["type_loops"]
+    assert loops.meta["stats"]["spilled_lights"] > 0
+    for name, x in (("per-type loops", loops), ("one loop", one)):
+        assert_exact({"brute": ref["brute"], "fptl": x}, name)
+    assert np.array_equal(loops.evaluated, one.evaluated)
+    assert np.allclose(loops.image, one.image, rtol=1e-5, atol=1e-7)
+
+
 def test_gallery_narrow_spots_near_the_floor(gl):
     """The chapter's case: the gallery's narrow spots.  fptl evaluates a small multiple of the
     perfect culler's lights, far fewer than tiled's bounding spheres."""
