@@ -3,11 +3,18 @@ plan (app.bench.plan) through Renderer.render like any frame, takes the timing s
 render(samples=N), checks every frame against the reference's, runs the CPU-only series, and
 writes DIR/results.csv (app.results), DIR/maps.npz, DIR/run.json and the report.
 
-Timing: every configuration is rendered once with read-back (counters, image); then
-render(samples=N) takes its timing samples.  The first render of a configuration's programs
-in the process is a warm-up (shader and numba compilation) whose timing is discarded; later
-ones count as a sample.  A configuration whose loop evaluates more than `heavy_eval_pp`
-lights a pixel gets `heavy_repeat` samples.  The sample counts depend only on the command.
+Timing: every configuration is rendered once with read-back (counters, image); then its
+timing samples are taken.  The first render of a configuration's programs in the process is
+a warm-up (shader and numba compilation) whose timing is discarded; later ones count as a
+sample.  A configuration whose loop evaluates more than `heavy_eval_pp` lights a pixel gets
+`heavy_repeat` samples.  The sample counts depend only on the command.
+
+Samples are interleaved: the configurations that are compared with each other (one group:
+the same study, scene, light count and frame, every technique and option value of it) take
+their samples in rounds, one render of each configuration a round.  Taken back to back, a
+configuration's samples would share the machine's state of that moment (a busy core, a
+clock), and a drift between two configurations would pass for a difference beyond their
+spread; interleaved, both see the same drift, so each one's min-max holds it.
 """
 from __future__ import annotations
 
@@ -93,24 +100,44 @@ class Sweep:
             self.refs[key] = self.render(renderer, ref_job, True)
         return self.refs[key]
 
-    def measure(self, renderer, job: Job):
-        """(row, read-back result) of one configuration."""
+    def first_render(self, renderer, job: Job):
+        """(row without its timing cells, timing samples it already holds, samples it
+        wants): the configuration's read-back render, which counts as a sample when its
+        programs were compiled before (module docstring), and its maps (kept while the
+        renderer still holds its frame)."""
         res = self.render(renderer, job, True)
+        self.keep_maps(job, res, renderer)
         types = tuple(np.unique(self.lights_for(job)["type"]).tolist())   # shader features
         key = (self.serial, job.technique, job.opts, job.cutoff < 0, types)
         samples = measure.samples_of(res.meta) if key in self.warm else []
         self.warm.add(key)
         heavy = measure.evaluated_per_pixel(res) > self.p.heavy_eval_pp
-        want = self.p.heavy_repeat if heavy else self.p.repeat
-        setup = res
-        if len(samples) < want:
-            setup = self.render(renderer, job, False, samples=want - len(samples))
-            samples += measure.samples_of(setup.meta)
         if job.technique == self.reference:
             self.refs[(job.scene, job.lights, job.frame, job.cutoff)] = res
-        return self.row(job, res, samples, renderer, setup), res
+        want = self.p.heavy_repeat if heavy else self.p.repeat
+        return self.row(job, res, renderer), samples, want
 
-    def row(self, job: Job, res, samples, renderer, setup) -> dict:
+    def measure_group(self, renderer, group: list[Job], first: int, total: int) -> None:
+        """Rows of a group of configurations compared with each other: each one's read-back
+        render (and its maps), then the timing samples in interleaved rounds."""
+        pending = []
+        for k, job in enumerate(group):
+            self.progress(first + k, total, job.describe())
+            renderer.scene = self.scene(job.scene, job.lights)   # same geometry, these lights
+            pending.append((job, *self.first_render(renderer, job)))
+        for _ in range(max((p[3] for p in pending), default=0)):
+            for job, row, samples, want in pending:
+                if len(samples) < want:
+                    renderer.scene = self.scene(job.scene, job.lights)
+                    res = self.render(renderer, job, False)
+                    samples += measure.samples_of(res.meta)
+                    row["setup_ms"] = float(sum(res.meta.get("setup_ms", {}).values()))
+        for job, row, samples, _ in pending:
+            row.update(measure.timing_cells(samples))
+            self.rows.append(row)
+
+    def row(self, job: Job, res, renderer) -> dict:
+        """A row's cells but the timing ones (measure_group adds them)."""
         w, h = renderer.size
         tech = REGISTRY[job.technique]
         r = {"study": job.study, "scene": job.scene, "lights": job.lights,
@@ -118,9 +145,8 @@ class Sweep:
              "frame": job.frame, "frames": self.p.frames, "technique": tech.name,
              "role": tech.role, "cutoff": job.cutoff}
         r.update(measure.option_cells(job.opts))
-        r.update(measure.timing_cells(samples))
         r.update(measure.figure_cells(res))
-        r["setup_ms"] = float(sum(setup.meta.get("setup_ms", {}).values()))   # no cost: untimed
+        r["setup_ms"] = float(sum(res.meta.get("setup_ms", {}).values()))    # no cost: untimed
         # the error of a cutoff job is against the unbounded reference, its exactness against
         # the reference with the same lights
         unbounded = job.study == "cutoff"
@@ -169,9 +195,10 @@ class Sweep:
         self.log.write(f"bench: {self.p.name} preset, {total} configurations + CPU series; "
                        f"option studies: " + "; ".join(f"{k} ({', '.join(v[1])})"
                                                      for k, v in studies.items()) + "\n")
-        renderer, current = None, None
+        renderer, current, i = None, None, 1
         try:
-            for i, job in enumerate(jobs, 1):
+            for group in compared_groups(jobs):
+                job = group[0]
                 if job.scene != current:
                     if renderer is not None:
                         renderer.release()
@@ -180,13 +207,9 @@ class Sweep:
                     renderer = Renderer(self.scene(job.scene, job.lights), self.p.size)
                     self.serial += 1
                     current = job.scene
-                renderer.scene = self.scene(job.scene, job.lights)   # same geometry, these lights
-                self.progress(i, total, job.describe())
-                row, res = self.measure(renderer, job)
-                self.rows.append(row)
-                self.keep_maps(job, res, renderer)
-                del res
-                self._forget(job)
+                self.measure_group(renderer, group, i, total)
+                i += len(group)
+                self._forget(group[-1])
         finally:
             if renderer is not None:
                 renderer.release()
@@ -269,6 +292,20 @@ class Sweep:
 
 
 # ---------------------------------------------------------------------------- the command
+
+def compared_groups(jobs: list[Job]) -> list[list[Job]]:
+    """Consecutive jobs of one study, scene, light count and frame: the configurations whose
+    timings are compared with each other (their samples are interleaved)."""
+    groups: list[list[Job]] = []
+    for job in jobs:
+        key = (job.study, job.scene, job.lights, job.frame)
+        if groups and (groups[-1][0].study, groups[-1][0].scene, groups[-1][0].lights,
+                       groups[-1][0].frame) == key:
+            groups[-1].append(job)
+        else:
+            groups.append([job])
+    return groups
+
 
 def run_sweep(preset: Preset, out: Path, command: str, log=sys.stderr) -> list[dict]:
     """Measure the preset, write out/results.csv, maps.npz, run.json and the report."""

@@ -1,0 +1,59 @@
+"""The sweep interleaves the timing samples of configurations that are compared with each
+other, so a drift of the machine falls on all of them alike (app/bench/sweep.py)."""
+from types import SimpleNamespace
+
+from app.bench.plan import Job, plan
+from app.bench.presets import PRESETS
+from app.bench.sweep import Sweep, compared_groups
+from app.techniques import REGISTRY
+
+
+def test_groups_are_one_study_scene_light_count_and_frame():
+    jobs = plan(PRESETS["quick"], lambda scene, counts: tuple(counts))
+    groups = compared_groups(jobs)
+    assert sum(len(g) for g in groups) == len(jobs)
+    assert [j for g in groups for j in g] == jobs                      # order kept
+    for g in groups:
+        assert len({(j.study, j.scene, j.lights, j.frame) for j in g}) == 1
+    keys = [(g[0].study, g[0].scene, g[0].lights, g[0].frame) for g in groups]
+    assert len(keys) == len(set(keys))                                  # each group whole
+    path = [g for g in groups if g[0].study == "path"]
+    assert all({j.technique for j in g} == set(REGISTRY) for g in path)
+
+
+class Recording(Sweep):
+    """Renders nothing: records the order of the timing renders."""
+
+    def __init__(self, wants):
+        super().__init__(PRESETS["quick"], log=SimpleNamespace(write=lambda s: None, flush=lambda: None))
+        self.wants, self.calls = wants, []
+
+    def scene(self, name, lights):
+        return None
+
+    def first_render(self, renderer, job):
+        warm = [{"cpu_ms": {}, "gpu_ms": {"gbuffer": 1.0, "shade": 1.0}}] if job.frame else []
+        return {"technique": job.technique}, warm, self.wants[job.technique]
+
+    def render(self, renderer, job, readback, samples=1):
+        self.calls.append(job.technique)
+        return SimpleNamespace(meta={"cpu_ms": {"cull": 1.0}, "gpu_ms": {"gbuffer": 1.0, "shade": 2.0},
+                                     "setup_ms": {}})
+
+
+def test_samples_are_taken_in_rounds():
+    sweep = Recording({"a": 3, "b": 3, "c": 2})
+    opts = REGISTRY["brute"].Options()
+    group = [Job("path", "arena", 64, 0, t, opts) for t in "abc"]
+    sweep.measure_group(SimpleNamespace(scene=None), group, 1, 3)
+    assert sweep.calls == ["a", "b", "c", "a", "b", "c", "a", "b"]     # c wants 2 (heavy)
+    assert [r["samples"] for r in sweep.rows] == [3, 3, 2]
+
+
+def test_a_warm_read_back_render_counts_as_a_sample():
+    sweep = Recording({"a": 3, "b": 3})
+    opts = REGISTRY["brute"].Options()
+    group = [Job("path", "arena", 64, 1, t, opts) for t in "ab"]
+    sweep.measure_group(SimpleNamespace(scene=None), group, 1, 2)
+    assert sweep.calls == ["a", "b", "a", "b"]
+    assert [r["samples"] for r in sweep.rows] == [3, 3]
