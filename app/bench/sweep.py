@@ -19,6 +19,7 @@ spread; interleaved, both see the same drift, so each one's min-max holds it.
 from __future__ import annotations
 
 from dataclasses import fields, replace
+from itertools import groupby
 import json
 from pathlib import Path
 import sys
@@ -296,15 +297,7 @@ class Sweep:
 def compared_groups(jobs: list[Job]) -> list[list[Job]]:
     """Consecutive jobs of one study, scene, light count and frame: the configurations whose
     timings are compared with each other (their samples are interleaved)."""
-    groups: list[list[Job]] = []
-    for job in jobs:
-        key = (job.study, job.scene, job.lights, job.frame)
-        if groups and (groups[-1][0].study, groups[-1][0].scene, groups[-1][0].lights,
-                       groups[-1][0].frame) == key:
-            groups[-1].append(job)
-        else:
-            groups.append([job])
-    return groups
+    return [list(g) for _, g in groupby(jobs, key=lambda j: (j.study, j.scene, j.lights, j.frame))]
 
 
 def run_sweep(preset: Preset, out: Path, command: str, log=sys.stderr) -> list[dict]:
