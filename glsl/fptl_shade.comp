@@ -31,9 +31,9 @@ uint run_entry(uint first, uint k, bool spill) {
 // Entries [k, end) of one shape; returns where the run leaves that shape.
 uint type_loop(inout PixelState s, uint first, uint k, uint end, bool spill, uint type) {
     for (; k < end; ++k) {
-        GpuLight L = lights[run_entry(first, k, spill)];
-        if (L.id_type.y != type) break;
-        evaluate_light_as(s, L, type);
+        uint i = run_entry(first, k, spill);
+        if (lights[i].id_type.y != type) break;
+        evaluate_light_as(s, lights[i], type);
     }
     return k;
 }
@@ -42,7 +42,7 @@ uint type_loop(inout PixelState s, uint first, uint k, uint end, bool spill, uin
 void shade_run(inout PixelState s, uint first, uint count, bool spill) {
     uvec2 w = window_part(s, count);
     uint k = w.x;
-#if FPTL_TYPE_LOOPS
+#if FPTL_TYPE_LOOPS    // the run is in shape order (class_order): the loops end at w.y
 #if HAS_POINT
     k = type_loop(s, first, k, w.y, spill, LIGHT_POINT);
 #endif
@@ -55,9 +55,9 @@ void shade_run(inout PixelState s, uint first, uint count, bool spill) {
 #if HAS_BOX
     k = type_loop(s, first, k, w.y, spill, LIGHT_BOX);
 #endif
-#endif
-    // empty when the run is in shape order (tested); if it were not, exact all the same
+#else
     for (; k < w.y; ++k) evaluate_light(s, lights[run_entry(first, k, spill)]);
+#endif
 }
 
 void main() {

@@ -505,6 +505,10 @@ def test_per_type_loops_shade_like_the_one_loop(gl):
     finally:
         r.release()
     assert loops.meta["options"]["type_loops"] and not one.meta["options"]["type_loops"]
+    for res, want in ((loops, 1), (one, 0)):
+        opts = T.resolve_options(res.meta["options"])
+        shade = [p for p in T.passes(res.build, opts) if getattr(p, "shader", "") == "fptl_shade.comp"]
+        assert shade and all(p.defines["FPTL_TYPE_LOOPS"] == want for p in shade)
     assert loops.meta["stats"]["spilled_lights"] > 0
     for name, x in (("per-type loops", loops), ("one loop", one)):
         assert_exact({"brute": ref["brute"], "fptl": x}, name)
