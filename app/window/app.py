@@ -147,10 +147,8 @@ class LabWindow(mglw.WindowConfig):
             self.started = f"{candidates[0]}: the only technique that takes the given options"
             return
         a = self.args
-        key = json.dumps([a.scene, len(self.scene.lights), a.seed, a.distribution,
-                          list(self.renderer.size), self.renderer.limits.renderer, sorted(candidates),
-                          sorted(self.state.options.given.items()), probe.code_version(),
-                          probe.file_stamp(a.scene)], default=str)
+        key = probe.start_key(a, len(self.scene.lights), self.renderer.size,
+                              self.renderer.limits.renderer, candidates, self.state.options.given)
         got = None if a.reprobe else probe.remembered(key)
         if got and got.get("technique") in candidates:
             name, times, size = got["technique"], got.get("times", {}), tuple(got.get("size", self.renderer.size))

@@ -90,13 +90,14 @@ def fastest(renderer, candidates, opts_of, lights, cam, max_pixels: int = PROBE_
 
 
 ROOT = Path(__file__).resolve().parents[2]
-COST_SOURCES = ("glsl/*", "cpu_prep/*.py", "app/pipeline/*.py", "app/techniques/*.py")
+COST_SOURCES = ("glsl/*", "cpu_prep/*.py", "app/pipeline/*.py", "app/techniques/*.py", "scenes/*.py")
 
 
 @lru_cache(maxsize=None)
 def code_version(root: Path = ROOT) -> str:
     """A hash of the sources a frame's cost depends on (shaders, CPU stage, pipeline,
-    techniques): a remembered choice is only reused by the code that measured it."""
+    techniques, the scene builders and readers): a remembered choice is only reused by the
+    code that measured it."""
     h = hashlib.sha1()
     for pattern in COST_SOURCES:
         for p in sorted(root.glob(pattern)):
@@ -106,12 +107,21 @@ def code_version(root: Path = ROOT) -> str:
 
 def file_stamp(scene: str) -> list | None:
     """Size and modification time of a scene file (None for a builtin name): an edited
-    file probes again."""
+    file probes again.  Only the file named (not the meshes, npz or glTF buffers it
+    refers to: --reprobe after editing those)."""
     try:
         st = Path(scene).stat()
     except OSError:
         return None
     return [st.st_size, st.st_mtime_ns]
+
+
+def start_key(args, lights: int, size, renderer: str, candidates, given: dict) -> str:
+    """The remembered probe's key: scene (and its file's stamp), light draw, size, renderer,
+    candidate techniques, the options given, and the code version."""
+    return json.dumps([args.scene, lights, args.seed, args.distribution, list(size), renderer,
+                       sorted(candidates), sorted(given.items()), code_version(),
+                       file_stamp(args.scene)], default=str)
 
 
 def cache_file() -> Path:

@@ -1,5 +1,5 @@
 """The start-up probe's memory is only reused by the code and scene file that measured it."""
-from pathlib import Path
+from types import SimpleNamespace
 
 from app.window import probe
 
@@ -21,8 +21,20 @@ def test_code_version_follows_the_sources_a_frame_costs(tmp_path):
     probe.code_version.cache_clear()
 
 
-def test_code_version_of_the_lab_hashes_its_shaders():
-    assert any(probe.ROOT.glob("glsl/*.comp")) and len(probe.code_version()) == 16
+def test_start_key_changes_with_the_code_and_the_scene_file(tmp_path, monkeypatch):
+    scene = tmp_path / "s.json"
+    scene.write_text("{}")
+    args = SimpleNamespace(scene=str(scene), seed=0, distribution=None)
+    key = lambda: probe.start_key(args, 64, (320, 180), "llvmpipe", ["tree", "clustered"], {"tile": 32})
+    first = key()
+    assert key() == first
+    monkeypatch.setattr(probe, "code_version", lambda: "edited")
+    assert key() != first
+    monkeypatch.undo()
+    scene.write_text("{ }")
+    assert key() != first
+    args.scene = "city"                                   # a builtin: no file to stamp
+    assert probe.start_key(args, 64, (320, 180), "llvmpipe", ["clustered", "tree"], {"tile": 32}) == key()
 
 
 def test_file_stamp_changes_with_the_scene_file(tmp_path):
