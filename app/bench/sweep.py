@@ -14,7 +14,11 @@ the same study, scene, light count and frame, every technique and option value o
 their samples in rounds, one render of each configuration a round.  Taken back to back, a
 configuration's samples would share the machine's state of that moment (a busy core, a
 clock), and a drift between two configurations would pass for a difference beyond their
-spread; interleaved, both see the same drift, so each one's min-max holds it.
+spread; interleaved, both see the same drift, so each one's min-max holds it.  So every
+sample is a whole frame (G-buffer, CPU stage, untimed set-up passes and host steps, timed
+passes), since the configurations in between overwrite the set-up's buffers; only the CPU
+stage and the timed passes are measured, as before.  The log names each configuration as
+its read-back render starts, then the group's rounds of samples.
 """
 from __future__ import annotations
 
@@ -126,7 +130,11 @@ class Sweep:
             self.progress(first + k, total, job.describe())
             renderer.scene = self.scene(job.scene, job.lights)   # same geometry, these lights
             pending.append((job, *self.first_render(renderer, job)))
-        for _ in range(max((p[3] for p in pending), default=0)):
+        rounds = max((want - len(samples) for _, _, samples, want in pending), default=0)
+        if rounds > 0:
+            self.log.write(f"  timing: {rounds} interleaved round(s) of the {len(pending)} above\n")
+            self.log.flush()
+        for _ in range(rounds):
             for job, row, samples, want in pending:
                 if len(samples) < want:
                     renderer.scene = self.scene(job.scene, job.lights)
@@ -180,7 +188,7 @@ class Sweep:
             self.maps["exact"] = block_mean(res.contrib_count.astype(np.float64), block)
         if renderer is not None:
             from ..techniques import REGISTRY
-            try:         # the renderer still holds this technique's frame (measure renders it last)
+            try:         # the renderer still holds this technique's frame (first_render)
                 own = REGISTRY[job.technique].maps(res, renderer.read)
             except KeyError:
                 own = {}

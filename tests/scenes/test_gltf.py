@@ -594,6 +594,8 @@ def test_real_model_from_trimesh_exporter(capsys):
     assert lo[1] == pytest.approx(-0.1, abs=1e-5) and 2 < hi[1] < 8
     # trimesh writes baseColorFactor as 8-bit values / 255: the loader keeps them exactly
     assert all(all(round(a * 255) == pytest.approx(a * 255, abs=1e-9) for a in m.albedo) for m in s.meshes)
+    # rough dielectrics, a glossy sphere and a metal torus (make_lab_room.py)
+    assert sorted({(m.roughness, m.metallic) for m in s.meshes}) == [(0.3, 0.0), (0.4, 1.0), (0.8, 0.0)]
     L = s.lights
     assert L["type"].tolist() == [LIGHT_POINT] * 8 + [LIGHT_SPOT] * 2
     # bulbs: no range, cutoff radius against the brightest light (a spot, 40 cd, white)

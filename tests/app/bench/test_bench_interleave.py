@@ -2,6 +2,8 @@
 other, so a drift of the machine falls on all of them alike (app/bench/sweep.py)."""
 from types import SimpleNamespace
 
+import numpy as np
+
 from app.bench.plan import Job, plan
 from app.bench.presets import PRESETS
 from app.bench.sweep import Sweep, compared_groups
@@ -57,3 +59,38 @@ def test_a_warm_read_back_render_counts_as_a_sample():
     sweep.measure_group(SimpleNamespace(scene=None), group, 1, 2)
     assert sweep.calls == ["a", "b", "a", "b"]
     assert [r["samples"] for r in sweep.rows] == [3, 3]
+
+
+class FirstRenders(Sweep):
+    """The real first_render over fake frames: the warm-up rule and the heavy sample count."""
+
+    def __init__(self, evaluated):
+        super().__init__(PRESETS["quick"], log=SimpleNamespace(write=lambda s: None, flush=lambda: None))
+        self.evaluated = evaluated
+
+    def lights_for(self, job):
+        return np.zeros(4, [("type", np.uint8)])
+
+    def render(self, renderer, job, readback, samples=1):
+        return SimpleNamespace(meta={"cpu_ms": {"cull": 1.0}, "gpu_ms": {"gbuffer": 1.0, "shade": 2.0}},
+                               depth=np.ones((2, 2)), evaluated=np.full((2, 2), self.evaluated))
+
+    def keep_maps(self, job, res, renderer=None):
+        pass
+
+    def row(self, job, res, renderer):
+        return {}
+
+
+def test_the_first_render_of_a_configurations_programs_is_no_sample():
+    p = PRESETS["quick"]
+    sweep = FirstRenders(evaluated=1.0)
+    job = Job("path", "arena", 64, 0, "brute", REGISTRY["brute"].Options())
+    _, samples, want = sweep.first_render(None, job)
+    assert samples == [] and want == p.repeat                       # compiles: discarded
+    _, samples, want = sweep.first_render(None, Job("path", "arena", 64, 1, "brute", job.opts))
+    assert len(samples) == 1 and want == p.repeat                   # warm: counts
+    sweep.serial += 1                                               # a new renderer compiles anew
+    assert sweep.first_render(None, job)[1] == []
+    heavy = FirstRenders(evaluated=p.heavy_eval_pp + 1)
+    assert heavy.first_render(None, job)[2] == p.heavy_repeat
