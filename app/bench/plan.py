@@ -41,6 +41,12 @@ def technique_order() -> list[str]:
     return [ref] + [t for t in REGISTRY if t != ref]
 
 
+def study_scene(p: Preset, spec) -> str:
+    """Where an option's study runs: its own study scene when the run has it, else the
+    preset's study scene."""
+    return spec.study_scene if spec.study_scene in p.scenes else p.study_scene
+
+
 def plan(p: Preset, light_counts: Callable[[str, tuple], tuple[int, ...]]) -> list[Job]:
     """The preset's rendered jobs; `light_counts(scene, counts)` gives the light counts a
     scene is run with (a scene file has its own)."""
@@ -52,9 +58,9 @@ def plan(p: Preset, light_counts: Callable[[str, tuple], tuple[int, ...]]) -> li
         for n in light_counts(scene, p.lights):
             for f in range(p.frames):
                 jobs += [Job("path", scene, n, f, t, default[t]) for t in names]
-        if scene == p.study_scene:
-            n = light_counts(scene, (p.study_lights,))[0]
-            for study, (spec, techs) in option_studies().items():
+        n = light_counts(scene, (p.study_lights,))[0]
+        for study, (spec, techs) in option_studies().items():
+            if scene == study_scene(p, spec):
                 for v in spec.study:
                     jobs += [Job(study, scene, n, 0, t, default[t].with_(**{study: v}))
                              for t in techs]

@@ -38,7 +38,7 @@ from . import measure
 from .cpu import cpu_stage_samples, set_cpu_threads
 from .cutoff import cutoff_lights, unbounded_lights
 from .machine import machine_info
-from .plan import Job, plan
+from .plan import Job, plan, study_scene
 from .presets import Preset, preset_from_args
 
 
@@ -229,11 +229,12 @@ class Sweep:
     def _forget(self, job: Job) -> None:
         """Drop references no later job needs (full-resolution frames are ~50 MB each)."""
         p = self.p
-        study_n = self.light_counts(p.study_scene, (p.study_lights,))[0]
+        studies = {study_scene(p, spec) for spec, _ in option_studies().values()}
         for key in list(self.refs):
             scene, n, frame, cut = key
             keep = (scene == job.scene and n == job.lights and frame == job.frame) or \
-                   (scene == p.study_scene and frame == 0 and cut == 0 and n == study_n)
+                   (scene in studies and frame == 0 and cut == 0 and
+                    n == self.light_counts(scene, (p.study_lights,))[0])
             if not keep:
                 del self.refs[key]
 
@@ -248,9 +249,10 @@ class Sweep:
         out = [("cpu", p.cpu_scene, n, t, REGISTRY[t].Options())
                for n in self.light_counts(p.cpu_scene, p.cpu_lights) for t in REGISTRY]
         if tuple(p.cpu_size) != tuple(p.size) and p.study_scene in p.scenes:
-            n = self.light_counts(p.study_scene, (p.study_lights,))[0]
             for study, (spec, techs) in option_studies().items():
-                out += [(CPU_PREFIX + study, p.study_scene, n, t, REGISTRY[t].Options().with_(**{study: v}))
+                scene = study_scene(p, spec)
+                n = self.light_counts(scene, (p.study_lights,))[0]
+                out += [(CPU_PREFIX + study, scene, n, t, REGISTRY[t].Options().with_(**{study: v}))
                         for v in spec.study for t in techs]
         return out
 

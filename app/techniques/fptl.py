@@ -220,7 +220,8 @@ class Fptl(Technique):
                                       "slices), 3 coarse per cell", lo=0, hi=3, study=(0, 1, 2, 3))
         type_loops: bool = option(True, "fptl shading: the chapter's fixed sequence of per-type "
                                         "loops, each compiled for one light shape; off: one loop "
-                                        "whose light code branches on the type", study=(True, False))
+                                        "whose light code branches on the type", study=(True, False),
+                                  study_scene="corridor")     # all four shapes mixed
 
     def build(self, frame, opts):
         opts = self.resolve_options(opts)

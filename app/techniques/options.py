@@ -28,6 +28,7 @@ class OptionSpec:
     hi: float | None = None
     study: tuple = ()            # values a benchmark study sweeps (empty: not studied)
     power_of_two: bool = False
+    study_scene: str | None = None   # the builtin scene the study is about (else the preset's)
 
     @property
     def flag(self) -> str:
@@ -58,12 +59,14 @@ class OptionSpec:
 _declared = [0]     # declaration order: options list in the order they are written
 
 
-def option(default, help: str, *, lo=None, hi=None, study=(), power_of_two=False):
-    """A dataclass field that declares a technique option."""
+def option(default, help: str, *, lo=None, hi=None, study=(), power_of_two=False, study_scene=None):
+    """A dataclass field that declares a technique option.  `study_scene`: a builtin scene
+    whose content the option is about (e.g. mixed light shapes), where the benchmark runs
+    its study when the run has that scene (else in the preset's study scene)."""
     _declared[0] += 1
     return field(default=default, metadata={"option": dict(
-        help=help, lo=lo, hi=hi, study=tuple(study), power_of_two=power_of_two),
-        "order": _declared[0]})
+        help=help, lo=lo, hi=hi, study=tuple(study), power_of_two=power_of_two,
+        study_scene=study_scene), "order": _declared[0]})
 
 
 @dataclass(frozen=True)

@@ -34,3 +34,18 @@ def test_plan_covers_each_study_value_and_technique():
                 {k: v for k, v in default.items() if k != name}
     path = [j for j in jobs if j.study == "path"]
     assert len(path) == len(QUICK.scenes) * len(QUICK.lights) * QUICK.frames * len(REGISTRY)
+
+
+def test_a_study_runs_in_its_own_scene_when_the_run_has_it():
+    """fptl's type_loops is about mixed light shapes: its study runs in the corridor; a run
+    without the corridor studies it in the preset's study scene like every other option."""
+    from dataclasses import replace
+    counts = lambda scene, c: tuple(c)
+    spec = option_studies()["type_loops"][0]
+    assert spec.study_scene == "corridor" and "corridor" in QUICK.scenes
+    scenes = {j.scene for j in plan(QUICK, counts) if j.study == "type_loops"}
+    assert scenes == {"corridor"}
+    others = {j.scene for j in plan(QUICK, counts) if j.study not in ("path", "cutoff", "type_loops")}
+    assert others == {QUICK.study_scene}
+    no_corridor = replace(QUICK, scenes=("arena", "city"))
+    assert {j.scene for j in plan(no_corridor, counts) if j.study == "type_loops"} == {"arena"}
