@@ -18,6 +18,9 @@ class Preset:
     lights: tuple[int, ...]
     frames: int                   # frames sampled evenly along the camera-path loop
     repeat: int                   # timing samples of a configuration
+    study_repeat: int             # ... of an option study's (its one frame is all it has:
+                                  # with 3 samples, 1 in 10 comparisons of two identical
+                                  # configurations passes the min-max rule, with 5 under 1%)
     heavy_repeat: int             # samples of one evaluating > heavy_eval_pp lights a pixel
     heavy_eval_pp: float
     cutoffs: tuple[int, ...]      # light cutoff t = 1 / value, relative to the brightest light
@@ -36,14 +39,14 @@ class Preset:
 
 QUICK = Preset(
     name="quick", size=(320, 180), scenes=("arena", "city", "hangar", "gallery", "corridor"),
-    lights=(1024, 4096), frames=6, repeat=3, heavy_repeat=2, heavy_eval_pp=256.0,
+    lights=(1024, 4096), frames=6, repeat=3, study_repeat=5, heavy_repeat=2, heavy_eval_pp=256.0,
     cutoffs=(256, 1024, 4096, 16384, 65536), cutoff_scenes=("arena", "city"), cutoff_lights=2048,
     study_scene="arena", study_lights=4096, heat_scene="city", cpu_scene="arena",
     cpu_size=(1920, 1080), cpu_lights=(1024, 4096, 16384, 65536), cpu_repeat=5)
 
 FULL = Preset(
     name="full", size=(1920, 1080), scenes=("arena", "city", "hangar", "gallery", "corridor"),
-    lights=(8192, 16384, 32768, 65536), frames=64, repeat=5, heavy_repeat=2,
+    lights=(8192, 16384, 32768, 65536), frames=64, repeat=5, study_repeat=7, heavy_repeat=2,
     heavy_eval_pp=4096.0, cutoffs=(256, 1024, 4096, 16384, 65536), cutoff_scenes=("arena", "city"),
     cutoff_lights=16384, study_scene="arena", study_lights=32768, heat_scene="city",
     cpu_scene="arena", cpu_size=(1920, 1080),
@@ -84,7 +87,8 @@ def preset_from_args(args) -> Preset:
     if args.repeat is not None:
         if args.repeat < 1:
             raise UserError("--repeat must be >= 1")
-        ch.update(repeat=args.repeat, heavy_repeat=min(preset.heavy_repeat, args.repeat))
+        ch.update(repeat=args.repeat, study_repeat=args.repeat,
+                  heavy_repeat=min(preset.heavy_repeat, args.repeat))
     if args.cpu_lights:
         ch["cpu_lights"] = int_list(args.cpu_lights, "--cpu-lights")
     if args.cpu_size:

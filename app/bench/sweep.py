@@ -7,7 +7,8 @@ Timing: every configuration is rendered once with read-back (counters, image); t
 timing samples are taken.  The first render of a configuration's programs in the process is
 a warm-up (shader and numba compilation) whose timing is discarded; later ones count as a
 sample.  A configuration whose loop evaluates more than `heavy_eval_pp` lights a pixel gets
-`heavy_repeat` samples.  The sample counts depend only on the command.
+`heavy_repeat` samples, one of an option study (a single frame) `study_repeat`.  The sample
+counts depend only on the command.
 
 Samples are interleaved: the configurations that are compared with each other (one group:
 the same study, scene, light count and frame, every technique and option value of it) take
@@ -119,7 +120,8 @@ class Sweep:
         heavy = measure.evaluated_per_pixel(res) > self.p.heavy_eval_pp
         if job.technique == self.reference:
             self.refs[(job.scene, job.lights, job.frame, job.cutoff)] = res
-        want = self.p.heavy_repeat if heavy else self.p.repeat
+        want = self.p.heavy_repeat if heavy else \
+            self.p.repeat if job.study in ("path", "cutoff") else self.p.study_repeat
         return self.row(job, res, renderer), samples, want
 
     def measure_group(self, renderer, group: list[Job], first: int, total: int) -> None:
@@ -342,7 +344,8 @@ def sweep_main(argv) -> None:
     p.add_argument("--scenes", help="override: comma-separated builtin names or scene files")
     p.add_argument("--lights", help="override: comma-separated light counts")
     p.add_argument("--frames", type=int, help="override: frames along the camera path")
-    p.add_argument("--repeat", type=int, help="override: timing samples per configuration")
+    p.add_argument("--repeat", type=int,
+                   help="override: timing samples per configuration (option studies included)")
     p.add_argument("--cpu-lights", help="override: light counts of the CPU series")
     p.add_argument("--cpu-size", type=cli.parse_size, help="override: WxH of the CPU series")
     p.add_argument("--threads", type=int, help="numba threads of the CPU stage (default 1, "

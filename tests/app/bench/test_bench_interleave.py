@@ -94,3 +94,5 @@ def test_the_first_render_of_a_configurations_programs_is_no_sample():
     assert sweep.first_render(None, job)[1] == []
     heavy = FirstRenders(evaluated=p.heavy_eval_pp + 1)
     assert heavy.first_render(None, job)[2] == p.heavy_repeat
+    study = Job("tile", "arena", 64, 0, "tiled", REGISTRY["tiled"].Options())
+    assert sweep.first_render(None, study)[2] == p.study_repeat > p.repeat
