@@ -140,11 +140,8 @@ def render_all(scene, opts: dict | None = None, techniques=None, **kw) -> Result
     """{technique name: FrameResult} for every registered technique (or those named), each
     with the options of `opts` it declares."""
     from app.pipeline.renderer import Renderer
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         return render_on(r, opts, techniques, **kw)
-    finally:
-        r.release()
 
 
 def explain(results: dict, renderer, opts: dict | None, render_args: dict) -> dict:

@@ -446,6 +446,12 @@ class Renderer:
         result.nodes = flip(stats["nodes"])
         result.wave = flip(wave)
 
+    def __enter__(self) -> "Renderer":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
     def release(self) -> None:
         for b in self.buffers.values():
             b.release()

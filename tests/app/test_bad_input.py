@@ -353,8 +353,7 @@ def test_storage_limit_boundary_and_named_buffer(gl):
     from app.errors import UserError
     from app.pipeline.renderer import Renderer
     lim = glmod.limits()
-    r = Renderer(_tiny_scene())
-    try:
+    with Renderer(_tiny_scene()) as r:
         w = min(4096, lim.max_texture_size)
         r._check_size((w, lim.max_storage_block // (16 * w)))        # at the limit: fine
         with pytest.raises(UserError):
@@ -368,5 +367,3 @@ def test_storage_limit_boundary_and_named_buffer(gl):
         with pytest.raises(UserError):
             r.resize((w, lim.max_storage_block // (16 * w) + 1))
         assert r.size == (16, 8)
-    finally:
-        r.release()

@@ -39,16 +39,13 @@ class Lossy(Technique):
 
 def test_a_wrong_technique_is_explained(gl, rng, tmp_path):
     lights = random_lights(rng, 80, (-10, 0, -30), (10, 6, 5), radius=(1.0, 8.0))
-    r = Renderer(make_scene(lights, size=(40, 24)))
-    try:
+    with Renderer(make_scene(lights, size=(40, 24))) as r:
         ref = r.render(REGISTRY["brute"])
         bad = r.render(Lossy())
         assert check(ref, ref) is None
         m = check(bad, ref, r, Lossy(), REGISTRY["brute"], {}, tmp_path)
         x, row = m.first
         debug = r.render(REGISTRY["brute"], debug_pixel=(x, row), readback=False).debug_lights
-    finally:
-        r.release()
     assert m is not None and m.pixels > 0
     assert m.missing and all(i % 5 == 0 for i in m.missing) and not m.extra
     # the ids are the ones brute itself finds at that pixel, and the counts tell the same

@@ -66,8 +66,7 @@ def test_500_frames_keep_memory_and_gl_objects_flat(gl):
     scene = load_scene("gallery", seed=5)
     assert len(scene.path) > 0 and set(scene.lights["type"].tolist()) == {0, 1}
     names = list(REGISTRY)
-    r = Renderer(scene, SIZE)
-    try:
+    with Renderer(scene, SIZE) as r:
         checks = 0
         names_before = live_before = rss_before = None
         for f in range(FRAMES):
@@ -89,8 +88,6 @@ def test_500_frames_keep_memory_and_gl_objects_flat(gl):
                 checks += 1
         gc.collect()
         live_after, names_after, rss_after = live_objects(r), probe_names(gl), rss_bytes()
-    finally:
-        r.release()
     assert checks >= 4
     assert live_after == live_before, f"live GL objects grew: {live_before} -> {live_after}"
     created = {k: names_after[k] - names_before[k] - probe_cost[k] for k in names_after}
@@ -108,12 +105,9 @@ def test_renderer_create_release_cycles_keep_memory_flat(gl):
     scene = load_scene("gallery", lights=20, seed=5)
 
     def cycle():
-        r = Renderer(scene, SIZE)
-        try:
+        with Renderer(scene, SIZE) as r:
             for t in REGISTRY.values():
                 r.render(t, 0, readback=False)
-        finally:
-            r.release()
         del r
         gc.collect()
 
@@ -132,12 +126,9 @@ def test_repeated_renders_are_bit_identical_in_process(gl):
     scene = load_scene("gallery", lights=60, seed=9)
     runs = []
     for _ in range(2):
-        r = Renderer(scene, (48, 32))
-        try:
+        with Renderer(scene, (48, 32)) as r:
             runs.append({n: r.render(t, 7) for n, t in REGISTRY.items()})
             again = {n: r.render(t, 7) for n, t in REGISTRY.items()}
-        finally:
-            r.release()
         for n in REGISTRY:
             for k in FIELDS:
                 a, b = getattr(runs[-1][n], k), getattr(again[n], k)

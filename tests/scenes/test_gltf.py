@@ -329,11 +329,8 @@ def test_specular_materials_compile_and_render_exact(tmp_path, gl):
     """A glTF scene's GGX materials compile the specular code and keep techniques exact."""
     from app.pipeline.renderer import Renderer
     from tests.helpers import assert_exact, render_on
-    r = Renderer(load_scene(str(ROOM)), size=(160, 90))
-    try:
+    with Renderer(load_scene(str(ROOM)), size=(160, 90)) as r:
         res = render_on(r, techniques=["brute", "clustered", "fptl"])
-    finally:
-        r.release()
     assert "specular" in res["brute"].meta["features"]
     assert_exact(res, "lab_room")
 

@@ -11,8 +11,7 @@ from tests.helpers import make_scene, random_lights
 def test_floor_exact_lists_in_bands(gl, rng, monkeypatch):
     floor, reference = with_role("floor"), with_role("reference")
     scene = make_scene(random_lights(rng, 300, (-12, 0, -40), (12, 8, 5)), size=(61, 37))
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         ref = r.render(reference)
         one = r.render(floor)
         assert one.meta["stats"]["bands"] == 1
@@ -34,5 +33,3 @@ def test_floor_exact_lists_in_bands(gl, rng, monkeypatch):
         assert len(sampled.meta["samples"]) == 3
         assert all(set(s["gpu_ms"]) == {"gbuffer", "shade"} for s in sampled.meta["samples"])
         assert ref.contrib_count.sum() > 0
-    finally:
-        r.release()

@@ -26,8 +26,7 @@ def test_feature_set_follows_visible_types():
 def test_point_only_program_renders_like_the_general_one(gl, rng, monkeypatch):
     lights = random_lights(rng, 300, (-20, 0, -40), (20, 5, 5), spot_share=0.0)
     scene = make_scene(lights)
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         special = r.render(REGISTRY["hybrid"])
         text = r.programs.sources
         assert special.meta["features"] == ["point"]
@@ -40,8 +39,6 @@ def test_point_only_program_renders_like_the_general_one(gl, rng, monkeypatch):
         assert np.array_equal(general.contrib_count, special.contrib_count)
         assert np.allclose(general.image, special.image, rtol=1e-5, atol=1e-7)
         assert special.contrib_count.sum() > 0
-    finally:
-        r.release()
 
 
 def test_specular_code_only_where_a_material_has_it():
@@ -52,16 +49,13 @@ def test_specular_code_only_where_a_material_has_it():
 
 def test_matte_scene_renders_alike_with_and_without_specular_code(gl, rng, monkeypatch):
     lights = random_lights(rng, 200, (-20, 0, -40), (20, 5, 5))
-    r = Renderer(make_scene(lights, size=(64, 40)))
-    try:
+    with Renderer(make_scene(lights, size=(64, 40))) as r:
         matte = r.render(REGISTRY["clustered"])
         assert "specular" not in matte.meta["features"]
         real = features.feature_set
         monkeypatch.setattr(features, "feature_set", lambda t, s=False: real(t, True))
         general = r.render(REGISTRY["clustered"])
         assert "specular" in general.meta["features"]
-    finally:
-        r.release()
     assert np.array_equal(general.image, matte.image)
     assert matte.contrib_count.sum() > 0
 
@@ -76,11 +70,8 @@ def test_glossy_surfaces_add_highlights_not_lights(gl, rng):
         meshes = floor_and_boxes()
         for m in meshes:
             m.roughness, m.metallic = rough, 0.0
-        r = Renderer(make_scene(lights, meshes=meshes, size=(64, 40)))
-        try:
+        with Renderer(make_scene(lights, meshes=meshes, size=(64, 40))) as r:
             out[rough] = r.render(REGISTRY["brute"])
-        finally:
-            r.release()
     a, b = out[0.0], out[0.3]
     assert "specular" in b.meta["features"] and "specular" not in a.meta["features"]
     assert np.array_equal(a.contrib_hash, b.contrib_hash)

@@ -39,12 +39,9 @@ def oracle(scene, renderer, lights):
 def test_brute_matches_float64_oracle(gl, rng, size):
     lights = random_lights(rng, 150, (-15, -1, -35), (15, 6, 8), radius=(0.5, 8.0))
     scene = make_scene(lights, size=size)
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         res = r.render(REGISTRY["brute"])
         count, hashes, near = oracle(scene, r, lights)
-    finally:
-        r.release()
     ok = ~near
     assert res.contrib_count.shape == (size[1], size[0])
     assert np.array_equal(res.contrib_count[ok], count[ok])
@@ -56,9 +53,6 @@ def test_brute_matches_float64_oracle(gl, rng, size):
 def test_image_rows_start_at_the_top(gl, rng):
     """The floor is at the bottom of the image, the sky (depth 0) at the top."""
     scene = make_scene(random_lights(rng, 10, (-5, 0, -10), (5, 2, 0)), size=(64, 48))
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         res = r.render(REGISTRY["brute"])
-    finally:
-        r.release()
     assert (res.depth[-1] > 0).all() and (res.depth[0] == 0).any()

@@ -40,12 +40,9 @@ def test_camera_path_frames_are_exact(gl):
     scene.resolution = (160, 90)
     from app.pipeline.renderer import Renderer
     from app.techniques import REGISTRY
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         for frame in (5, 17, 40):
             assert_exact({n: r.render(t, frame, frames=48) for n, t in REGISTRY.items()}, f"frame {frame}")
-    finally:
-        r.release()
 
 
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -182,12 +182,9 @@ def test_light_aabbs_are_conservative_for_every_shape(gl, seed):
                       extent=(0.3, 4.0)),
         random_shapes(rng, 20, (-60, -5, -190), (60, 30, -120), radius=(2.0, 20.0))])
     scene = make_scene(lights, size=(96, 64), camera=CAMERA)
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         res = render(r)
         aabbs = r.read("fptl_aabbs").view(fptl.FPTL_AABB)
-    finally:
-        r.release()
     b = res.build
     cam = b.frame.camera
     view = cam.view_from_world
@@ -225,12 +222,9 @@ def test_narrow_spot_aabbs_are_tighter_than_their_spheres(gl):
     L["cos_outer"] = np.cos(np.radians(rng.uniform(4, 12, n)))
     L["cos_inner"] = L["cos_outer"]
     scene = make_scene(L, size=(128, 96), camera=CAMERA)
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         res = render(r)
         aabbs = r.read("fptl_aabbs").view(fptl.FPTL_AABB)
-    finally:
-        r.release()
     rect = res.build.lights.rect                        # the CPU's rectangles (sphere ∩ pyramid)
     from cpu_prep.bounds import screen_rects
     cam = res.build.frame.camera
@@ -252,14 +246,11 @@ def test_narrow_spot_aabbs_are_tighter_than_their_spheres(gl):
 def test_fine_lists_are_exactly_the_lights_of_the_tile_in_class_order(gl, n):
     rng = np.random.default_rng(n)
     scene = shapes_scene(rng, n, size=(80, 48))
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         sets, _ = perfect_tile_sets(r, 5, 3)
         res = render(r)
         lists, cells = read_lists(r, res)
         ref = render_on(r, techniques=["brute"])
-    finally:
-        r.release()
     assert_exact({"brute": ref["brute"], "fptl": res}, f"{n} shapes")
     key = class_key(res.build)
     for t, want in sets.items():
@@ -278,11 +269,8 @@ def test_per_tile_counts_for_heat_maps(gl, rng):
     """build.data['tile_counts'] (image order) and the per-pixel evaluated counts agree: in
     the fine per-tile variant every covered pixel evaluates its tile's pruned list."""
     scene = shapes_scene(rng, 200, size=(80, 48))
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         res = render(r)
-    finally:
-        r.release()
     t = res.build.data["tile_counts"]
     assert t["coarse"].shape == t["pruned"].shape == (3, 5)
     assert (t["coarse"] >= t["pruned"]).all()
@@ -320,13 +308,10 @@ def crowd(n: int, radius=40.0, seed=0):
 def test_coarse_past_64_and_pruned_past_24_spill_and_stay_exact(gl):
     n = 150
     L = crowd(n)
-    r = Renderer(make_scene(L, size=(48, 32), camera=CAMERA))
-    try:
+    with Renderer(make_scene(L, size=(48, 32), camera=CAMERA)) as r:
         res = render(r)
         lists, cells = read_lists(r, res)
         ref = render_on(r, techniques=["brute"])
-    finally:
-        r.release()
     assert_exact({"brute": ref["brute"], "fptl": res}, "crowded tiles")
     st = res.meta["stats"]
     covered = res.depth > 0
@@ -352,12 +337,9 @@ def test_the_spill_pool_bound_holds_in_every_variant(gl, variant):
     L = np.concatenate([crowd(90, radius=10.0, seed=variant),
                         random_shapes(rng, 60, eye - 1.5, eye + 1.5, radius=(0.3, 3.0)),
                         random_shapes(rng, 150, (-14, -1, -34), (14, 7, 6))])
-    r = Renderer(make_scene(L, size=(64, 48), camera=CAMERA))
-    try:
+    with Renderer(make_scene(L, size=(64, 48), camera=CAMERA)) as r:
         res = render(r, {"fptl_variant": variant})
         ref = render_on(r, techniques=["brute"])
-    finally:
-        r.release()
     assert_exact({"brute": ref["brute"], "fptl": res}, fptl.VARIANTS[variant])
     st = res.meta["stats"]
     assert st["pool_full_cells"] == 0 and st["spilled_lights"] > 0
@@ -369,13 +351,10 @@ def test_a_short_spill_pool_flags_cells_that_shade_every_light(gl, monkeypatch, 
     monkeypatch.setattr(fptl, "SPILL_MAX_ENTRIES", capacity)
     rng = np.random.default_rng(capacity)
     L = np.concatenate([crowd(60, radius=9.0), random_shapes(rng, 100, (-14, -1, -34), (14, 7, 6))])
-    r = Renderer(make_scene(L, size=(64, 48), camera=CAMERA))
-    try:
+    with Renderer(make_scene(L, size=(64, 48), camera=CAMERA)) as r:
         res = render(r)
         _, cells = read_lists(r, res)
         ref = render_on(r, techniques=["brute"])
-    finally:
-        r.release()
     assert_exact({"brute": ref["brute"], "fptl": res}, f"spill pool of {capacity}")
     st = res.meta["stats"]
     full = (cells["flags"] & fptl.FLAG_POOL_FULL) != 0
@@ -400,14 +379,11 @@ def test_more_than_1024_visible_lights_take_16_bit_indices(gl, n, bits):
     L["radius"][:8], L["type"][:8] = 30.0, LIGHT_POINT
     L["position"][8] = in_view(rng, 1, 48 / 32, depth=(45.0, 45.0))[0]    # the last in depth
     L["radius"][8], L["type"][8] = 50.0, LIGHT_POINT                      # order, lights much
-    r = Renderer(make_scene(L, size=(48, 32), camera=CAMERA))
-    try:
+    with Renderer(make_scene(L, size=(48, 32), camera=CAMERA)) as r:
         sets, _ = perfect_tile_sets(r, 3, 2)
         res = render(r)
         lists, _ = read_lists(r, res)
         ref = render_on(r, techniques=["brute"])
-    finally:
-        r.release()
     assert res.meta["stats"]["visible_lights"] == n, "the case needs every light visible"
     assert res.meta["stats"]["index_bits"] == bits
     assert res.meta["bytes"]["fptl_lists"] == 6 * fptl.list_words(bits) * 4
@@ -423,14 +399,11 @@ def test_32_bit_indices(gl, monkeypatch):
     monkeypatch.setattr(fptl, "INDEX16_MAX", 8)
     rng = np.random.default_rng(32)
     scene = shapes_scene(rng, 200, size=(48, 32))
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         sets, _ = perfect_tile_sets(r, 3, 2)
         res = render(r)
         lists, _ = read_lists(r, res)
         ref = render_on(r, techniques=["brute"])
-    finally:
-        r.release()
     assert res.meta["stats"]["index_bits"] == 32
     assert_exact({"brute": ref["brute"], "fptl": res}, "32-bit indices")
     for t, want in sets.items():
@@ -444,8 +417,7 @@ def test_scan_windows_give_the_same_lists(gl, monkeypatch):
     n = 300
     L = np.concatenate([crowd(70, radius=12.0), random_shapes(np.random.default_rng(3), n - 70,
                                                               (-14, -1, -34), (14, 7, 6))])
-    r = Renderer(make_scene(L, size=(48, 32), camera=CAMERA))
-    try:
+    with Renderer(make_scene(L, size=(48, 32), camera=CAMERA)) as r:
         one = render(r)
         lists_one, cells_one = read_lists(r, one)
         monkeypatch.setattr(limits, "DISPATCH_WINDOW", 128)
@@ -455,8 +427,6 @@ def test_scan_windows_give_the_same_lists(gl, monkeypatch):
         many = render(r)
         lists_many, cells_many = read_lists(r, many)
         ref = render_on(r, techniques=["brute"])
-    finally:
-        r.release()
     assert len(many.build.data["scans"]) == -(-many.meta["stats"]["visible_lights"] // 64) > 2
     assert_exact({"brute": ref["brute"], "fptl": many}, "scan windows")
     assert lists_one == lists_many
@@ -471,12 +441,9 @@ def test_variants_are_exact_and_ordered(gl, rng):
     """coarse-only evaluates the coarse lists (>= the fine ones at every pixel); per-cell
     lists are subsets of the tile's (<= at every pixel); every variant exact."""
     scene = shapes_scene(rng, 300, size=(80, 48))
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         res = {v: render(r, {"fptl_variant": v}) for v in range(4)}
         ref = render_on(r, techniques=["brute"])
-    finally:
-        r.release()
     for v, x in res.items():
         assert_exact({"brute": ref["brute"], "fptl": x}, fptl.VARIANTS[v])
         assert x.meta["stats"]["variant"] == fptl.VARIANTS[v]
@@ -498,12 +465,9 @@ def test_per_type_loops_shade_like_the_one_loop(gl):
     rng = np.random.default_rng(7)
     L = np.concatenate([crowd(40, radius=9.0), random_shapes(rng, 200, (-14, -1, -34), (14, 7, 6))])
     assert len(np.unique(L["type"])) == 4
-    r = Renderer(make_scene(L, size=(64, 48), camera=CAMERA))
-    try:
+    with Renderer(make_scene(L, size=(64, 48), camera=CAMERA)) as r:
         loops, one = render(r), render(r, {"type_loops": False})
         ref = render_on(r, techniques=["brute"])
-    finally:
-        r.release()
     assert loops.meta["options"]["type_loops"] and not one.meta["options"]["type_loops"]
     for res, want in ((loops, 1), (one, 0)):
         opts = T.resolve_options(res.meta["options"])
@@ -522,11 +486,8 @@ def test_gallery_narrow_spots_near_the_floor(gl):
     from scenes import load_scene
     scene = load_scene("gallery")
     scene.resolution = (240, 136)
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         res = render_on(r, techniques=["brute", "tiled", "fptl", "perfect"])
-    finally:
-        r.release()
     assert_exact(res, "gallery")
     covered = res["brute"].depth > 0
     ev = {n: float(x.evaluated[covered].mean()) for n, x in res.items()}

@@ -129,8 +129,7 @@ def test_passes_really_run(gl, rng, throwaway):
     """Each declared pass matters: a prepass mark the shading pass does not want, or a
     raster pass that draws nothing, leaves every pixel unlit."""
     scene = _scene(rng)
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         assert r.render(throwaway).contrib_count.sum() > 0
 
         class WrongMark(Throwaway):
@@ -148,8 +147,6 @@ def test_passes_really_run(gl, rng, throwaway):
         for t in (WrongMark(), NoCover()):
             res = r.render(t)
             assert res.contrib_count.sum() == 0 and res.evaluated.sum() == 0, type(t).__name__
-    finally:
-        r.release()
 
 
 def test_undeclared_buffer_fails_to_compile_in_one_line(gl, rng):
@@ -162,12 +159,9 @@ def test_undeclared_buffer_fails_to_compile_in_one_line(gl, rng):
             return ps[:2] + [Pass("shade", shade.shader, reads=("lights", "keep"),
                                   writes=shade.writes, groups=shade.groups, defines=shade.defines)]
 
-    r = Renderer(_scene(rng))
-    try:
+    with Renderer(_scene(rng)) as r:
         with pytest.raises(ShaderError) as e:
             r.render(Sloppy())
-    finally:
-        r.release()
     msg = str(e.value)
     assert "\n" not in msg
     assert "pass 'shade'" in msg and "'covered'" in msg and "tw_shade.comp:" in msg, msg
@@ -180,13 +174,10 @@ def test_reading_a_buffer_nothing_provides_is_an_error(gl, rng):
         def passes(self, build, opts):
             return super().passes(build, opts)[2:]      # no prepass, no raster pass
 
-    r = Renderer(_scene(rng))
-    try:
+    with Renderer(_scene(rng)) as r:
         r.render(Throwaway())           # the buffers exist from an earlier frame ...
         with pytest.raises(UserError, match="reads buffer 'keep', which nothing in this frame"):
             r.render(Stale())           # ... but this frame provides none of them
-    finally:
-        r.release()
 
 
 def test_options_belong_to_their_technique(throwaway):

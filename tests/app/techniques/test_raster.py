@@ -198,14 +198,11 @@ def test_odd_sizes_every_variant(gl, size):
     rng = np.random.default_rng(sum(size))
     L = random_shapes(rng, 120, (-10, -1, -30), (10, 6, 5))
     scene = make_scene(L, size=size)
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         for opts in (dict(raster_variant=3), dict(raster_variant=1, bit_tile=5), dict(stencil=True),
                      dict(cluster=True, raster_variant=3, cluster_tile=5)):
             res = render_on(r, opts, techniques=["brute", "raster"])
             assert_exact(res, f"size {size} {opts}")
-    finally:
-        r.release()
 
 
 def _bits(r, lights, opts):
@@ -228,16 +225,13 @@ def test_early_depth_rejects_nothing_the_shader_keeps(gl, variant):
                       extent=(1.0, 500.0), length=(0.0, 500.0)),
         random_shapes(rng, 10, (-1, 2, 9), (1, 4, 11), radius=(1.0, 3000.0), extent=(1.0, 1e3))])
     scene = make_scene(L, meshes=meshes, size=(80, 48), camera=cam, max_depth=1e4)
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         opts = dict(raster_variant=variant)
         hw, sw = _bits(r, L, opts), _bits(r, L, dict(opts, early_depth=False))
         assert np.array_equal(hw, sw), f"{int((sw & ~hw).astype(bool).sum())} words lose bits"
         assert hw.any()
         res = render_on(r, opts, techniques=["brute", "raster"])
         assert_exact(res, "depth precision")
-    finally:
-        r.release()
 
 
 def test_lights_behind_walls_mark_nothing(gl):
@@ -267,13 +261,10 @@ def test_variant_counters(gl):
     per marking fragment; the bits are a superset of what the pixel-exact stencil marks."""
     rng = np.random.default_rng(9)
     L = random_shapes(rng, 200, (-14, -1, -34), (14, 7, 6), radius=(1.0, 6.0))
-    r = Renderer(make_scene(L, size=(96, 64)))
-    try:
+    with Renderer(make_scene(L, size=(96, 64))) as r:
         st = {v: r.render(RASTER, 0, RASTER.resolve_options(dict(raster_variant=v))).meta["stats"]
               for v in range(4)}
         stencil = r.render(RASTER, 0, RASTER.resolve_options(dict(stencil=True))).meta["stats"]
-    finally:
-        r.release()
     assert st[1]["raster_fragments"] < st[0]["raster_fragments"]
     assert st[0]["raster_atomics"] == st[0]["raster_pixel_marks"] > 0
     assert st[2]["raster_atomics"] < st[0]["raster_atomics"]
@@ -303,10 +294,7 @@ def test_builtin_scenes_every_mode(gl, name):
     from scenes import load_scene
     scene = load_scene(name, seed=1)
     scene.resolution = (480, 270)
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         for opts in (dict(cluster=True), dict(raster_variant=3), dict(stencil=True, zbin_variant=1)):
             res = render_on(r, dict(opts, raster_stats=False), techniques=["brute", "raster"])
             assert_exact(res, f"{name} {opts}")
-    finally:
-        r.release()

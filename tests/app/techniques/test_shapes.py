@@ -36,12 +36,9 @@ def oracle(renderer, lights, camera=CAMERA):
 def test_brute_matches_the_float64_light_model_for_every_shape(gl):
     rng = np.random.default_rng(11)
     lights = random_shapes(rng, 240, (-14, -1, -34), (14, 7, 6))
-    r = Renderer(make_scene(lights, size=(96, 64)))
-    try:
+    with Renderer(make_scene(lights, size=(96, 64))) as r:
         res = r.render(REGISTRY["brute"])
         count, hashes, near, inside = oracle(r, lights)
-    finally:
-        r.release()
     ok = ~near
     assert ok.mean() > 0.8
     assert np.array_equal(res.contrib_count[ok], count[ok])
@@ -79,12 +76,9 @@ def test_eye_inside_and_shapes_across_the_near_plane(gl, kind):
                           shares=[float(i == kind) for i in range(4)])
     lights = np.concatenate([L, near, floor])
     scene = make_scene(lights, size=(64, 40))
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         res = render_on(r)
         count, hashes, nb, _ = oracle(r, lights)
-    finally:
-        r.release()
     assert_exact(res, f"{LIGHT_TYPES[kind]} around the eye")
     ok = ~nb
     assert np.array_equal(res["brute"].contrib_count[ok], count[ok])
@@ -130,14 +124,11 @@ def test_specialised_programs_compile_only_the_shapes_present():
 def test_specialised_program_renders_like_the_general_one(gl, monkeypatch):
     rng = np.random.default_rng(3)
     lights = random_shapes(rng, 200, (-14, -1, -34), (14, 7, 6), shares=(0, 0, 1, 1))
-    r = Renderer(make_scene(lights, size=(64, 40)))
-    try:
+    with Renderer(make_scene(lights, size=(64, 40))) as r:
         special = r.render(REGISTRY["clustered"])
         assert special.meta["features"] == ["capsule", "box"]
         monkeypatch.setattr(features, "feature_set", lambda types, specular=False: LIGHT_TYPES)
         general = r.render(REGISTRY["clustered"])
-    finally:
-        r.release()
     assert general.meta["features"] == list(LIGHT_TYPES)
     assert np.array_equal(general.contrib_hash, special.contrib_hash)
     assert np.allclose(general.image, special.image, rtol=1e-5, atol=1e-7)

@@ -12,8 +12,7 @@ from scenes import load_scene
 def test_native_and_emulated_waves_render_identically(gl):
     assert glmod.limits().native_ballot, "driver lacks GL_ARB_shader_ballot: native path untested"
     scene = load_scene("arena", lights=2048, seed=4)
-    r = Renderer(scene, (160, 90))
-    try:
+    with Renderer(scene, (160, 90)) as r:
         wavy = [n for n in REGISTRY if takes(n, "native_wave")]
         assert wavy
         for name in wavy:
@@ -29,17 +28,12 @@ def test_native_and_emulated_waves_render_identically(gl):
                     continue
                 assert np.array_equal(getattr(emu, field), getattr(nat, field)), field
             assert np.array_equal(emu.image, nat.image)
-    finally:
-        r.release()
 
 
 def test_hybrid_reports_list_tree_and_mixed_waves(gl):
     scene = load_scene("city", lights=8192, seed=1)
-    r = Renderer(scene, (320, 180))
-    try:
+    with Renderer(scene, (320, 180)) as r:
         res = r.render(REGISTRY["hybrid"])
-    finally:
-        r.release()
     cases = res.wave["case_bits"] & 3
     assert {1, 2, 3} <= set(np.unique(cases).tolist()), np.unique(cases)
     shared = (res.wave["case_bits"] & 4) != 0
@@ -58,8 +52,7 @@ def test_scalarized_cells_walk_every_distinct_cell(gl):
     each distinct cell once with all its entries, so it runs at least the longest lane's
     loop plus one round per cell (the slides: performance highly variable)."""
     scene = load_scene("city", lights=4096, seed=1)
-    r = Renderer(scene, (96, 54))
-    try:
+    with Renderer(scene, (96, 54)) as r:
         plain = r.render(REGISTRY["clustered"], 0, {})
         for native in (False, True):
             sc = r.render(REGISTRY["clustered"], 0, {"scalarize": True, "native_wave": native})
@@ -68,8 +61,6 @@ def test_scalarized_cells_walk_every_distinct_cell(gl):
             busy = plain.wave["iterations"] > 0
             assert busy.any()
             assert (sc.wave["iterations"][busy] > plain.wave["iterations"][busy]).all()
-    finally:
-        r.release()
 
 
 def test_hybrid_counts_what_listing_2_chose(gl):
@@ -78,13 +69,10 @@ def test_hybrid_counts_what_listing_2_chose(gl):
     counters of the meta come from the waves themselves; the general traversal visits the
     same nodes as the specialised paths."""
     scene = load_scene("city", lights=8192, seed=1)
-    r = Renderer(scene, (96, 54))
-    try:
+    with Renderer(scene, (96, 54)) as r:
         lists = r.render(REGISTRY["hybrid"], 0, {"radius_scale": 1e-3})
         spec = r.render(REGISTRY["hybrid"], 0, {})
         general = r.render(REGISTRY["hybrid"], 0, {"specialised": False})
-    finally:
-        r.release()
     st = lists.meta["stats"]
     assert st["trees"] == 0 and st["lists"] > 0
     assert set(np.unique(lists.wave["case_bits"] & 3).tolist()) <= {0, 1}

@@ -133,16 +133,13 @@ def test_every_variant_is_exact_on_builtin_scenes(gl, name, distribution):
     """test_exactness.py renders the default variant on every builtin scene; here all four
     (and the scalarized ones on the native wave too), at a smaller size."""
     scene = load_scene(name, lights=8192, seed=1, distribution=distribution)
-    r = Renderer(scene, (96, 54))
-    try:
+    with Renderer(scene, (96, 54)) as r:
         ref = r.render(REGISTRY["brute"])
         assert ref.contrib_count.sum() > 0
         for v in range(4):
             for native in (False, True) if variant_flags(v)[1] else (False,):
                 got = r.render(ZBIN, 0, {"zbin_variant": v, "native_wave": native})
                 assert_exact({"brute": ref, "zbin": got}, f"{name}/{distribution} variant {v} native {native}")
-    finally:
-        r.release()
 
 
 @settings(max_examples=10, deadline=None, derandomize=True, database=None,
@@ -156,15 +153,12 @@ def test_random_scenes_every_variant(gl, seed, n, fov, w, h, bit_tile, zbins, ne
     lights = random_lights(rng, n, (-25, -2, -45), (25, 10, 12), radius=(0.05, 12.0))
     cam = Camera((0.0, 2.0, 8.0), (rng.uniform(-3, 3), 1.0, -20.0), fov_y_deg=fov, near=near, far=300.0)
     scene = make_scene(lights, size=(w, h), camera=cam)
-    r = Renderer(scene)
-    try:
+    with Renderer(scene) as r:
         res = {"brute": r.render(REGISTRY["brute"])}
         for v in range(4):
             res[f"zbin{v}"] = r.render(ZBIN, 0, {"zbin_variant": v, "bit_tile": bit_tile, "zbins": zbins,
                                                  "native_wave": native, "printed_mask": printed})
         assert_exact(res, f"seed {seed}")
-    finally:
-        r.release()
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
