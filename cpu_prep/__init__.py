@@ -27,3 +27,11 @@ def _cache_dir() -> Path:
 if not os.environ.get("NUMBA_CACHE_DIR"):
     numba.config.CACHE_DIR = str(_cache_dir())
 numba.set_num_threads(max(1, min(int(os.environ.get("LAB_CPU_THREADS", "1")), numba.config.NUMBA_NUM_THREADS)))
+
+
+def parallel() -> bool:
+    """Whether the CPU stage runs its parallel kernels (LAB_CPU_THREADS / set_num_threads > 1).
+    With one thread every step calls a plain serial kernel: a parallel=True kernel run on
+    one thread still pays numba's parallel-region entry and compiles its loop as an
+    outlined gufunc."""
+    return numba.get_num_threads() > 1

@@ -279,15 +279,15 @@ def shape_bounds(t, px, py, pz, dx, dy, dz, rx, ry, rz, radius, cos_outer, lengt
     box's corners)."""
     x0, x1, y0, y1 = pixel_rect(cx, cy, cz, r, near, tan_x, tan_y, width, height)
     d0, d1 = -cz - r, -cz + r
-    if t == LIGHT_SPOT and cos_outer >= WIDE_CONE_COS:
+    if sphere_only(t, cos_outer, length):
+        return x0, x1, y0, y1, d0, d1
+    if t == LIGHT_SPOT:
         a0, a1, b0, b1, e0, e1 = spot_pyramid(px, py, pz, dx, dy, dz, radius, cos_outer,
                                               near, tan_x, tan_y, width, height)
-    elif t == LIGHT_CAPSULE and length > 0.0:
+    elif t == LIGHT_CAPSULE:
         a0, a1, b0, b1, e0, e1 = capsule_pieces(px, py, pz, dx, dy, dz, radius, length,
                                                 near, tan_x, tan_y, width, height)
-    elif t == LIGHT_BOX:
+    else:
         a0, a1, b0, b1, e0, e1 = box_bounds(px, py, pz, dx, dy, dz, rx, ry, rz, ex, ey, ez,
                                             near, tan_x, tan_y, width, height)
-    else:
-        return x0, x1, y0, y1, d0, d1
     return max(x0, a0), min(x1, a1), max(y0, b0), min(y1, b1), max(d0, e0), min(d1, e1)

@@ -12,11 +12,11 @@ import time
 
 import numpy as np
 
-from . import grid as gridmod, lights as lightsmod, limits
+from . import grid as gridmod, lights as lightsmod
 from .arena import Arena
 from .camera import FrameCamera
 from .lights import PreparedLights
-from .limits import MAX_STORAGE_BYTES, LimitError
+from .limits import check_buffer
 
 __all__ = ["StageTimes", "PreparedLights", "prepare_lights", "bin_cells", "check_buffer"]
 
@@ -51,6 +51,3 @@ def bin_cells(pl: PreparedLights, cam: FrameCamera, grid: gridmod.Grid, times: S
         offsets, entries, _ = gridmod.bin_rects(grid, pl.rect, pl.depth_lo, pl.depth_hi, arena)
     return offsets, entries
 
-
-def check_buffer(name: str, nbytes: int) -> None:
-    limits.check_buffer(name, nbytes)

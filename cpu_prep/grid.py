@@ -35,7 +35,6 @@ import numba
 import numpy as np
 
 from .arena import Arena, empty, zeros
-from .bounds import pixel_rect
 from .camera import FrameCamera
 from .intrinsics import bits_to_f64
 from .limits import SLICE_DEPTH_REL_MARGIN, check_buffer
@@ -202,15 +201,6 @@ def _boxes_from_rects(rect, d_lo, d_hi, tile, tiles_x, tiles_y, table):
     return out
 
 
-@numba.njit(cache=True, nogil=True, parallel=True, error_model="numpy")
-def _light_boxes(center, radius, near, tan_x, tan_y, width, height,
-                 tile, tiles_x, tiles_y, table, out):
-    for i in numba.prange(center.shape[0]):
-        cx, cy, cz, r = center[i, 0], center[i, 1], center[i, 2], radius[i]
-        x0, x1, y0, y1 = pixel_rect(cx, cy, cz, r, near, tan_x, tan_y, width, height)
-        out[i] = _box(x0, x1, y0, y1, -cz - r, -cz + r, tile, tiles_x, tiles_y, table)
-
-
 def _grid_args(grid: Grid):
     return (float(grid.tile), grid.tiles_x, grid.tiles_y,
             _table_for(grid.slice_scale, grid.slice_bias, grid.slices))
@@ -239,14 +229,6 @@ def _rect_boxes(rect, d_lo, d_hi, tile, tiles_x, tiles_y, table, out):
             out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = 1, 0, 1, 0, 1, 0
             continue
         out[i] = _box(x0, x1, y0, y1, lo, hi, tile, tiles_x, tiles_y, table)
-
-
-def light_boxes(grid: Grid, cam: FrameCamera, center, radius, arena: Arena | None = None) -> np.ndarray:
-    """(N, 6) boxes of culling spheres: Mara-McGuire rectangle and depth range per light."""
-    out = empty(arena, "boxes", (len(center), 6), np.int32)
-    _light_boxes(center, radius, cam.near, cam.tan_half_x, cam.tan_half_y,
-                 float(cam.width), float(cam.height), *_grid_args(grid), out)
-    return out
 
 
 @numba.njit(inline="always")

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from . import tree as treemod
+from . import parallel, tree as treemod
 from .arena import Arena
 from .grid import Grid
 
@@ -63,7 +63,7 @@ def choose_trees(grid: Grid, offsets, entries, depth_lo, depth_hi, max_depth: fl
                  radius_scale: float = 1.0) -> np.ndarray:
     lo_s, hi_s = cell_depth_ranges(grid, max_depth)
     out = np.empty(len(offsets) - 1, np.bool_)
-    kernel = _choose2 if numba.get_num_threads() > 1 else _choose1
+    kernel = _choose2 if parallel() else _choose1
     kernel(offsets, entries, depth_lo, depth_hi, lo_s, hi_s, grid.slices, float(radius_scale), out)
     return out
 
@@ -73,7 +73,7 @@ def plan_and_build(grid: Grid, offsets, entries, depth_lo, depth_hi, max_depth: 
                    arena: Arena | None = None):
     """Listing 2's choice and the cells' trees (a list: a one-leaf tree): (cell_ranges,
     nodes, leaves per cell, is_tree), as choose_trees() then tree.build_trees() give them."""
-    if numba.get_num_threads() > 1:
+    if parallel():
         is_tree = choose_trees(grid, offsets, entries, depth_lo, depth_hi, max_depth, radius_scale)
         ranges, nodes, leaves = treemod.build_trees(offsets, entries, depth_lo, depth_hi, is_tree,
                                                     lights_per_leaf, max_leaves, arena)

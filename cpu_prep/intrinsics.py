@@ -57,14 +57,6 @@ def prefetch(typingctx, arr, idx):
 
 
 @intrinsic
-def prefetch_write(typingctx, arr, idx):
-    """Prefetch for writing every cache line of arr[idx], a 1D array."""
-    if not isinstance(arr, types.Array) or arr.ndim != 1 or not isinstance(idx, types.Integer):
-        return None
-    return types.void(arr, idx), _prefetch_codegen(1)
-
-
-@intrinsic
 def f32_to_bits(typingctx, x):
     """The IEEE bits of a float32, as uint32."""
     if not isinstance(x, types.Float) or x.bitwidth != 32:

@@ -39,7 +39,7 @@ import numpy as np
 
 from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT
 
-from . import layouts
+from . import layouts, parallel
 from .arena import Arena, empty
 from .bounds import (grow, ndc_rect, project_axis_ahead, shape_bounds, sphere_only,
                      spot_sphere)
@@ -72,13 +72,6 @@ class PreparedLights:
     def depth(self) -> np.ndarray:
         return -self.center[:, 2]
 
-
-def parallel() -> bool:
-    """Whether the CPU stage runs its parallel kernels (LAB_CPU_THREADS / set_num_threads > 1).
-    With one thread every step calls a plain serial kernel: a parallel=True kernel run on
-    one thread still pays numba's parallel-region entry and compiles its loop as an
-    outlined gufunc."""
-    return numba.get_num_threads() > 1
 
 
 @numba.njit(inline="always")

@@ -34,7 +34,7 @@ from functools import lru_cache
 import numba
 import numpy as np
 
-from . import layouts
+from . import layouts, parallel
 from .arena import Arena, empty
 from .layouts import NODE_BITS, NODE_FIRST_LIGHT, NODE_MAX_DEPTH, NODE_MIN_DEPTH, NODE_WORDS, node_bits
 from .limits import LimitError, NODE_MAX_LIGHTS, NODE_MAX_SKIP
@@ -274,7 +274,7 @@ def _build_given(offsets, entries, depth_lo, depth_hi, leaves, arena):
     max_l = int(max(leaves.max(initial=1), 1))
     tab_order, tab_skip, tab_off = _all_tables(max_l)
     no_slices = np.zeros(1)
-    if numba.get_num_threads() > 1:
+    if parallel():
         node_start = np.zeros(cells + 1, np.int64)
         np.cumsum(node_counts, out=node_start[1:])
         _build_par(offsets, entries, depth_lo, depth_hi, leaves, node_start, no_slices,
