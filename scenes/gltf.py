@@ -17,8 +17,9 @@ What is read, and how it converts (every rule below is this lab's, stated once h
   defaults 1 and 1, and its default material, white rough metal, without a material), onto
   the lab's GGX material (glsl/material.glsl: F0 0.04 mixed to the albedo by metallic, the
   same metallic-roughness model).  A roughness below MIN_ROUGHNESS (0.045, Filament's
-  smallest perceptual roughness) is raised to it: glTF's 0 is a perfect mirror, a delta no
-  light loop evaluates, and the lab's roughness 0 means matte (no specular code).
+  smallest perceptual roughness; scenes.model, as for every scene) is raised to it: glTF's 0
+  is a perfect mirror, a delta no light loop evaluates, and the lab's roughness 0 means
+  matte (no specular code).
   Textures, vertex colours and alpha are not used.
 - **Lights** (`KHR_lights_punctual`), one per node that references one, in walk order:
   position = the node's world origin; a spot's direction = the node's world -Z, normalised;
@@ -82,7 +83,7 @@ import numpy as np
 from .errors import (FLOAT32_MAX, MAX_FAR_NEAR, MAX_RADIUS, MAX_RESOLUTION, FieldChecker,
                      SceneError, finite32, jtype, one_line, show, to_f32)
 from .geometry import farthest_corner_distance, max_depth_for, merge_meshes
-from .model import LIGHT_POINT, LIGHT_SPOT, Camera, Mesh, Scene, make_lights
+from .model import LIGHT_POINT, LIGHT_SPOT, MIN_ROUGHNESS, Camera, Mesh, Scene, make_lights
 
 GLTF_SUFFIXES = (".gltf", ".glb")
 INTENSITY_PER_CANDELA = 1.0      # lab intensity per glTF candela (see the module docstring)
@@ -344,9 +345,6 @@ def _accessor(ctx: FieldChecker, h: dict, buffers: list[bytes], idx, field: str,
         ctx.fail(f, f"its {count} elements end at byte {end}, past bufferViews[{v}] "
                     f"({v_len} bytes)")
     return i
-
-
-MIN_ROUGHNESS = 0.045
 
 
 def _material(ctx: FieldChecker, h: dict, p: dict, f: str) -> tuple[tuple, float, float]:

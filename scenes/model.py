@@ -67,15 +67,26 @@ class Camera:
     far: float = 1000.0
 
 
+# The smallest GGX roughness shaded (Filament's minimum perceptual roughness): below it
+# float32 GGX peaks to infinity at the mirror direction (glsl/material.glsl).
+MIN_ROUGHNESS = 0.045
+
+
 @dataclass
 class Mesh:
     """World-space triangles with one material: albedo, and GGX specular when roughness > 0
-    (F0 0.04, or the albedo when metallic is 1); roughness 0 is matte (Lambert only)."""
+    (F0 0.04, or the albedo when metallic is 1); roughness 0 is matte (Lambert only), a
+    roughness in (0, MIN_ROUGHNESS) is raised to MIN_ROUGHNESS."""
     vertices: np.ndarray          # (V, 3) float32
     faces: np.ndarray             # (F, 3) int32
     albedo: tuple[float, float, float] = (0.8, 0.8, 0.8)
     roughness: float = 0.0
     metallic: float = 0.0
+
+    def __setattr__(self, name, value):
+        if name == "roughness" and 0.0 < value < MIN_ROUGHNESS:    # set at init or later
+            value = MIN_ROUGHNESS
+        super().__setattr__(name, value)
 
     @property
     def material(self) -> tuple:

@@ -7,6 +7,7 @@ import pytest
 import trimesh
 
 from scenes import LIGHT_DTYPE, SceneError, load_scene
+from scenes.model import MIN_ROUGHNESS
 from scenes.loader import MAX_LIGHTS, scene_from_dict
 
 NPZ_KEYS = ("type", "position", "radius", "color", "intensity", "direction", "cos_inner", "cos_outer")
@@ -496,6 +497,9 @@ def test_material_keys_of_the_contract(tmp_path):
     assert (mesh.albedo, mesh.roughness, mesh.metallic) == ((0.1, 0.2, 0.3), 0.5, 0.0)
     d = good_dict()
     assert scene_from_dict(d, None, "mem").meshes[0].roughness == 0.0     # matte by default
+    d["geometry"][0]["roughness"] = 1e-3             # GGX's float32 peak would be infinite
+    assert scene_from_dict(d, None, "mem").meshes[0].roughness == MIN_ROUGHNESS
+    del d["geometry"][0]["roughness"]
     d["geometry"][0]["metallic"] = -0.5
     with pytest.raises(SceneError, match=r"^mem: geometry\[0\]\.metallic: "):
         scene_from_dict(d, None, "mem")
