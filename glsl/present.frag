@@ -45,7 +45,6 @@ uniform int u_view;
 uniform float u_exposure;
 uniform float u_ambient;
 uniform float u_heat_max;      // top of the heat scale (the frame's max or a fixed number)
-uniform float u_split_heat_max;
 uniform int u_heat_of;         // 0 lights evaluated, 1 exact lights (contrib_count)
 uniform int u_heat_overlay;    // 1: the heat map over the shaded image
 uniform int u_tile;            // the technique's tile size in pixels (tiles start bottom-left)
@@ -140,7 +139,7 @@ void main() {
         } else if (u_split_view == VIEW_HEAT) {
             st = stats_at(i);
         }
-        c = u_split_view == VIEW_HEAT ? heat_view(shaded, st, right ? u_split_heat_max : u_heat_max, covered)
+        c = u_split_view == VIEW_HEAT ? heat_view(shaded, st, u_heat_max, covered)
                                       : shaded;
         if (p.x == u_split_x || p.x == u_split_x - 1) c = vec3(1.0);
     }

@@ -518,7 +518,7 @@ class Raster(Technique):
         cpuframe.check_buffer("raster bit arrays", bits_bytes)
         b.buffers["raster_proxies"] = proxies
         b.buffers["raster_order"] = order if n else np.zeros(1, np.uint32)
-        b.data.update(groups=groups, quad=quad, dilation=dilation, sample_pos=positions)
+        b.data.update(groups=groups, quad=quad, sample_pos=positions)
         tris = sum(int(groups[2 * s + k]) * len(MESHES[s]) // 3 for s in range(4) for k in range(2))
         wide = zb.is_wide(n)
         b.stats.update(

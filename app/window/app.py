@@ -426,8 +426,8 @@ class LabWindow(mglw.WindowConfig):
             plan.append((self.reference, self.reference.Options()))
         self._announce_slow(plan, lights, cam)
         if want_ref:
-            self.ref_stash.figures = self._render_other(self.ref_stash, self.reference,
-                                                        self.reference.Options(), lights, fc, size)
+            self._render_other(self.ref_stash, self.reference, self.reference.Options(), lights,
+                               fc, size, figures=False)
             self.ref_stash.key = key
         split_fig = None
         if split is not None:
@@ -502,15 +502,19 @@ class LabWindow(mglw.WindowConfig):
         if self.wnd.name != "headless":
             self.wnd.swap_buffers()
 
-    def _render_other(self, stash, technique, opts, lights, fc, size) -> dict:
-        """Render another technique's frame and stash its radiance and counters."""
+    def _render_other(self, stash, technique, opts, lights, fc, size, figures: bool = True) -> dict | None:
+        """Render another technique's frame and stash its radiance and counters; with
+        `figures`, its frame sums for the HUD too (the split view's; the reference's are
+        not shown)."""
         r = self.renderer
         res = r.render(technique, self.path_frame, opts, frames=self.args.path_frames,
                        lights=lights, readback=False, camera=fc)
-        stats, extra = self._view_stats(False)
         stash.ensure(size)
         r.gbuffer.bind_textures()
         r.run([passes.stash_pass(stash.fbo, size)])
+        if not figures:
+            return None
+        stats, extra = self._view_stats(False)
         covered = int(stats["covered"])
         total = lambda lo, hi: float(stats[lo]) + float(stats[hi]) * 2.0**32
         return {"technique": technique.name,
@@ -623,7 +627,7 @@ class LabWindow(mglw.WindowConfig):
         if ins is not None and ins.tile is not None:
             tile = ins.tile
         return {"u_exposure": float(exposure), "u_ambient": float(s.ambient),
-                "u_heat_max": float(self.figures["heat_max"]), "u_split_heat_max": float(self.figures["heat_max"]),
+                "u_heat_max": float(self.figures["heat_max"]),
                 "u_heat_of": HEAT_OF.index(s.heat_of), "u_heat_overlay": int(s.heat_overlay),
                 "u_tile": o.tile, "u_slices": o.slices, "u_slice_scale": o.slice_scale,
                 "u_slice_bias": o.slice_bias, "u_ref_valid": int(ref_valid),

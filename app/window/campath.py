@@ -155,11 +155,3 @@ def load(path) -> CameraPath:
     except json.JSONDecodeError as exc:
         raise UserError(f"camera path {p}: not JSON ({exc.msg} at line {exc.lineno})") from None
     return from_dict(d, f"camera path {p}")
-
-
-def from_scene(scene, frames: int) -> CameraPath:
-    """The scene's own camera path (Scene.camera_at) as `frames` keys at 30 frames a second."""
-    path = CameraPath(scene=scene.name)
-    for k in range(frames):
-        path.add(scene.camera_at(k, frames), k / 30.0)
-    return path

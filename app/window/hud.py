@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import math
 
-HELP = "1-9 technique  V view  O overlay  I inspect  WASD/QE+drag fly  P path  C record  R reset  " \
-       "+/- lights  K shot  H hide  F1 panel"
+from .keys import KEYS
+
+HELP = "  ".join(f"{k} {word}" for k, word, _ in KEYS if k != "Esc")
 
 
 def exposure_text(exposure: float, auto: bool, ambient: float) -> str:

@@ -18,15 +18,19 @@ KEY_NAMES = tuple("123456789") + tuple(MOVE_KEYS) + ("v", "o", "i", "m", "p", "c
 # +, -, [ and ] arrive as characters (on_unicode_char_entered): keyboard layouts do not matter.
 CHAR_KEYS = {"+": "+", "=": "+", "-": "-", "_": "-", "]": "+", "[": "-"}
 
-HELP = [
-    ("1-9", "technique (registry order)"), ("V", "next view of this technique"),
-    ("O", "heat map over the shaded image"), ("I", "inspect the cursor"),
-    ("M", "next map of the technique's own structure"),
-    ("WASD QE", "fly (Shift faster, wheel: speed)"), ("drag", "look"),
-    ("P", "play / stop the camera path"), ("C", "record a camera path / stop and save"),
-    ("R", "reset the camera"), ("+ -", "double / halve the lights"), ("K F12", "screenshot"),
-    ("H", "hide the HUD and panel"), ("F1", "hide the panel"), ("Esc", "quit"),
+# (keys, the HUD's word, the panel's description): the HUD line and the panel's key list
+# both come from here.
+KEYS = [
+    ("1-9", "technique", "technique (registry order)"), ("V", "view", "next view of this technique"),
+    ("O", "overlay", "heat map over the shaded image"), ("I", "inspect", "inspect the cursor"),
+    ("M", "map", "next map of the technique's own structure"),
+    ("WASD/QE+drag", "fly", "fly (Shift faster, wheel: speed; drag: look)"),
+    ("P", "path", "play / stop the camera path"), ("C", "record", "record a camera path / stop and save"),
+    ("R", "reset", "reset the camera"), ("+/-", "lights", "double / halve the lights"),
+    ("K", "shot", "screenshot (also F12)"), ("H", "hide", "hide the HUD and panel"),
+    ("F1", "panel", "hide the panel"), ("Esc", "quit", "quit"),
 ]
+HELP = [(k, long) for k, _, long in KEYS]
 
 
 def parse_keys(text: str, panel_keys=None) -> list[str]:

@@ -98,7 +98,6 @@ class Stash:
         self.size = None
         self.key = None
         self.fbo = self.color = self.stats = None
-        self.figures: dict = {}
 
     def ensure(self, size) -> None:
         if self.size == tuple(size):

@@ -44,7 +44,7 @@ def _present(r, view, **uniforms):
     """The view drawn into an offscreen framebuffer, image order (row 0 = top)."""
     w, h = r.size
     fbo = r.ctx.simple_framebuffer((w, h), components=4)
-    u = {"u_exposure": 1.0, "u_ambient": 0.0, "u_heat_max": 10.0, "u_split_heat_max": 10.0,
+    u = {"u_exposure": 1.0, "u_ambient": 0.0, "u_heat_max": 10.0,
          "u_heat_of": 0, "u_heat_overlay": 0, "u_tile": 0, "u_slices": 0, "u_slice_scale": 0.0,
          "u_slice_bias": 0.0, "u_ref_valid": 0, "u_split_x": w + 1, "u_split_view": 0,
          "u_cursor_tile": (-1, -1, -1, -1), "u_cursor": (-1, -1), "u_light_sphere": (0.0, 0.0, 0.0, 0.0),
