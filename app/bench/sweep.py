@@ -18,7 +18,8 @@ clock), and a drift between two configurations would pass for a difference beyon
 spread; interleaved, both see the same drift, so each one's min-max holds it.  So every
 sample is a whole frame (G-buffer, CPU stage, untimed set-up passes and host steps, timed
 passes), since the configurations in between overwrite the set-up's buffers; only the CPU
-stage and the timed passes are measured, as before.  The log names each configuration as
+stage and the timed passes are measured, as before, and the steps that only count figures
+(passes.FIGURES_ONLY) run in the read-back render alone.  The log names each configuration as
 its read-back render starts, then the group's rounds of samples.
 """
 from __future__ import annotations
@@ -140,9 +141,7 @@ class Sweep:
             for job, row, samples, want in pending:
                 if len(samples) < want:
                     renderer.scene = self.scene(job.scene, job.lights)
-                    res = self.render(renderer, job, False)
-                    samples += measure.samples_of(res.meta)
-                    row["setup_ms"] = float(sum(res.meta.get("setup_ms", {}).values()))
+                    samples += measure.samples_of(self.render(renderer, job, False).meta)
         for job, row, samples, _ in pending:
             row.update(measure.timing_cells(samples))
             self.rows.append(row)

@@ -68,6 +68,7 @@ class _Frame:
     timed: list = field(default_factory=list)      # timed passes, in order, for later samples
     native: bool = False
     debug_pixel: tuple | None = None               # GL coordinates of the explained pixel
+    figures: bool = True                           # run the figures-only steps (passes.py)
 
 
 class Renderer:
@@ -158,16 +159,17 @@ class Renderer:
     def render(self, technique, frame: int = 0, opts=None, frames: int = 64,
                lights: np.ndarray | None = None, readback: bool = True, camera=None,
                defines: dict | None = None, samples: int = 1,
-               debug_pixel: tuple[int, int] | None = None) -> FrameResult:
+               debug_pixel: tuple[int, int] | None = None, figures: bool | None = None) -> FrameResult:
         """Render one frame of `technique` (anything with resolve_options, build and
         passes).  `defines` are frame-wide switches that reach every program declaring them
         (e.g. UNBOUNDED_FALLOFF=1).  meta['samples'] holds each sample's CPU and GPU ms;
         meta['cpu_ms'] / ['gpu_ms'] are the last sample's.  `debug_pixel` (x, row from the
         top) records the ids of the lights the shading passes find affecting that pixel
-        (FrameResult.debug_lights, sorted)."""
+        (FrameResult.debug_lights, sorted).  `figures` (default: `readback`) runs the steps
+        that only count figures for meta['stats'] and the technique's maps (passes.py)."""
         opts = technique.resolve_options(opts)
         fin = self.frame_input(frame, frames, lights, camera)
-        self._begin_frame(debug_pixel)
+        self._begin_frame(debug_pixel, readback if figures is None else figures)
         records, stats = [], None
         for k in range(max(int(samples), 1)):
             build, features, record = self._sample(technique, fin, opts, defines, first=k == 0)
@@ -196,9 +198,9 @@ class Renderer:
             result.debug_lights = np.unique(raw[1:1 + min(int(raw[0]), DEBUG_MAX_IDS)])
         return result
 
-    def _begin_frame(self, debug_pixel) -> None:
+    def _begin_frame(self, debug_pixel, figures: bool) -> None:
         """A new frame record; with a debug pixel (x, row from the top), its id buffer cleared."""
-        self._frame = _Frame()
+        self._frame = _Frame(figures=figures)
         if debug_pixel is not None:
             x, row = debug_pixel
             self._frame.debug_pixel = (int(x), self.size[1] - 1 - int(row))
@@ -242,6 +244,8 @@ class Renderer:
         queue = list(steps)
         while queue:
             step = queue.pop(0)
+            if step.figures and not self._frame.figures:
+                continue
             if isinstance(step, HostStep):
                 queue[:0] = self._run_host(step)
             else:

@@ -284,7 +284,8 @@ class Fptl(Technique):
                                longest=n, defines=dict(common, FPTL_TYPE_LOOPS=int(opts.type_loops)),
                                uniforms=grid_u)
         counts = HostStep("fptl counts", ("fptl_cells", "fptl_counter"),
-                          lambda got: _counts(build, got["fptl_cells"], got["fptl_counter"]))
+                          lambda got: _counts(build, got["fptl_cells"], got["fptl_counter"]),
+                          figures=True)
         return [aabb] + lists + shade + [counts]
 
     def report_notes(self, rows):
@@ -295,8 +296,8 @@ class Fptl(Technique):
         """The chapter's figures 2.4-2.6: lights per tile in the coarse list and after fine
         pruning (per tile: its longest cell's list)."""
         t = result.build.data.get("tile_counts")
-        if t is None:
-            return {}
+        if t is None:                    # a frame rendered without its figures (the window)
+            t = read_counts(result.build, read("fptl_cells"))
         return {"coarse": (t["coarse"], "coarse lights / tile"),
                 "pruned": (t["pruned"], "pruned lights / tile")}
 

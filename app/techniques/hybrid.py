@@ -62,7 +62,8 @@ class Hybrid(Technique):
                             defines={"SPECIALISED": int(opts.specialised),
                                      "SCALARIZED": int(opts.scalarize)})
         return shade + [HostStep("wave cases", (WAVE_STATS, OUT_STATS),
-                                 lambda got: _case_counters(build, got[WAVE_STATS], got[OUT_STATS]))]
+                                 lambda got: _case_counters(build, got[WAVE_STATS], got[OUT_STATS]),
+                                 figures=True)]
 
     def report_notes(self, rows):
         """Per wave path: the waves, their scalar iterations and node visits, against the

@@ -101,7 +101,7 @@ marked, against the CPU boxes' pairs (zbin's bits, clustered's cells).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import math
 
 import numpy as np
@@ -554,10 +554,10 @@ class Raster(Technique):
         opts = self.resolve_options(opts)
         out = []
         if opts.raster_stats:
-            out += self._cull_passes(build, opts, stats=True)
+            out += [replace(p, figures=True) for p in self._cull_passes(build, opts, stats=True)]
             out.append(HostStep("raster counters", ("raster_counters", "raster_light_tiles",
                                                     "raster_tile_depth"),
-                                lambda got: _raster_counters(build, got)))
+                                lambda got: _raster_counters(build, got), figures=True))
         out += self._cull_passes(build, opts, stats=False)
         g, n = build.grid, len(build.lights)
         if opts.cluster:
@@ -579,7 +579,7 @@ class Raster(Technique):
                       "u_bins": opts.zbins, "u_bin_scale": build.data.get("bin_scale", 0.0)},
             native_wave=opts.native_wave, sources={"tile_bits": "raster_bits"})
         out.append(HostStep("wave counters", (WAVE_STATS,),
-                            lambda got: _wave_counters(build, got[WAVE_STATS])))
+                            lambda got: _wave_counters(build, got[WAVE_STATS]), figures=True))
         return out
 
     def _cull_passes(self, build, opts, stats: bool) -> list:

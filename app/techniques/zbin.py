@@ -165,7 +165,7 @@ class ZBin(Technique):
                       "u_bins": opts.zbins, "u_bin_scale": build.data.get("bin_scale", 0.0)},
             native_wave=opts.native_wave)
         return shade + [HostStep("wave counters", (WAVE_STATS,),
-                                 lambda got: _wave_counters(build, got[WAVE_STATS]))]
+                                 lambda got: _wave_counters(build, got[WAVE_STATS]), figures=True)]
 
 
 def tile_bit_maps(tile_bits, grid, depth=None, lut=None, bin_scale=0.0) -> dict:

@@ -235,3 +235,31 @@ def test_throwaway_appears_in_a_bench_run(gl, throwaway, tmp_path):
     assert all(r["mismatch_count"] == 0 and r["mismatch_hash"] == 0
                for r in rows if r["study"] == "path")
     assert "throwaway" in (tmp_path / "report.md").read_text()
+
+
+def test_figures_only_steps_run_when_the_frame_is_read_back(gl):
+    """Steps that only count figures (fptl's per-tile counts, raster's counting twin of its
+    culling passes, the wave counters) run with read-back or figures=True, not on a window
+    frame or a timing sample; the frame's counters are the same, and fptl's maps read its
+    cells either way."""
+    from scenes.model import Camera
+    from tests.helpers import make_scene, random_shapes
+    rng = np.random.default_rng(3)
+    scene = make_scene(random_shapes(rng, 120, (-14, -1, -34), (14, 7, 6)), size=(64, 48),
+                       camera=Camera((0.0, 3.0, 10.0), (0.0, 1.0, -20.0), near=0.1, far=200.0))
+    with Renderer(scene) as r:
+        for name, step in (("fptl", "fptl counts"), ("raster", "raster counters"), ("zbin", "wave counters")):
+            t = REGISTRY[name]
+            full = r.render(t)
+            assert step in full.meta["setup_ms"], name
+            quiet = r.render(t, readback=False)
+            assert step not in quiet.meta["setup_ms"] and quiet.meta["stats"].keys() < full.meta["stats"].keys()
+            asked = r.render(t, readback=False, figures=True)
+            assert step in asked.meta["setup_ms"] and asked.meta["stats"] == full.meta["stats"]
+            assert quiet.meta["gpu_ms"].keys() == full.meta["gpu_ms"].keys()      # same timed passes
+        fptl = REGISTRY["fptl"]
+        want = fptl.maps(r.render(fptl), r.read)
+        quiet = r.render(fptl, readback=False)
+        assert "tile_counts" not in quiet.build.data
+        got = fptl.maps(quiet, r.read)
+        assert got.keys() == want.keys() and all(np.array_equal(got[k][0], want[k][0]) for k in want)
