@@ -98,8 +98,12 @@ def affects64(P: np.ndarray, lights: np.ndarray, view_from_world: np.ndarray, re
     return inside, near
 
 
+# The tests' default view: from 10 m in front of the boxes, looking down the floor.
+CAMERA = Camera((0.0, 3.0, 10.0), (0.0, 1.0, -20.0), near=0.1, far=200.0)
+
+
 def make_scene(lights, meshes=None, size=(96, 64), camera=None, max_depth=150.0, name="test"):
-    camera = camera or Camera((0.0, 3.0, 10.0), (0.0, 1.0, -20.0), near=0.1, far=200.0)
+    camera = camera or CAMERA
     return Scene(name, tuple(size), camera, meshes if meshes is not None else floor_and_boxes(),
                  lights, max_depth=max_depth)
 

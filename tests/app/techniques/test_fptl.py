@@ -27,10 +27,9 @@ from app.techniques import REGISTRY, fptl
 from cpu_prep import layouts, limits
 from cpu_prep.camera import frame_camera, look_at
 from scenes.geometry import box_mesh
-from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT, Camera, make_lights
-from tests.helpers import affects64, assert_exact, make_scene, random_shapes, render_on
+from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT, make_lights
+from tests.helpers import CAMERA, affects64, assert_exact, make_scene, random_shapes, render_on
 
-CAMERA = Camera((0.0, 3.0, 10.0), (0.0, 1.0, -20.0), near=0.1, far=200.0)
 T = REGISTRY["fptl"]
 
 

@@ -242,11 +242,9 @@ def test_figures_only_steps_run_when_the_frame_is_read_back(gl):
     culling passes, the wave counters) run with read-back or figures=True, not on a window
     frame or a timing sample; the frame's counters are the same, and fptl's maps read its
     cells either way."""
-    from scenes.model import Camera
     from tests.helpers import make_scene, random_shapes
     rng = np.random.default_rng(3)
-    scene = make_scene(random_shapes(rng, 120, (-14, -1, -34), (14, 7, 6)), size=(64, 48),
-                       camera=Camera((0.0, 3.0, 10.0), (0.0, 1.0, -20.0), near=0.1, far=200.0))
+    scene = make_scene(random_shapes(rng, 120, (-14, -1, -34), (14, 7, 6)), size=(64, 48))
     with Renderer(scene) as r:
         for name, step in (("fptl", "fptl counts"), ("raster", "raster counters"), ("zbin", "wave counters")):
             t = REGISTRY[name]

@@ -28,10 +28,9 @@ from app.techniques.base import prepare
 from cpu_prep.camera import frame_camera
 from scenes.geometry import box_mesh
 from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT, Camera, make_lights
-from tests.helpers import assert_exact, make_scene, random_shapes, render_all, render_on
+from tests.helpers import CAMERA, assert_exact, make_scene, random_shapes, render_all, render_on
 
 RASTER = REGISTRY["raster"]
-CAM = Camera((0.0, 3.0, 10.0), (0.0, 1.0, -20.0), near=0.1, far=200.0)
 
 
 # ---------------------------------------------------------------------------- proxies (no GL)
@@ -76,7 +75,7 @@ def _boundary(light, k, rng):
     return p + dist[:, None] * d
 
 
-def _frame(lights, size=(96, 64), camera=CAM, fov=None):
+def _frame(lights, size=(96, 64), camera=CAMERA, fov=None):
     if fov is not None:
         camera = Camera(camera.position, camera.target, fov_y_deg=fov, near=camera.near, far=camera.far)
     return FrameInput(lights, frame_camera(camera, *size), 150.0)
@@ -185,8 +184,8 @@ def _hard_lights(rng, eye, n_eye=12, n_near=20):
                          ids=["atomic", "both", "stencil", "cluster", "cluster-msaa"])
 def test_eye_inside_near_plane_and_far_plane(gl, opts):
     rng = np.random.default_rng(7)
-    L = _hard_lights(rng, np.asarray(CAM.position))
-    cam = Camera(CAM.position, CAM.target, near=0.1, far=60.0)      # big lights pass the far plane
+    L = _hard_lights(rng, np.asarray(CAMERA.position))
+    cam = Camera(CAMERA.position, CAMERA.target, near=0.1, far=60.0)      # big lights pass the far plane
     res = render_all(make_scene(L, size=(64, 40), camera=cam), opts, techniques=["brute", "raster"])
     assert_exact(res, f"eye inside / near / far {opts}")
     st = res["raster"].meta["stats"]

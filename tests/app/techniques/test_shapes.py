@@ -13,9 +13,8 @@ from app.pipeline import features
 from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY
 from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_SPOT, LIGHT_TYPES, Camera
-from tests.helpers import affects64, assert_exact, make_scene, random_shapes, render_all, render_on
+from tests.helpers import CAMERA, affects64, assert_exact, make_scene, random_shapes, render_all, render_on
 
-CAMERA = Camera((0.0, 3.0, 10.0), (0.0, 1.0, -20.0), near=0.1, far=200.0)
 
 
 def oracle(renderer, lights, camera=CAMERA):
