@@ -54,9 +54,8 @@ VIRTUAL = {"t.vert": VERT, "t_fill.frag": FILL, "t_probe.frag": PROBE}
 
 @pytest.fixture
 def renderer(gl):
-    r = Renderer(make_scene(make_lights(0), size=(30, 20)))
-    yield r
-    r.release()
+    with Renderer(make_scene(make_lights(0), size=(30, 20))) as r:
+        yield r
 
 
 def _run(r, target, draw_kw, z, thirds=0, instances=1):

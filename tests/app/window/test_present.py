@@ -20,10 +20,8 @@ SIZE = (96, 54)
 def frame(gl):
     from scenes import load_scene
     scene = load_scene("city", lights=2048, seed=3)
-    r = Renderer(scene, SIZE)
-    res = r.render(REGISTRY["clustered"])
-    yield r, scene, res
-    r.release()
+    with Renderer(scene, SIZE) as r:
+        yield r, scene, r.render(REGISTRY["clustered"])
 
 
 def _albedo(r):
