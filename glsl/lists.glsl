@@ -14,15 +14,7 @@ layout(std430, binding = B_DUP_LIGHTS) readonly buffer DupLights { GpuLight dup_
 
 uniform ivec2 u_tiles;        // tiles in x and y
 uniform int u_tile;           // tile size in pixels
-uniform int u_slices;
-uniform float u_slice_scale;  // listing 4, scale corrected: (S - 1) / (logMax - logMin)
-uniform float u_slice_bias;   // 1 - logMin * scale
-
-// Tree paper listing 4 (see cpu_prep.grid for the corrected scale).
-uint slice_of(float depth) {
-    float slice = max(log(depth) * u_slice_scale + u_slice_bias, 0.0);
-    return uint(min(int(slice), u_slices - 1));
-}
+#include "slices.glsl"
 
 uint cell_of(PixelState s) {
     ivec2 t = s.pixel / u_tile;

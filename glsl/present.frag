@@ -48,9 +48,6 @@ uniform float u_heat_max;      // top of the heat scale (the frame's max or a fi
 uniform int u_heat_of;         // 0 lights evaluated, 1 exact lights (contrib_count)
 uniform int u_heat_overlay;    // 1: the heat map over the shaded image
 uniform int u_tile;            // the technique's tile size in pixels (tiles start bottom-left)
-uniform int u_slices;          // its depth slices (tree paper listing 4, scale corrected)
-uniform float u_slice_scale;
-uniform float u_slice_bias;
 uniform int u_ref_valid;       // diff: the reference's counters are this frame's
 uniform int u_split_x;         // split: columns >= u_split_x show the second technique
 uniform int u_split_view;      // split: each half as VIEW_SHADED or VIEW_HEAT
@@ -60,11 +57,8 @@ uniform vec4 u_light_sphere;   // inspect: bounding sphere (view space) of the p
 uniform vec2 u_tan_half;       // tan of half the field of view, x and y
 uniform float u_map_max;       // maps view: top of its heat scale
 
-// Tree paper listing 4 (cpu_prep.grid: scale = (S - 1) / (logMax - logMin)).
-int slice_of(float depth) {
-    float s = max(log(depth) * u_slice_scale + u_slice_bias, 0.0);
-    return min(int(s), u_slices - 1);
-}
+// the technique's depth slices: u_slices, slice_of
+#include "slices.glsl"
 
 vec3 slice_color(int s) {
     // alternating hues so neighbouring slices differ; slice 0 (near slice) grey
@@ -118,7 +112,7 @@ void main() {
         c = (q.x == 0 || q.y == 0) ? mix(shaded, TILE_LINE, 0.7) : shaded;
     } else if (u_view == VIEW_SLICES && u_slices > 1) {
         float lum = dot(shaded, vec3(0.2126, 0.7152, 0.0722));
-        c = covered ? slice_color(slice_of(pos.w)) * (0.45 + 0.55 * min(lum * 3.0, 1.0)) : vec3(0.0);
+        c = covered ? slice_color(int(slice_of(pos.w))) * (0.45 + 0.55 * min(lum * 3.0, 1.0)) : vec3(0.0);
     } else if (u_view == VIEW_DIFF) {
         vec3 grey = vec3(dot(shaded, vec3(1.0 / 3.0)) * 0.5);
         if (u_ref_valid == 0) {

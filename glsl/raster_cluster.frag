@@ -29,7 +29,7 @@
 #define COMPACT 0
 #endif
 #include "raster_common.glsl"
-#include "raster_slices.glsl"
+#include "slices.glsl"
 
 flat in vec2 v_tri_depth;     // min, max view depth of the triangle's three corners
 

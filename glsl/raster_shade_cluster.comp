@@ -6,7 +6,7 @@
 #include "generated.glsl"
 #include "wave.glsl"
 #include "common.glsl"
-#include "raster_slices.glsl"
+#include "slices.glsl"
 
 layout(std430, binding = B_CLUSTER_BITS) readonly buffer ClusterBits { uint cluster_bits[]; };
 uniform int u_tile;

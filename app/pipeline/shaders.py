@@ -23,7 +23,7 @@ from ..errors import UserError
 
 GLSL_DIR = Path(__file__).resolve().parents[2] / "glsl"
 MAX_INCLUDE_DEPTH = 16
-_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*(//.*)?$')     # a trailing // comment allowed
 _DECLARE = re.compile(r"^\s*//\s*define:\s*(.+)$")
 _ERROR_LOC = re.compile(r"\b(\d+):(\d+)\((\d+)\)|\b(\d+)\((\d+)\)")
 # One storage block declaration: layout(... binding = B_SLOT ...) qualifiers buffer Name { members };

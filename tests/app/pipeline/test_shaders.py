@@ -17,6 +17,12 @@ def test_include_is_wrapped_in_line_directives():
     assert lines[i + 1] == "void f() {}" and lines[i + 2] == "#line 5 0"
 
 
+def test_include_with_a_trailing_comment_is_expanded():
+    src = Source("main.comp", {"main.comp": '#version 430\n#include "inc.glsl"   // why\n',
+                               "inc.glsl": "void f() {}\n"})
+    assert "void f() {}" in src.text({}) and "#include" not in src.text({})
+
+
 def test_unknown_define_is_an_error():
     src = Source("main.comp", {"main.comp": MAIN, "inc.glsl": ""})
     with pytest.raises(ShaderError, match="unknown define.*TYPO"):
