@@ -19,8 +19,8 @@ spread; interleaved, both see the same drift, so each one's min-max holds it.  S
 sample is a whole frame (G-buffer, CPU stage, untimed set-up passes and host steps, timed
 passes), since the configurations in between overwrite the set-up's buffers; only the CPU
 stage and the timed passes are measured, as before, and the steps that only count figures
-(passes.FIGURES_ONLY) run in the read-back render alone.  The log names each configuration as
-its read-back render starts, then the group's rounds of samples.
+(figures=True, app.pipeline.passes) run in the read-back render alone.  The log names each
+configuration as its read-back render starts, then the group's rounds of samples.
 """
 from __future__ import annotations
 

@@ -142,7 +142,7 @@ class Pass:
     timed: bool = True
     native_wave: bool = False                      # ask for native subgroup ops (WAVE_NATIVE)
     sources: Mapping[str, str] = field(default_factory=dict)
-    figures: bool = False                          # only counts figures (FIGURES_ONLY)
+    figures: bool = False                          # only counts figures (see HostStep)
 
     def __post_init__(self):
         if (self.groups is None) == (self.draw is None):
@@ -170,14 +170,13 @@ class HostStep:
     name: str
     reads: tuple[str, ...]
     run: Callable[[dict[str, np.ndarray]], tuple[dict[str, np.ndarray], list]]
-    figures: bool = False                          # only counts figures (FIGURES_ONLY)
+    figures: bool = False                          # only counts figures (see HostStep)
 
 
 # A step with figures=True only adds figures (meta stats, per-tile counts) and feeds nothing
 # the frame's image or counters need: the renderer runs it only when the caller wants the
 # frame's figures (render(figures=...), by default when it reads the frame back), not on the
 # window's frames or the benchmark's timing samples.
-FIGURES_ONLY = "figures"
 
 
 def frame_outputs(width: int, height: int, waves_cleared: bool = True) -> dict[str, Buffer]:
