@@ -6,6 +6,8 @@
 layout(std430, binding = B_OUT_COLOR) buffer OutColor { vec4 out_color[]; };
 layout(std430, binding = B_OUT_STATS) buffer OutStats { PixelStats out_stats[]; };
 layout(std430, binding = B_WAVE_STATS) buffer WaveStatsBuffer { WaveStats wave_stats[]; };  // zeroed each frame
+// the cell of the technique's structure the pixel read (app.pipeline.passes.OUT_CELL)
+layout(std430, binding = B_OUT_CELL) writeonly buffer OutCell { uint out_cell[]; };
 
 // In a later dispatch window (pixel.glsl), the pixel with the sums of the earlier ones.
 PixelState resume_pixel(PixelState s) {
@@ -30,6 +32,7 @@ void store_pixel(PixelState s) {
     out_stats[i].contrib_count = s.count;
     out_stats[i].contrib_hash = s.hash;
     out_stats[i].nodes = s.nodes;
+    out_cell[i] = s.cell;
 }
 
 uint group_index() {

@@ -64,6 +64,7 @@ void main() {
     PixelState s = load_pixel();
     if (s.shading) {
         uint cell = fptl_cell(s.pixel, s.depth);
+        s.cell = cell;
         FptlCell c = fptl_cells[cell];
         if ((c.flags & FPTL_POOL_FULL) != 0u) {
             evaluate_all_lights(s);

@@ -52,6 +52,7 @@ struct PixelState {
     uint hash;
     uint nodes;       // tree nodes visited
     uint seq;         // position in the pixel's sequence of lights (dispatch windows)
+    uint cell;        // the cell of the technique's structure it read (out_cell; 0: none)
 };
 
 #include "features.glsl"
@@ -72,7 +73,7 @@ PixelState load_pixel_at(ivec2 pixel) {
     s.albedo = a.rgb;
     s.metallic = a.a;
     s.radiance = vec3(0.0);
-    s.evaluated = 0u; s.count = 0u; s.hash = 0u; s.nodes = 0u; s.seq = 0u;
+    s.evaluated = 0u; s.count = 0u; s.hash = 0u; s.nodes = 0u; s.seq = 0u; s.cell = 0u;
     return s;
 }
 

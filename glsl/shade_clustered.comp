@@ -11,6 +11,7 @@
 void main() {
     PixelState s = load_pixel();
     uint cell = s.shading ? cell_of(s) : 0u;
+    s.cell = cell;
 #if SCALARIZED
     uint iterations = evaluate_cells_scalarized(s, cell, s.shading);
 #else

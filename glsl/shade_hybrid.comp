@@ -55,6 +55,7 @@ uint walk_list_cells(inout PixelState s, uint cell, bool pending) {
 void main() {
     PixelState s = load_pixel();
     uint cell = s.shading ? cell_of(s) : 0u;
+    s.cell = cell;
     uvec2 r = s.shading ? ranges[cell].offset_count : uvec2(0u);
     uint count = r.y & ~CELL_TREE_BIT;
     bool is_tree = s.shading && count > 1u;         // by structure: which loop can read it

@@ -9,7 +9,8 @@
 void main() {
     PixelState s = load_pixel();
     if (s.shading) {
-        uvec2 r = ranges[cell_of(s)].offset_count;
+        s.cell = cell_of(s);
+        uvec2 r = ranges[s.cell].offset_count;
         traverse_tree(s, r.x, r.y);
     }
     store_pixel(s);

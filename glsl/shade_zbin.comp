@@ -45,10 +45,12 @@ uniform float u_bin_scale;    // bins per metre of view depth
 #define SCALAR(x) (x)
 #endif
 
-// (min id, max id) of the pixel's z-bin; min > max: no light in the bin.
-uvec2 zbin_range(float depth) {
+// The pixel's z-bin.
+uint zbin_of(float depth) { return uint(min(depth * u_bin_scale, float(u_bins - 1u))); }
+
+// (min id, max id) of z-bin `bin`; min > max: no light in the bin.
+uvec2 zbin_range(uint bin) {
 #if ZBIN_MASKED
-    uint bin = uint(min(depth * u_bin_scale, float(u_bins - 1u)));
 #if ZBIN_WIDE
     return zbins[bin];
 #else
@@ -110,7 +112,10 @@ void main() {
     PixelState s = load_pixel();
     ivec2 t = s.pixel / u_tile;
     uint address = s.shading ? uint(t.y * u_tiles_x + t.x) * u_words : 0u;
-    uvec2 zr = s.shading ? zbin_range(s.depth) : uvec2(uint(ZBIN_EMPTY_MIN), 0u);
+#if ZBIN_MASKED
+    if (s.shading) s.cell = zbin_of(s.depth);
+#endif
+    uvec2 zr = s.shading ? zbin_range(s.cell) : uvec2(uint(ZBIN_EMPTY_MIN), 0u);
     uint minIdx = zr.x, maxIdx = zr.y;
 
     // words of this window: [wordMin, wordEnd)

@@ -83,6 +83,11 @@ class GBuffer:
         w, h = self.size
         return np.frombuffer(self.position.read(), np.float32).reshape(h, w, 4)
 
+    def read_normal(self) -> np.ndarray:
+        """(H, W, 4) float32 view-space normal, w the GGX roughness (0: matte); GL row order."""
+        w, h = self.size
+        return np.frombuffer(self.normal.read(), np.float32).reshape(h, w, 4)
+
     def release(self) -> None:
         if self.size is not None:
             for o in (self.fbo, self.depth_fbo, self.position, self.normal, self.albedo, self.depth):

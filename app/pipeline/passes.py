@@ -28,7 +28,11 @@ from cpu_prep.camera import FrameCamera
 # The frame's outputs, written by every technique's shading pass and read back by capture,
 # the benchmark and the window: per pixel (GL row order) and per 8x8 group.
 OUT_COLOR, OUT_STATS, WAVE_STATS = "out_color", "out_stats", "wave_stats"
-FRAME_OUTPUTS = (OUT_COLOR, OUT_STATS, WAVE_STATS)
+# out_cell: per pixel, the cell of its technique's structure that the shading pass read (a
+# tile, a 2.5D cell, a z-bin): the key of the wave replay (app.model.waves), so that the
+# replay never re-derives a pixel's cell from floats the GPU rounds differently
+OUT_CELL = "out_cell"
+FRAME_OUTPUTS = (OUT_COLOR, OUT_STATS, WAVE_STATS, OUT_CELL)
 WAVE_DIM = 8          # one emulated 64-lane wave = one 8x8 group (cpu_prep.limits.WAVE_DIM)
 
 
@@ -180,12 +184,13 @@ class HostStep:
 
 
 def frame_outputs(width: int, height: int, waves_cleared: bool = True) -> dict[str, Buffer]:
-    """The writes every shading pass declares: colour and counters per pixel, wave
-    statistics per 8x8 group (zeroed: the shaders accumulate them with atomics, unless a
-    pass stores them and says waves_cleared=False)."""
+    """The writes every shading pass declares: colour, counters and the cell read per pixel,
+    wave statistics per 8x8 group (zeroed: the shaders accumulate them with atomics, unless
+    a pass stores them and says waves_cleared=False)."""
     groups = -(-width // WAVE_DIM) * -(-height // WAVE_DIM)
     return {OUT_COLOR: Buffer(width * height * 16, np.dtype((np.float32, 4))),
             OUT_STATS: Buffer(width * height * layouts.PIXEL_STATS.itemsize, layouts.PIXEL_STATS),
+            OUT_CELL: Buffer(width * height * 4, np.dtype(np.uint32)),
             WAVE_STATS: Buffer(groups * layouts.WAVE_STATS.itemsize, layouts.WAVE_STATS,
                                cleared=waves_cleared)}
 

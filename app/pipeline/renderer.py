@@ -31,7 +31,7 @@ from cpu_prep.limits import WINDOW_ALL, LimitError
 from . import features as feat, gl
 from ..errors import UserError
 from .gbuffer import GBuffer, TEXTURE_UNITS
-from .passes import (FRAME_OUTPUTS, OUT_STATS, Buffer, Build, FrameInput, HostStep, Pass,
+from .passes import (FRAME_OUTPUTS, OUT_CELL, OUT_STATS, Buffer, Build, FrameInput, HostStep, Pass,
                      Target, WAVE_DIM)
 from .shaders import ProgramCache
 
@@ -55,6 +55,7 @@ class FrameResult:
     contrib_hash: np.ndarray | None = None   # (H,W) uint32
     nodes: np.ndarray | None = None          # (H,W) uint32 tree nodes visited
     wave: np.ndarray | None = None           # (GH,GW) WAVE_STATS per 8x8 group, image order
+    cell: np.ndarray | None = None           # (H,W) uint32 the structure cell each pixel read
     debug_lights: np.ndarray | None = None   # render(debug_pixel=...): ids affecting that pixel
 
 
@@ -134,6 +135,14 @@ class Renderer:
             raise UserError(f"no buffer '{name}' in the last frame "
                             f"(it has: {', '.join(sorted(self._frame.provided))})")
         return self.buffers[name]
+
+    def provided(self) -> list[str]:
+        """The buffers this frame provided (uploads and pass writes)."""
+        return list(self._frame.provided)
+
+    def nbytes(self, name: str) -> int:
+        """Bytes of a buffer this frame provided."""
+        return self._frame.provided[name][0]
 
     def read(self, name: str) -> np.ndarray:
         """A buffer of this frame read back, as its declared element type."""
@@ -448,6 +457,7 @@ class Renderer:
         result.contrib_count = flip(stats["contrib_count"])
         result.contrib_hash = flip(stats["contrib_hash"])
         result.nodes = flip(stats["nodes"])
+        result.cell = flip(self.read(OUT_CELL).reshape(h, w))
         result.wave = flip(wave)
 
     def __enter__(self) -> "Renderer":
