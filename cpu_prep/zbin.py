@@ -212,14 +212,16 @@ def bits_of_tile(bits: np.ndarray, tile: int, lights: int) -> np.ndarray:
     return idx[idx < lights]
 
 
-# ---- the GPU's word mask, for tests -----------------------------------------------------
+# ---- the GPU's word mask (tests, and the wave replay's kernels: app.model.waves) ----------
 
+@numba.njit(cache=True)
 def bit_field_mask(width: int, offset: int) -> int:
     """GCN's v_bfm_b32 (the slides' BitFieldMask): ((1 << (width & 31)) - 1) << (offset & 31),
     32 bits; width 32 wraps to 0, hence the listing's manual case."""
     return (((1 << (width & 31)) - 1) << (offset & 31)) & 0xFFFFFFFF
 
 
+@numba.njit(cache=True)
 def range_mask(lo: int, hi: int, word: int) -> int:
     """Bits of `word` that hold lights lo..hi (inclusive; none when lo > hi): the shader's
     default Z-bin mask (glsl/shade_zbin.comp range_mask)."""
@@ -229,6 +231,7 @@ def range_mask(lo: int, hi: int, word: int) -> int:
     return 0xFFFFFFFF if width == 32 else bit_field_mask(width, a)
 
 
+@numba.njit(cache=True)
 def zbin_word_mask(min_idx: int, max_idx: int, word: int) -> int:
     """The slides' per-lane Z-bin mask of one word, as printed (int arithmetic as in the
     listing).  It clamps the start into the word but keeps the width of the whole range, so

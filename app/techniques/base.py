@@ -14,6 +14,8 @@
     report_notes()  optional: its paper's figures beside a benchmark run's (app.report.notes)
     build()       the CPU stage: numpy in, GPU-layout arrays out, timed by step
     passes()      its GPU passes in order, the shading pass last (app.pipeline.passes)
+    wave_program()  its shading pass as the wave replay's segments, over the frame's own
+                  buffers (app.model.waves): per-wave figures for the GPU cost model
 
 A technique is one module and one line in the registry (app/techniques/__init__.py); the
 renderer, capture, window, benchmark and report need no edit for it.
@@ -22,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cpu_prep import frame as cpuframe, grid as gridmod, limits
+from cpu_prep import frame as cpuframe, grid as gridmod, layouts, limits
 
 from ..pipeline.passes import Build, FrameInput, Pass, frame_outputs, image_groups
 from .options import TechniqueOptions
@@ -59,6 +61,10 @@ class Technique:
         raise NotImplementedError
 
     def passes(self, build: Build, opts) -> list:
+        raise NotImplementedError
+
+    def wave_program(self, frame, width: int):
+        """app.model.waves.Program of the shading pass on waves of `width` lanes."""
         raise NotImplementedError
 
 
@@ -126,3 +132,43 @@ def shading_passes(build: Build, shader: str, reads: tuple[str, ...] = (), longe
     return [shading_pass(build, shader, reads, uniforms=dict(uniforms or {}, u_window=win),
                          waves_cleared=waves_cleared and k == 0, **kw)
             for k, win in enumerate(windows(build.frame, longest))]
+
+
+# ---- the wave replay's walks several techniques share (app.model.waves) -------------------
+
+def add_all_lights(prog, lanes, step=0, branch=0) -> None:
+    """evaluate_all_lights (pixel.glsl): every visible light in order, a wave-uniform loop."""
+    prog.add(lanes, step=step, branch=branch,
+             lights=(prog.all_lights(), 0, len(prog.frame.build.lights), True))
+
+
+def cell_head(prog, lanes, buf: str = "ranges", record=layouts.CELL_RANGE, scalar: bool = False):
+    """The head fetch of each lane's cell record `buf[cell]` (cell from out_cell)."""
+    cell = prog.frame.cell[np.asarray(lanes, np.int64)]
+    return ("cell", buf, cell * record.itemsize, record.itemsize, scalar)
+
+
+def add_cell_lists(prog, lanes, ranges, entries, duplicated: bool = False, step=0, branch=0,
+                   head: bool = True, entry_buf: str = "entries") -> None:
+    """Per lane its cell's record ranges[cell] = (first, count) and that index list
+    (lists.glsl evaluate_list)."""
+    lanes = np.asarray(lanes, np.int64)
+    cell = prog.frame.cell[lanes]
+    lid = entry_list(prog, entries, duplicated, entry_buf)
+    prog.add(lanes, step=step, branch=branch, head=cell_head(prog, lanes) if head else None,
+             lights=(lid, ranges[cell, 0], ranges[cell, 1], False))
+
+
+def entry_list(prog, entries, duplicated: bool = False, entry_buf: str = "entries") -> int:
+    """The light list of an index buffer: entry k fetched at 4k, then its light (indexed), or
+    the copy at dup_lights[k] (duplicated, paper figure 5)."""
+    entries = np.asarray(entries, np.int64)
+    k = np.arange(len(entries), dtype=np.int64)
+    if duplicated:
+        return prog.add_list(entries, slot=k, light_buf="dup_lights")
+    return prog.add_list(entries, entry_off=4 * k, entry_buf=entry_buf)
+
+
+def cell_ranges(build) -> np.ndarray:
+    """(cells, 2) int64 (first, count) of a CPU-built CELL_RANGE buffer."""
+    return build.buffers["ranges"]["offset_count"].astype(np.int64)

@@ -2,7 +2,10 @@
 
     lights[] (GpuLight, visible, depth-sorted)  <-  every pixel loops over all of them
 """
-from .base import Technique, prepare, shading_passes
+import numpy as np
+
+from ..model import waves
+from .base import Technique, add_all_lights, prepare, shading_passes
 
 
 class Brute(Technique):
@@ -16,3 +19,8 @@ class Brute(Technique):
 
     def passes(self, build, opts):
         return shading_passes(build, "shade_brute.comp", longest=len(build.lights))
+
+    def wave_program(self, frame, width):
+        prog = waves.Program(frame, width)
+        add_all_lights(prog, np.nonzero(frame.shading)[0])     # a wave-uniform loop
+        return prog

@@ -16,7 +16,9 @@ import numpy as np
 
 from cpu_prep import frame as cpuframe, layouts
 
-from .base import Technique, grid_uniforms, prepare_binned, shading_passes
+from ..model import waves
+from .base import (Technique, add_cell_lists, cell_head, cell_ranges, entry_list, grid_uniforms,
+                   prepare_binned, shading_passes)
 from .options import ListOptions, ScalarizeOptions, SliceOptions, WaveOptions
 
 
@@ -60,3 +62,18 @@ class Clustered(Technique):
                               defines={"LIGHTS_DUPLICATED": int(opts.duplicated),
                                        "SCALARIZED": int(opts.scalarize)},
                               uniforms=grid_uniforms(build.grid), native_wave=opts.native_wave)
+
+    def wave_program(self, frame, width):
+        prog = waves.Program(frame, width)
+        b, opts = frame.build, frame.opts
+        lanes = np.nonzero(frame.shading)[0]
+        ranges = cell_ranges(b)
+        if not opts.scalarize:
+            add_cell_lists(prog, lanes, ranges, b.buffers["entries"], opts.duplicated)
+            return prog
+        # one round per distinct cell of the wave: its record and list from a uniform address
+        cell = frame.cell[lanes]
+        lid = entry_list(prog, b.buffers["entries"], opts.duplicated)
+        prog.add(lanes, step=waves.rounds(prog, lanes, cell), head=cell_head(prog, lanes, scalar=True),
+                 lights=(lid, ranges[cell, 0], ranges[cell, 1], True))
+        return prog

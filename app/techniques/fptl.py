@@ -58,8 +58,9 @@ import numpy as np
 from cpu_prep import grid as gridmod, layouts, limits
 from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT, LIGHT_TYPES
 
+from ..model import waves
 from ..pipeline.passes import Buffer, HostStep, Pass
-from .base import Technique, prepare, shading_passes
+from .base import Technique, add_all_lights, cell_head, prepare, shading_passes
 from .options import TechniqueOptions, option
 
 TILE = 16                    # the chapter's tile: 64 invocations x 2x2 pixels
@@ -292,6 +293,39 @@ class Fptl(Technique):
         """The chapter's figures beside this run's (app/report/notes.py)."""
         return _notes(rows)
 
+    def wave_program(self, frame, width):
+        """fptl_shade.comp: the cell's record, then its packed list and each scan window's
+        spill, every run as one loop per shape compiled (type_loops) or one loop."""
+        prog = waves.Program(frame, width)
+        b, opts = frame.build, frame.opts
+        lanes = np.nonzero(frame.shading)[0]
+        cells = frame.read("fptl_cells").view(FPTL_CELL)
+        cell = frame.cell[lanes]
+        prog.add(lanes, head=cell_head(prog, lanes, "fptl_cells", FPTL_CELL))
+        full = (cells["flags"][cell] & FLAG_POOL_FULL) != 0
+        add_all_lights(prog, lanes[full], step=1, branch=1)
+        lanes, cell = lanes[~full], cell[~full]
+        shapes = np.unique(b.lights.type)            # the shapes whose loops are compiled
+        idx, off = decode_lists(frame.read("fptl_lists"), index_bits(len(b.lights)))
+        main = prog.add_list(idx.ravel(), entry_off=off.ravel(), entry_buf="fptl_lists")
+        pruned = cells["pruned"][cell].astype(np.int64)
+        _add_runs(prog, lanes, main, cell * LIST_CAP, np.minimum(pruned, LIST_CAP), 8, shapes,
+                  opts.type_loops)
+        heads = np.ascontiguousarray(frame.read("fptl_spill_heads")).view(np.uint32).reshape(-1, 2).astype(np.int64)
+        spilled = pruned > LIST_CAP
+        if spilled.any():
+            lanes, cell = lanes[spilled], cell[spilled]
+            used = int(heads.sum(1).max(initial=0))
+            spill = prog.add_list(frame.read("fptl_spill")[:used], entry_off=4 * np.arange(used),
+                                  entry_buf="fptl_spill")
+            for scan in range(len(b.data["scans"])):
+                h = scan * b.grid.cells + cell
+                step = 8 * (2 + scan)
+                prog.add(lanes, step=step, head=("cell", "fptl_spill_heads", h * 8, 8, False))
+                _add_runs(prog, lanes, spill, heads[h, 0], heads[h, 1], step + 1, shapes,
+                          opts.type_loops)
+        return prog
+
     def maps(self, result, read):
         """The chapter's figures 2.4-2.6: lights per tile in the coarse list and after fine
         pruning (per tile: its longest cell's list)."""
@@ -300,6 +334,38 @@ class Fptl(Technique):
             t = read_counts(result.build, read("fptl_cells"))
         return {"coarse": (t["coarse"], "coarse lights / tile"),
                 "pruned": (t["pruned"], "pruned lights / tile")}
+
+
+def decode_lists(words: np.ndarray, bits: int) -> tuple[np.ndarray, np.ndarray]:
+    """(cells, LIST_CAP) light indices of every cell's packed list (fptl_common.glsl
+    fptl_get) and the byte offset of the word each is read from."""
+    per = LIST_CAP // list_words(bits)
+    w = np.ascontiguousarray(words).view(np.uint32).reshape(-1, list_words(bits)).astype(np.int64)
+    k = np.arange(LIST_CAP)
+    word, shift = k // per, (k % per) * (32 // per)
+    idx = (w[:, word] >> shift) & ((1 << bits) - 1)
+    off = (np.arange(len(w))[:, None] * list_words(bits) + word) * 4
+    return idx, off
+
+
+def _add_runs(prog, lanes, list_id: int, first, count, step: int, shapes, type_loops: bool) -> None:
+    """One run of a list per lane (fptl_shade.comp shade_run): its entries, in shape order,
+    as one loop per shape compiled (each its own step), or one loop."""
+    first, count = np.asarray(first, np.int64), np.asarray(count, np.int64)
+    if not type_loops:
+        prog.add(lanes, step=step, lights=(list_id, first, count, False))
+        return
+    L = prog.lists[list_id]
+    rank = _LOOP_RANK[prog.frame.build.lights.type[L.light].astype(np.intp)] if len(L.light) \
+        else np.zeros(0, np.uint8)
+    start = first.copy()
+    for t in LOOP_ORDER:
+        if t not in shapes:
+            continue
+        cum = np.concatenate([[0], np.cumsum(rank == _LOOP_RANK[t])])
+        n = cum[first + count] - cum[first]
+        prog.add(lanes, step=step + int(_LOOP_RANK[t]), lights=(list_id, start, n, False))
+        start = start + n
 
 
 def read_counts(build, cells: np.ndarray) -> dict[str, np.ndarray]:

@@ -20,10 +20,11 @@ import numpy as np
 
 from cpu_prep import hybrid as hybridmod, layouts
 
+from ..model import waves
 from ..pipeline.passes import OUT_STATS, WAVE_DIM, WAVE_STATS, HostStep
-from .base import Technique, prepare_binned
+from .base import Technique, cell_head, entry_list, prepare_binned
 from .options import ListOptions, ScalarizeOptions, SliceOptions, TreeOptions, WaveOptions, option
-from .tree import tree_buffers, tree_passes
+from .tree import SHARED_TREE_NODES, tree_buffers, tree_passes
 
 CELL_TREE_BIT = np.uint32(1 << 31)     # shade_hybrid.comp: listing 2 chose a tree
 CASES = {1: "list", 2: "tree", 3: "mixed"}
@@ -69,6 +70,81 @@ class Hybrid(Technique):
         """Per wave path: the waves, their scalar iterations and node visits, against the
         unspecialised loop (app/report/notes.py)."""
         return _notes(rows)
+
+    def wave_program(self, frame, width):
+        """shade_hybrid.comp: the cell record, then (specialised) the group vote and one of
+        the three paths per wave, else the general traversal for every lane."""
+        prog = waves.Program(frame, width)
+        b, opts = frame.build, frame.opts
+        lanes = np.nonzero(frame.shading)[0]
+        rng = b.buffers["ranges"]["offset_count"].astype(np.int64)
+        cell = frame.cell[lanes]
+        first, count = rng[cell, 0], rng[cell, 1] & ~np.int64(CELL_TREE_BIT)
+        nodes = b.buffers["nodes"]
+        lid = entry_list(prog, b.buffers["entries"], opts.duplicated)
+        prog.add(lanes, head=cell_head(prog, lanes))
+        if not opts.specialised:
+            waves.add_tree(prog, lanes, first, count, nodes, lid)
+            return prog
+        tree = count > 1
+        group = frame.group[lanes]
+        # the group vote (groupReduce: 4 barriers): one tree, read from shared memory?
+        prog.barriers += 4 * prog.groups
+        one = _one_tree_groups(group, tree, cell, count, prog.groups)
+        shared = one[group]
+        prog.barriers += 5 * int(one.sum())          # the base's vote, the load's barrier
+        _add_shared_load(prog, frame, lanes[shared], first[shared], count[shared])
+        waves.add_tree(prog, lanes[shared], first[shared], count[shared], nodes, lid, step0=64,
+                       shared=True)
+        # the other groups: per wave all lists, all trees or mixed (native: a wave vote)
+        rest = ~shared
+        w = prog.wave[lanes]
+        has_tree = np.zeros(prog.waves, bool)
+        has_tree[w[rest & tree]] = True
+        has_other = np.zeros(prog.waves, bool)
+        has_other[w[rest & ~tree]] = True
+        mixed = has_tree[w] & has_other[w]
+        lists = rest & ~tree
+        if opts.scalarize:          # all-list waves walk their distinct list cells (rounds)
+            walk = lists & ~mixed
+            r = waves.rounds(prog, lanes[walk], cell[walk])
+            v = waves.tree_visits(frame.position[lanes[walk], 3], first[walk],
+                                  np.minimum(count[walk], 1), nodes)
+            prog.add(lanes[walk][v[:, 0]], step=1 + r[v[:, 0]],
+                     head=("node", "nodes", v[:, 2] * 16, 16, True), lights=(lid, v[:, 3], v[:, 4], True))
+            lists &= mixed
+        waves.add_tree(prog, lanes[lists], first[lists], count[lists], nodes, lid)
+        trees = rest & tree
+        waves.add_tree(prog, lanes[trees], first[trees], count[trees], nodes, lid,
+                       branch=1)               # in a mixed wave, after its list lanes
+        return prog
+
+
+def _one_tree_groups(group, tree, cell, count, groups: int) -> np.ndarray:
+    """Per group, shade_hybrid.comp's one_tree: every shading lane a tree lane, all of one
+    cell, of at most SHARED_TREE_NODES nodes."""
+    has_tree = np.bincount(group[tree], minlength=groups) > 0
+    has_other = np.bincount(group[~tree], minlength=groups) > 0
+    lo = np.full(groups, np.iinfo(np.int64).max)
+    hi = np.full(groups, -1)
+    np.minimum.at(lo, group[tree], cell[tree])
+    np.maximum.at(hi, group[tree], cell[tree])
+    big = np.zeros(groups, np.int64)
+    np.maximum.at(big, group[tree], count[tree])
+    return has_tree & ~has_other & (lo == hi) & (big <= SHARED_TREE_NODES)
+
+
+def _add_shared_load(prog, frame, lanes, first, count) -> None:
+    """load_shared_tree (tree.glsl): invocation l of the group loads nodes l, l + 64, ..."""
+    if not len(lanes):
+        return
+    x, y = frame.pixel_xy
+    local = (y[lanes] % 8) * 8 + x[lanes] % 8
+    its = -(-np.maximum(count - local, 0) // 64)
+    k = np.repeat(np.arange(len(lanes)), its)
+    it = np.arange(len(k)) - np.repeat(np.cumsum(its) - its, its)
+    node = first[k] + local[k] + 64 * it
+    prog.add(lanes[k], step=1 + it, head=("load", "nodes", node * 16, 16, False))
 
 
 def _case_counters(build, waves, pixels):

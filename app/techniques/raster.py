@@ -114,8 +114,8 @@ from ..pipeline.passes import (WAVE_STATS, Buffer, Draw, HostStep, Pass, Stencil
                                image_groups)
 from .base import Technique, prepare, shading_passes
 from .options import option
-from .zbin import (VARIANTS as SHADE_VARIANTS, ZBin, _wave_counters, attach_zbins, tile_boxes,
-                   variant_flags)
+from .zbin import (VARIANTS as SHADE_VARIANTS, ZBin, _wave_counters, add_bit_words, attach_zbins,
+                   tile_boxes, variant_flags)
 
 VARIANTS = ("atomic", "atomic + 4xMSAA", "atomic + compaction", "atomic + compaction + 4xMSAA")
 PROXY_SPHERE, PROXY_CONE, PROXY_CAPSULE, PROXY_BOX = 0, 1, 2, 3
@@ -581,6 +581,18 @@ class Raster(Technique):
         out.append(HostStep("wave counters", (WAVE_STATS,),
                             lambda got: _wave_counters(build, got[WAVE_STATS]), figures=True))
         return out
+
+    def wave_program(self, frame, width):
+        """zbin's loop over the rasterized bits, or the per-cluster loop (cluster mode)."""
+        from ..model import waves
+        opts = frame.opts
+        masked, scalarized = variant_flags(opts.zbin_variant)
+        prog = waves.Program(frame, width)
+        if opts.cluster:
+            add_bit_words(prog, "raster_bits", frame.build.grid, False, False, False, cluster=True)
+        else:
+            add_bit_words(prog, "raster_bits", frame.build.grid, masked, scalarized, opts.printed_mask)
+        return prog
 
     def _cull_passes(self, build, opts, stats: bool) -> list:
         """The fill pass (own depth target) and one mark pass per non-empty (proxy, side)

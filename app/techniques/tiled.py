@@ -7,11 +7,17 @@ GPU from the G-buffer; lights culled per tile on the GPU (glsl/tile_cull.comp).
 """
 from dataclasses import dataclass
 
+import numpy as np
+
 from cpu_prep import layouts
 
+from ..model import waves
 from ..pipeline.passes import Buffer, Pass
 from ..errors import UserError
-from .base import Technique, grid_uniforms, make_grid, prepare, shading_passes
+from .base import (Technique, add_all_lights, add_cell_lists, cell_head, grid_uniforms, make_grid,
+                   prepare, shading_passes)
+
+OVERFLOW = 0xFFFFFFFF          # a tile's count when its list did not fit the pool
 from .options import TileOptions
 
 POOL_MAX_ENTRIES = 8 << 20
@@ -57,3 +63,15 @@ class Tiled(Technique):
         # a tile's list holds at most every light (an overflowed tile shades every light)
         return [cull] + shading_passes(build, "shade_tiled.comp", ("ranges", "entries"), n,
                                        defines={"LIGHTS_DUPLICATED": 0}, uniforms=grid_uniforms(g))
+
+    def wave_program(self, frame, width):
+        prog = waves.Program(frame, width)
+        lanes = np.nonzero(frame.shading)[0]
+        ranges = frame.read("ranges").view(layouts.CELL_RANGE)["offset_count"].astype(np.int64)
+        over = ranges[frame.cell[lanes], 1] == OVERFLOW
+        listed = np.where(ranges[:, 1] == OVERFLOW, 0, ranges.sum(1))
+        entries = frame.read("entries")[:int(listed.max(initial=0))]   # the pool's used part
+        prog.add(lanes, head=cell_head(prog, lanes))
+        add_cell_lists(prog, lanes[~over], ranges, entries, step=1, head=False)
+        add_all_lights(prog, lanes[over], step=1, branch=1)     # an overflowed tile's branch
+        return prog

@@ -10,7 +10,8 @@ import numpy as np
 
 from cpu_prep import frame as cpuframe, tree as treemod
 
-from .base import Technique, grid_uniforms, prepare_binned, shading_passes
+from ..model import waves
+from .base import Technique, cell_head, cell_ranges, entry_list, grid_uniforms, prepare_binned, shading_passes
 from .clustered import list_buffers, list_reads
 from .options import ListOptions, TileOptions, TreeOptions
 
@@ -61,3 +62,15 @@ class Tree(Technique):
 
     def passes(self, build, opts):
         return tree_passes(build, opts, "shade_tree.comp")
+
+    def wave_program(self, frame, width):
+        """The tile's record, then listing 3's traversal per lane (one step per node visit)."""
+        prog = waves.Program(frame, width)
+        b = frame.build
+        lanes = np.nonzero(frame.shading)[0]
+        ranges = cell_ranges(b)
+        cell = frame.cell[lanes]
+        prog.add(lanes, head=cell_head(prog, lanes))
+        waves.add_tree(prog, lanes, ranges[cell, 0], ranges[cell, 1], b.buffers["nodes"],
+                       entry_list(prog, b.buffers["entries"], frame.opts.duplicated))
+        return prog

@@ -56,8 +56,9 @@ import numpy as np
 
 from cpu_prep import frame as cpuframe, grid as gridmod, layouts, limits, zbin as zb
 
+from ..model import waves
 from ..pipeline.passes import WAVE_STATS, HostStep
-from .base import Technique, prepare, shading_passes
+from .base import Technique, cell_head, prepare, shading_passes
 from .options import WaveOptions, option
 
 VARIANTS = ("base tile", "tile + zbin", "scalarized tile", "scalarized tile + zbin")
@@ -166,6 +167,35 @@ class ZBin(Technique):
             native_wave=opts.native_wave)
         return shade + [HostStep("wave counters", (WAVE_STATS,),
                                  lambda got: _wave_counters(build, got[WAVE_STATS]), figures=True)]
+
+    def wave_program(self, frame, width):
+        opts = frame.opts
+        masked, scalarized = variant_flags(opts.zbin_variant)
+        prog = waves.Program(frame, width)
+        add_bit_words(prog, "tile_bits", frame.build.grid, masked, scalarized, opts.printed_mask)
+        return prog
+
+
+def add_bit_words(prog, bits_buf: str, grid, masked: bool, scalarized: bool, printed: bool,
+                  cluster: bool = False) -> None:
+    """shade_zbin.comp's loop for the wave replay (app.model.waves.Program.bit_words): each
+    pixel's tile word offset, its z-bin's record (out_cell: the bin) and id range; or, for
+    the cluster rasterizer's loop (`cluster`), its cluster's words (out_cell: the cluster)."""
+    fr = prog.frame
+    words = zb.words_for(len(fr.build.lights))
+    x, y = fr.pixel_xy
+    address = ((y // grid.tile) * grid.tiles_x + x // grid.tile) * words
+    lo = np.zeros(len(x), np.int64)
+    hi = np.full(len(x), 0xFFFFFFFF, np.int64)
+    if cluster:
+        address = fr.cell * words
+    elif masked:
+        lut = fr.build.buffers["zbins"]
+        lanes = np.nonzero(fr.shading)[0]
+        prog.add(lanes, head=cell_head(prog, lanes, "zbins", np.dtype((np.uint32, lut.shape[1:]))))
+        zlo, zhi = zb.unpack_lut(lut)
+        lo, hi = zlo[fr.cell], zhi[fr.cell]
+    prog.bit_words(address, lo, hi, bits_buf, words, masked, scalarized, printed)
 
 
 def tile_bit_maps(tile_bits, grid, depth=None, lut=None, bin_scale=0.0) -> dict:
