@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from pathlib import Path
 import re
+from typing import NamedTuple
 
 import moderngl
 
@@ -152,6 +153,33 @@ def _first_error(sources: list[Source], log: str, context: str = "") -> str:
     return f"{stage.files[0]}: {first.strip()}"
 
 
+class ProgramKey(NamedTuple):
+    """What a cached program is built from; stage_texts(key) gives its stages' text."""
+    names: tuple[str, ...]
+    defines: tuple
+    virtual: tuple
+    extensions: tuple[str, ...]
+    bindings: tuple | None      # None: the text as written
+    optional: tuple
+
+
+def stage_texts(key: ProgramKey, context: str = "") -> tuple[list[Source], list[str]]:
+    """The sources of a program and each stage's final text, as the driver gets it.
+    `defines` must be declared by the sources; `optional` ones (frame-wide switches such as
+    UNBOUNDED_FALLOFF) reach the stages that declare them and no others."""
+    sources = [Source(n, dict(key.virtual)) for n in key.names]
+    defines = dict(key.defines)
+    unknown = sorted(set(defines) - set().union(*(s.declared for s in sources)))
+    if unknown:
+        raise ShaderError(f"{context or '+'.join(key.names)}: unknown define(s) {', '.join(unknown)}")
+    every = dict(key.optional, **defines)
+    bindings = None if key.bindings is None else dict(key.bindings)
+    # each stage gets the defines it declares
+    texts = [s.text({k: v for k, v in every.items() if k in s.declared}, key.extensions, bindings)
+             for s in sources]
+    return sources, texts
+
+
 def _define_value(v) -> str:
     if isinstance(v, bool):
         return "1" if v else "0"
@@ -162,7 +190,7 @@ class ProgramCache:
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
         self._programs: dict = {}
-        self.sources: dict = {}   # key -> final text, for inspection and tests
+        self.sources: dict = {}   # ProgramKey -> final text, for inspection and tests
 
     def compute(self, name: str, defines: dict | None = None, virtual: dict | None = None,
                 extensions: tuple[str, ...] = (), bindings: dict | None = None,
@@ -178,23 +206,12 @@ class ProgramCache:
                          lambda texts: self.ctx.program(vertex_shader=texts[0], fragment_shader=texts[1]))
 
     def _get(self, names, defines, virtual, extensions, bindings, optional, context, build):
-        """`defines` must be declared by the sources; `optional` ones (frame-wide switches
-        such as UNBOUNDED_FALLOFF) reach the stages that declare them and no others."""
-        defines = dict(defines or {})
-        bindings = None if bindings is None else dict(bindings)   # None: the text as written
-        optional = dict(optional or {})
-        key = (names, tuple(sorted(defines.items())), tuple(sorted((virtual or {}).items())),
-               extensions, None if bindings is None else tuple(sorted(bindings.items())),
-               tuple(sorted(optional.items())))
+        key = ProgramKey(names, tuple(sorted((defines or {}).items())),
+                         tuple(sorted((virtual or {}).items())), tuple(extensions),
+                         None if bindings is None else tuple(sorted(bindings.items())),
+                         tuple(sorted((optional or {}).items())))
         if key not in self._programs:
-            sources = [Source(n, virtual) for n in names]
-            unknown = sorted(set(defines) - set().union(*(s.declared for s in sources)))
-            if unknown:
-                raise ShaderError(f"{context or '+'.join(names)}: unknown define(s) {', '.join(unknown)}")
-            every = dict(optional, **defines)
-            # each stage gets the defines it declares
-            texts = [s.text({k: v for k, v in every.items() if k in s.declared}, extensions,
-                            bindings) for s in sources]
+            sources, texts = stage_texts(key, context)
             try:
                 self._programs[key] = build(texts)
             except Exception as exc:
