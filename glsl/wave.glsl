@@ -4,12 +4,22 @@
 //   memory.  Every invocation of the group must call each function (they hold barriers), so
 //   loops that use them keep inactive lanes iterating with their work masked.  Their results
 //   are uniform over the workgroup, so they may guard further barriers.
-// wave*:  the same calls on the native subgroup (GL_ARB_shader_ballot + group_vote) when
-//   WAVE_NATIVE is 1, else the group* emulation.  Native results are uniform per subgroup
-//   only: never guard a barrier() with them.  Either way the image is the same: the API
-//   only steers which (equivalent) loop runs.
+// wave*:  the same calls on the native subgroup when WAVE_NATIVE is WAVE_KHR
+//   (GL_KHR_shader_subgroup) or WAVE_ARB (GL_ARB_shader_ballot), else the group* emulation;
+//   the shader loader emits the #extension lines of the value (app/pipeline/gl.py).  Native
+//   results are uniform per subgroup only: never guard a barrier() with them.  Either way the
+//   image is the same: the API only steers which (equivalent) loop runs.  No function assumes
+//   a subgroup size (llvmpipe 8 here, NVIDIA 32, AMD 32 or 64): ballots are uvec4 on every
+//   path (bit n = lane n; KHR subgroups reach 128 lanes, ARB's stop at 64), and only the
+//   active lanes count (a partial subgroup, lanes that left a loop).
+// A fragment shader (no workgroup) defines WAVE_FRAGMENT before the include: no group*
+//   emulation then, and the wave* functions exist only on a native path.
 // define: WAVE_NATIVE
 
+#define WAVE_ARB 1
+#define WAVE_KHR 2
+
+#ifndef WAVE_FRAGMENT
 shared uint wave_scalar;
 shared uint wave_bits[2];
 shared uint wave_reduce[4];
@@ -86,38 +96,93 @@ uint groupPrefixCountBits(bool b) {
     return lo + hi;
 }
 
-#if WAVE_NATIVE
-bool waveActiveAllTrue(bool b) { return allInvocationsARB(b); }
-bool waveActiveAnyTrue(bool b) { return anyInvocationARB(b); }
+#endif  // WAVE_FRAGMENT
+
+#if WAVE_NATIVE == WAVE_KHR
+// GL_KHR_shader_subgroup (basic, vote, ballot, arithmetic): each call over the subgroup's
+// active invocations.
+bool waveActiveAllTrue(bool b) { return subgroupAll(b); }
+bool waveActiveAnyTrue(bool b) { return subgroupAny(b); }
+uint waveReadFirstLane(uint v) { return subgroupBroadcastFirst(v); }
+uvec4 waveBallot(bool b) { return subgroupBallot(b); }
+uint waveAllMin(uint v) { return subgroupMin(v); }
+uint waveAllMax(uint v) { return subgroupMax(v); }
+uint waveAllBitOr(uint v) { return subgroupOr(v); }
+uint waveLaneCount() { return gl_SubgroupSize; }
+uint waveLaneIndex() { return gl_SubgroupInvocationID; }
+// bits of `mask` (a waveBallot) of the lanes below this one
+uint waveCountBelow(uvec4 mask) { return subgroupBallotExclusiveBitCount(mask); }
+#elif WAVE_NATIVE == WAVE_ARB
+// GL_ARB_shader_ballot.  Votes are ballots too, not GL_ARB_shader_group_vote: its set of
+// invocations is implementation-dependent (its spec), so it need not be the ballot's
+// subgroup, and every function here must see the same lanes.
+uvec4 waveBallot(bool b) { return uvec4(unpackUint2x32(ballotARB(b)), 0u, 0u); }
+bool waveActiveAllTrue(bool b) { return ballotARB(b) == ballotARB(true); }
+bool waveActiveAnyTrue(bool b) { return ballotARB(b) != uint64_t(0u); }
 uint waveReadFirstLane(uint v) { return readFirstInvocationARB(v); }
-uvec2 waveBallot(bool b) { return unpackUint2x32(ballotARB(b)); }
+// No reductions in ARB: read each active lane once (readInvocationARB of an inactive lane is
+// undefined; the lane index, from a ballot, is uniform as the function wants).
 uint waveAllMin(uint v) {
     uint r = v;
-    uvec2 m = waveBallot(true);
+    uvec2 m = unpackUint2x32(ballotARB(true));
     for (uint w = 0u; w < 2u; ++w)
         for (uint bits = m[w]; bits != 0u; bits &= bits - 1u)
             r = min(r, readInvocationARB(v, w * 32u + uint(findLSB(bits))));
     return r;
 }
 uint waveAllMax(uint v) { return ~waveAllMin(~v); }
-// ARB_shader_ballot has no OR reduction: read each active lane once (as waveAllMin), unless
-// every lane holds the same value (one vote; lanes of one screen tile often do).
+// as waveAllMin, unless every active lane holds the same value (lanes of one tile often do)
 uint waveAllBitOr(uint v) {
     uint first = readFirstInvocationARB(v);
-    if (allInvocationsARB(v == first)) return first;
+    uint64_t lanes = ballotARB(true);
+    if (ballotARB(v == first) == lanes) return first;
     uint r = 0u;
-    uvec2 m = waveBallot(true);
+    uvec2 m = unpackUint2x32(lanes);
     for (uint w = 0u; w < 2u; ++w)
         for (uint bits = m[w]; bits != 0u; bits &= bits - 1u)
             r |= readInvocationARB(v, w * 32u + uint(findLSB(bits)));
     return r;
 }
-#else
+uint waveLaneCount() { return gl_SubGroupSizeARB; }
+uint waveLaneIndex() { return gl_SubGroupInvocationARB; }
+uint waveCountBelow(uvec4 mask) {
+    uvec2 m = mask.xy & unpackUint2x32(gl_SubGroupLtMaskARB);
+    return uint(bitCount(m.x) + bitCount(m.y));
+}
+#elif !defined(WAVE_FRAGMENT)
 bool waveActiveAllTrue(bool b) { return groupActiveAllTrue(b); }
 bool waveActiveAnyTrue(bool b) { return groupActiveAnyTrue(b); }
 uint waveReadFirstLane(uint v) { return groupReadFirstLane(v); }
-uvec2 waveBallot(bool b) { return groupBallot(b); }
+uvec4 waveBallot(bool b) { return uvec4(groupBallot(b), 0u, 0u); }
 uint waveAllMin(uint v) { return groupAllMin(v); }
 uint waveAllMax(uint v) { return groupAllMax(v); }
 uint waveAllBitOr(uint v) { return groupAllBitOr(v); }
+uint waveLaneCount() { return 64u; }
+uint waveLaneIndex() { return gl_LocalInvocationIndex; }
+#endif
+
+#if WAVE_NATIVE
+// Lanes below this one whose predicate is true.
+uint wavePrefixCountBits(bool b) { return waveCountBelow(waveBallot(b)); }
+
+// The slides' WaveCompactValue: this lane's index among the active lanes holding the same
+// value (0: the first of them; the caller's "one lane per value" work goes there).  A
+// fragment's helper invocations are not counted: their writes are dropped, so one must never
+// be the 0 of its value.  Native only (the lanes leave the loop one value at a time).
+uint waveCompactValue(uint checkValue) {
+#ifdef WAVE_FRAGMENT
+    bool counted = !gl_HelperInvocation;
+#else
+    bool counted = true;
+#endif
+    uvec4 mask;
+    for (;;) {                                        // loop until all active lanes removed
+        uint firstValue = waveReadFirstLane(checkValue);
+        mask = waveBallot(counted && firstValue == checkValue);   // the remaining active lanes
+        if (firstValue == checkValue) break;          // exclude lanes with firstValue next time
+    }
+    return waveCountBelow(mask);
+}
+#elif !defined(WAVE_FRAGMENT)
+uint wavePrefixCountBits(bool b) { return groupPrefixCountBits(b); }
 #endif

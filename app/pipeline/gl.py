@@ -6,6 +6,7 @@ Timing: GL timer queries on a real GPU; on llvmpipe they do not time compute dis
 from __future__ import annotations
 
 from dataclasses import dataclass
+import ctypes
 import time
 
 import moderngl
@@ -16,8 +17,38 @@ from ..errors import UserError
 
 _CTX: moderngl.Context | None = None
 
-# What the native wave API (glsl/wave.glsl, WAVE_NATIVE) needs: ballotARB returns uint64_t.
-NATIVE_WAVE_EXTENSIONS = ("GL_ARB_shader_ballot", "GL_ARB_shader_group_vote", "GL_ARB_gpu_shader_int64")
+# The native wave paths of glsl/wave.glsl, by their value of its WAVE_NATIVE define (0: the
+# group emulation), and the #extension lines each needs: the shader loader emits them for a
+# stage compiled with that value.
+WAVE_ARB, WAVE_KHR = 1, 2
+WAVE_EXTENSIONS = {
+    WAVE_ARB: ("GL_ARB_shader_ballot", "GL_ARB_gpu_shader_int64"),     # ballotARB is a uint64_t
+    WAVE_KHR: ("GL_KHR_shader_subgroup_basic", "GL_KHR_shader_subgroup_vote",
+               "GL_KHR_shader_subgroup_ballot", "GL_KHR_shader_subgroup_arithmetic"),
+}
+WAVE_PATHS = {"": 0, "arb": WAVE_ARB, "khr": WAVE_KHR}     # Limits.native_wave -> WAVE_NATIVE
+# The ARB path's (GL and GLSL names agree there), for callers that pass them themselves.
+NATIVE_WAVE_EXTENSIONS = WAVE_EXTENSIONS[WAVE_ARB]
+
+# GL_KHR_shader_subgroup's queries and the bits the wave API needs: its four function
+# families in the compute stage (shading passes) and the fragment stage (raster's compaction).
+GL_SUBGROUP_SIZE_KHR, GL_SUBGROUP_SUPPORTED_STAGES_KHR, GL_SUBGROUP_SUPPORTED_FEATURES_KHR = (
+    0x9532, 0x9533, 0x9534)
+GL_FRAGMENT_SHADER_BIT, GL_COMPUTE_SHADER_BIT = 0x2, 0x20
+KHR_FEATURES = {"basic": 0x1, "vote": 0x2, "arithmetic": 0x4, "ballot": 0x8}
+KHR_STAGES = GL_COMPUTE_SHADER_BIT | GL_FRAGMENT_SHADER_BIT
+KHR_MAX_SUBGROUP = 128      # a uvec4 ballot (wave.glsl) holds 128 lanes
+
+
+def native_wave_path(extensions, subgroup_size: int = 0, stages: int = 0, features: int = 0) -> str:
+    """The native wave path a context gets: 'khr' where GL_KHR_shader_subgroup has every
+    feature the wave API uses in every stage that uses it (and a size its ballots hold),
+    else 'arb' where GL_ARB_shader_ballot and 64-bit integers exist, else '' (emulation)."""
+    need = sum(KHR_FEATURES.values())
+    if ("GL_KHR_shader_subgroup" in extensions and stages & KHR_STAGES == KHR_STAGES
+            and features & need == need and 0 < subgroup_size <= KHR_MAX_SUBGROUP):
+        return "khr"
+    return "arb" if set(WAVE_EXTENSIONS[WAVE_ARB]) <= set(extensions) else ""
 
 
 @dataclass(frozen=True)
@@ -27,7 +58,14 @@ class Limits:
     max_compute_shared: int
     renderer: str
     version: str
-    native_ballot: bool
+    native_ballot: bool        # the ARB path's extensions (WAVE_NATIVE = WAVE_ARB compiles)
+    native_wave: str = ""      # the selected path: "khr", "arb" or "" (the emulation only)
+    subgroup_size: int = 0     # GL_SUBGROUP_SIZE_KHR; 0 without KHR (ARB tells shaders only)
+
+    @property
+    def wave_define(self) -> int:
+        """WAVE_NATIVE for a pass that asks for native waves (0: the emulation)."""
+        return WAVE_PATHS[self.native_wave]
 
     @property
     def software(self) -> bool:
@@ -69,15 +107,53 @@ def limits() -> Limits:
     global _LIMITS
     if _LIMITS is None:
         ctx = context()
+        exts = set(ctx.extensions)
+        khr = (gl_integers(GL_SUBGROUP_SIZE_KHR, GL_SUBGROUP_SUPPORTED_STAGES_KHR,
+                           GL_SUBGROUP_SUPPORTED_FEATURES_KHR)
+               if "GL_KHR_shader_subgroup" in exts else (0, 0, 0))
         _LIMITS = Limits(
             max_storage_block=int(ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27)),
             max_texture_size=int(ctx.info["GL_MAX_TEXTURE_SIZE"]),
             max_compute_shared=int(ctx.info.get("GL_MAX_COMPUTE_SHARED_MEMORY_SIZE", 32768)),
             renderer=str(ctx.info["GL_RENDERER"]),
             version=str(ctx.info["GL_VERSION"]),
-            native_ballot=set(NATIVE_WAVE_EXTENSIONS) <= set(ctx.extensions),
+            native_ballot=set(NATIVE_WAVE_EXTENSIONS) <= exts,
+            native_wave=native_wave_path(exts, *khr),
+            subgroup_size=khr[0],
         )
     return _LIMITS
+
+
+_GET_INTEGER = None
+
+
+def gl_integers(*names: int) -> tuple[int, ...]:
+    """glGetIntegerv of the current context for names moderngl's ctx.info lacks; 0 for a
+    name the driver refuses (its GL error is taken, so it is not left for later calls; an
+    error left by earlier calls is taken first, so it is not read as this one's)."""
+    global _GET_INTEGER
+    if _GET_INTEGER is None:
+        for lib in ("libOpenGL.so.0", "libGL.so.1"):     # dispatch to the current context
+            try:
+                gl = ctypes.CDLL(lib)
+                break
+            except OSError:
+                continue
+        else:
+            return (0,) * len(names)
+        gl.glGetIntegerv.argtypes = [ctypes.c_uint, ctypes.POINTER(ctypes.c_int)]
+        gl.glGetIntegerv.restype = None
+        gl.glGetError.restype = ctypes.c_uint
+        _GET_INTEGER = gl
+    out = []
+    for name in names:
+        for _ in range(16):          # GL keeps one flag per kind of error
+            if not _GET_INTEGER.glGetError():
+                break
+        v = ctypes.c_int(0)
+        _GET_INTEGER.glGetIntegerv(name, ctypes.byref(v))
+        out.append(0 if _GET_INTEGER.glGetError() else v.value)
+    return tuple(out)
 
 
 class PassTimer:

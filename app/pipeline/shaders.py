@@ -4,6 +4,9 @@
   and wrapped in `#line` directives so compile errors name the right file and line.
 - Defines are injected right after `#version` from a dict.  A shader declares the names it
   accepts with a `// define: NAME ...` comment; an undeclared name is an error.
+- A stage given a native WAVE_NATIVE (glsl/wave.glsl: 1 ARB, 2 KHR) gets that path's
+  `#extension` lines there too (gl.WAVE_EXTENSIONS): GLSL wants them before any
+  declaration, and the stage that includes wave.glsl has made some by then.
 - Storage buffers are bound by slot name: a shader writes `binding = B_LIGHTS`, and the
   program is built with the binding points of the slots its pass declares (`bindings`).
   The declaration of a buffer block whose slot the pass did not declare is dropped from the
@@ -21,6 +24,7 @@ from typing import NamedTuple
 import moderngl
 
 from ..errors import UserError
+from .gl import WAVE_EXTENSIONS
 
 GLSL_DIR = Path(__file__).resolve().parents[2] / "glsl"
 MAX_INCLUDE_DEPTH = 16
@@ -115,6 +119,11 @@ class Source:
                               f"(declared: {', '.join(sorted(self.declared)) or 'none'})")
         if not self.body or not self.body[0].startswith("#version"):
             raise ShaderError(f"{self.files[0]}: first line must be #version")
+        wave = int(defines.get("WAVE_NATIVE", 0))
+        if wave and wave not in WAVE_EXTENSIONS:
+            raise ShaderError(f"{self.files[0]}: WAVE_NATIVE {wave}: 0 (emulated), "
+                              f"{' or '.join(map(str, sorted(WAVE_EXTENSIONS)))} (native paths)")
+        extensions = dict.fromkeys(tuple(extensions) + WAVE_EXTENSIONS.get(wave, ()))
         head = [self.body[0]] + [f"#extension {e} : require" for e in extensions]
         head += [f"#define {k} {_define_value(v)}" for k, v in sorted(defines.items())]
         body = "\n".join(self.body[1:])
