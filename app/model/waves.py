@@ -56,10 +56,12 @@ GROUP = 8                       # the shading pass's 8x8 groups (pixel.glsl)
 LINE = 64                       # bytes of a cache line in the figures
 LIGHT_BYTES = layouts.GPU_LIGHT.itemsize
 
-# Loop kinds (rows of Figures.loops): what one issued iteration of that kind does.
-KINDS = ("cell", "node", "lds_node", "word", "load", "light")
-CELL, NODE, LDS_NODE, WORD, LOAD, LIGHT = range(len(KINDS))
-HEAD_KINDS = KINDS[:LIGHT]
+# Loop kinds (rows of Figures.loops): what one issued iteration of that kind does.  The
+# shading pass's (the kernels below index the first six by number), then the culling
+# passes' (Technique.cull_figures: counted from their fixed loops, analytic()).
+KINDS = ("cell", "node", "lds_node", "word", "load", "light",
+         "depth", "cull_test", "prune", "aabb", "vertex", "fragment")
+CELL, NODE, LDS_NODE, WORD, LOAD, LIGHT = range(6)
 # Fields per kind: issued iterations, active lane-iterations, vector load instructions,
 # scalar load instructions, distinct lines of the vector loads, of the scalar loads, lanes
 # reading shared memory (LDS).
@@ -222,9 +224,11 @@ class Program:
         if not self._segs:
             return {k: np.zeros(0, np.bool_ if k in ("hscalar", "lscalar") else np.int64) for k in keys}
         seg = {k: np.concatenate([s[k] for s in self._segs]) for k in keys}
-        wave = self.wave[seg["lane"]]
-        order = np.lexsort((self.lane[seg["lane"]], seg["step"], seg["branch"], wave))
-        return {k: np.ascontiguousarray(v[order]) for k, v in seg.items()}
+        if seg["step"].max() >= 1 << 24 or seg["branch"].max() >= 4:
+            raise ValueError("a segment's step or branch is out of the sort key's range")
+        key = ((self.wave[seg["lane"]] * 4 + seg["branch"]) << 24 | seg["step"]) << 6 | self.lane[seg["lane"]]
+        order = np.argsort(key, kind="stable")
+        return {k: v[order] for k, v in seg.items()}
 
 
 # ---- figures ----------------------------------------------------------------------------
@@ -244,6 +248,10 @@ class Figures:
     specular: int = 0              # light iterations in which an affected lane ran GGX
     unique_bytes: dict = field(default_factory=dict)   # buffer -> bytes of distinct lines read
     barriers: int = 0              # per pass (every group's)
+    atomics: int = 0               # global atomics (culling passes)
+    shared_atomics: int = 0
+    graphics: bool = False         # a raster pass (vertex and fragment work)
+    fragments: int = 0             # its fragments (depth tests)
 
     def loop(self, kind: str) -> dict[str, int]:
         return dict(zip(FIELDS, (int(v) for v in self.loops[KINDS.index(kind)])))
@@ -261,6 +269,9 @@ class Figures:
                 out[f"shaded_{name}"] = int(self.shaded[t])
         out["specular_iterations"] = int(self.specular)
         out["unique_bytes"] = int(sum(self.unique_bytes.values()))
+        for k in ("atomics", "shared_atomics", "fragments"):
+            if getattr(self, k):
+                out[k] = int(getattr(self, k))
         return out
 
     @property
@@ -268,6 +279,28 @@ class Figures:
         """Active lanes per issued lane slot over every loop kind (1.0: no lane idle)."""
         issued = self.loops[:, ISSUED].sum()
         return float(self.loops[:, LANES].sum() / (issued * self.width)) if issued else 1.0
+
+
+def per_tile(frame: FrameData, tile: int) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """(pixels, covered pixels) per screen tile of `tile` px (row-major) and the tile grid."""
+    x, y = frame.pixel_xy
+    tx, ty = -(-frame.size[0] // tile), -(-frame.size[1] // tile)
+    t = (y // tile) * tx + x // tile
+    return (np.bincount(t, minlength=tx * ty), np.bincount(t[frame.shading], minlength=tx * ty),
+            tx, ty)
+
+
+def analytic(width: int, waves: int, loops: dict, unique_bytes: dict | None = None, **kw) -> Figures:
+    """Figures of a pass whose loops have fixed trip counts (a culling pass): per kind
+    (issued, lanes, vector loads, vector lines[, scalar loads, scalar lines]) summed over its
+    waves, counted by the technique from the frame's sizes and counts."""
+    f = Figures(width=width, waves=int(waves), busy_waves=int(waves), pixels=0, shading_pixels=0,
+                unique_bytes=dict(unique_bytes or {}), **kw)
+    cols = ("issued", "lanes", "vector_loads", "vector_lines", "scalar_loads", "scalar_lines")
+    for kind, vals in loops.items():
+        for name, v in zip(cols, vals):
+            f.loops[KINDS.index(kind), FIELDS.index(name)] += int(v)
+    return f
 
 
 @dataclass

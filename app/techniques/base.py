@@ -67,6 +67,11 @@ class Technique:
         """app.model.waves.Program of the shading pass on waves of `width` lanes."""
         raise NotImplementedError
 
+    def cull_figures(self, frame, width: int) -> dict:
+        """{timed pass name: app.model.waves.Figures} of the GPU passes before the shading
+        pass (none: a structure the CPU built)."""
+        return {}
+
 
 # ---- steps and passes several techniques share ------------------------------------------
 

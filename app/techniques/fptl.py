@@ -293,6 +293,42 @@ class Fptl(Technique):
         """The chapter's figures beside this run's (app/report/notes.py)."""
         return _notes(rows)
 
+    def cull_figures(self, frame, width):
+        """fptl_aabb.comp (a light a lane) and fptl_lists.comp (per 16x16 tile one 64-lane
+        group: the 2x2 pixels' depths, the coarse AABB test 64 lights a round, then fine
+        pruning: every lane tests its four pixels against each coarse light)."""
+        b = frame.build
+        g, n = b.grid, len(b.lights)
+        fine, _ = variant_flags(frame.opts.fptl_variant)
+        per = 64 // width
+        light_waves = max(1, -(-n // 64)) * per
+        line = lambda issued, nbytes: issued * width * nbytes // waves.LINE
+        aabb = waves.analytic(width, light_waves,
+                              {"aabb": (light_waves, n, 3 * light_waves, line(light_waves, 116))},
+                              {"lights": n * 96, "bounds": n * 16, "fptl_order": n * 4,
+                               "fptl_aabbs": n * FPTL_AABB.itemsize})
+        tiles = g.tiles_x * g.tiles_y
+        cells = frame.read("fptl_cells").view(FPTL_CELL).reshape(tiles, g.slices)
+        coarse = cells["coarse"][:, 0].astype(np.int64)
+        pixels, covered, *_ = waves.per_tile(frame, TILE)
+        busy = int((covered > 0).sum())
+        rounds = -(-n // COARSE_BATCH) + 1
+        flushes = int((-(-coarse // COARSE_BATCH)).sum())
+        depth = (tiles * per * 4, pixels.sum(), tiles * per * 4, line(tiles * per * 4, 16))
+        test = (busy * per * rounds, busy * n, busy * per * rounds, line(busy * per * rounds, 32))
+        prune_it = per * int(coarse.sum() if fine else flushes)
+        prune = (prune_it, prune_it * width, 0, 0, prune_it, 2 * prune_it)
+        words = list_words(index_bits(n))
+        lists = waves.analytic(
+            width, tiles * per, {"depth": depth, "cull_test": test, "prune": prune},
+            {"g_position": int(pixels.sum()) * 16, "fptl_aabbs": n * FPTL_AABB.itemsize,
+             "lights": min(int(coarse.sum()), n) * 96, "fptl_lists": g.cells * words * 4,
+             "fptl_cells": g.cells * FPTL_CELL.itemsize},
+            barriers=tiles * (6 + 3 * rounds) + 4 * flushes,
+            shared_atomics=4 * int(covered.sum()) + int(coarse.sum()) + 8 * 64 * flushes,
+            atomics=int((cells["flags"] & FLAG_SPILLED != 0).sum()))
+        return {"light_aabb": aabb, "fptl_lists": lists}
+
     def wave_program(self, frame, width):
         """fptl_shade.comp: the cell's record, then its packed list and each scan window's
         spill, every run as one loop per shape compiled (type_loops) or one loop."""

@@ -582,6 +582,30 @@ class Raster(Technique):
                             lambda got: _wave_counters(build, got[WAVE_STATS]), figures=True))
         return out
 
+    def cull_figures(self, frame, width):
+        """The depth fill (a fragment a pixel) and the proxy draws: their vertices, and the
+        fragments and atomics the untimed stats twin counted (raster_stats)."""
+        from ..model import waves
+        b = frame.build
+        w, h = frame.size
+        frags = int(b.stats.get("raster_fragments", 0))
+        atomics = int(b.stats.get("raster_atomics", 0))
+        verts = 3 * int(b.stats.get("proxy_triangles", 0))
+        up = lambda k: -(-k // width)
+        out = {}
+        if not frame.opts.cluster:
+            out["raster fill"] = waves.analytic(
+                width, up(w * h), {"fragment": (up(w * h), w * h, up(w * h), up(w * h) * 4)},
+                {"g_position": w * h * 16}, graphics=True, fragments=w * h)
+        out["raster proxies"] = waves.analytic(
+            width, up(verts) + up(frags),
+            {"vertex": (up(verts), verts, 2 * up(verts), 2 * up(verts) * 2),
+             "fragment": (up(frags), frags, up(frags), atomics)},
+            {"lights": len(b.lights) * 96, "raster_proxies": len(b.lights) * RASTER_PROXY.itemsize,
+             "raster_bits": int(b.stats.get("bits_bytes", 0))},
+            graphics=True, fragments=frags, atomics=atomics)
+        return out
+
     def wave_program(self, frame, width):
         """zbin's loop over the rasterized bits, or the per-cluster loop (cluster mode)."""
         from ..model import waves

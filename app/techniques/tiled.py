@@ -64,6 +64,30 @@ class Tiled(Technique):
         return [cull] + shading_passes(build, "shade_tiled.comp", ("ranges", "entries"), n,
                                        defines={"LIGHTS_DUPLICATED": 0}, uniforms=grid_uniforms(g))
 
+    def cull_figures(self, frame, width):
+        """tile_cull.comp: per tile one 16x16 group; the depth reduction, then every light's
+        sphere test twice (count, then the ordered fill), 256 lights a round."""
+        g, n = frame.build.grid, len(frame.build.lights)
+        pixels, covered, *_ = waves.per_tile(frame, g.tile)
+        ranges = frame.read("ranges").view(layouts.CELL_RANGE)["offset_count"].astype(np.int64)
+        busy = covered > 0
+        filled = busy & (ranges[:, 1] != OVERFLOW)
+        hits = int(ranges[filled, 1].sum())
+        per = 256 // width                           # waves of a 16x16 group
+        texels = (-(-g.tile // 16)) ** 2             # a lane's share of the tile's pixels
+        rounds = -(-n // 256)
+        line = lambda issued, nbytes: issued * width * nbytes // waves.LINE
+        depth = (g.cells * per * texels, pixels.sum(), g.cells * per * texels,
+                 line(g.cells * per * texels, 16))
+        tests = int(busy.sum() + filled.sum()) * per * rounds
+        cull = (tests, int(busy.sum() + filled.sum()) * n, tests, line(tests, 16))
+        return {"tile_cull": waves.analytic(
+            width, g.cells * per, {"depth": depth, "cull_test": cull},
+            {"g_position": int(pixels.sum()) * 16, "bounds": n * 16, "entries": hits * 4,
+             "ranges": g.cells * 8},
+            barriers=g.cells * (3 + 3 * rounds), atomics=int(busy.sum()),
+            shared_atomics=2 * int(covered.sum()) + hits)}
+
     def wave_program(self, frame, width):
         prog = waves.Program(frame, width)
         lanes = np.nonzero(frame.shading)[0]
