@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Idempotent set-up for a fresh Debian machine: Mesa's EGL/llvmpipe system packages (apt-get
 # when root, else one line saying what to install), a virtualenv in .venv, the project and
-# its test extra.  Sourced by scripts/main.sh and scripts/test.sh.
+# its test extra at the tested versions of constraints.txt (refreshed by scripts/lock.sh).
+# Sourced by scripts/main.sh and scripts/test.sh.  LAB_WITH_XVFB=1 (scripts/test.sh) adds
+# what only the tests use: Xvfb (the window under an X server) and glslangValidator.
+# .venv is reinstalled when pyproject.toml or constraints.txt changes (their hash: the stamp).
 #
 # Sourced into an interactive shell (`source scripts/setup.sh`), the strict options below
 # are this script's own: the shell's options are restored when it returns, and a failure
@@ -21,7 +24,10 @@ have_lib 'libEGL_mesa.so.0' || missing+=(libegl-mesa0)
 have_lib 'libGL.so.1 ' || missing+=(libgl1)
 [ -n "$(ls /usr/lib/*/dri/swrast_dri.so /usr/lib/dri/swrast_dri.so 2>/dev/null)" ] || missing+=(libgl1-mesa-dri)
 python3 -c 'import ensurepip' >/dev/null 2>&1 || missing+=(python3-venv)
-if [ "${LAB_WITH_XVFB:-0}" = 1 ]; then command -v Xvfb >/dev/null || missing+=(xvfb); fi
+if [ "${LAB_WITH_XVFB:-0}" = 1 ]; then
+    command -v Xvfb >/dev/null || missing+=(xvfb)
+    command -v glslangValidator >/dev/null || missing+=(glslang-tools)
+fi
 
 if [ ${#missing[@]} -gt 0 ]; then
     if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
@@ -35,12 +41,12 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 
 stamp=.venv/.setup-stamp
-want="$(sha256sum pyproject.toml | cut -d' ' -f1)"
+want="$(cat pyproject.toml constraints.txt | sha256sum | cut -d' ' -f1)"
 if [ ! -x .venv/bin/python ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
     echo "setup: creating .venv and installing the project (first run takes a minute)" >&2
     python3 -m venv .venv
-    if ! { .venv/bin/python -m pip install -q --upgrade pip &&
-           .venv/bin/python -m pip install -q -e '.[test]'; } > .venv/pip.log 2>&1; then
+    if ! { .venv/bin/python -m pip install -q -c constraints.txt --upgrade pip &&
+           .venv/bin/python -m pip install -q -c constraints.txt -e '.[test]'; } > .venv/pip.log 2>&1; then
         tail -n 20 .venv/pip.log >&2
         echo "error: pip install failed (full log: .venv/pip.log)" >&2
         return 1 2>/dev/null || exit 1
