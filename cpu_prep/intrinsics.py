@@ -14,13 +14,54 @@ ahead (PREFETCH_AHEAD), which hides that latency; it never faults and changes no
 from __future__ import annotations
 
 import platform
+import re
+import sys
 
 import numba
 import numpy as np
-from llvmlite import ir
-from numba import types
-from numba.core import cgutils
-from numba.extending import intrinsic
+
+# What follows generates LLVM IR through numba's internals (numba.core.cgutils, the array
+# model's make_array / get_item_pointer, get_or_insert_function, the data model's sizes) and
+# llvmlite's IR builder, with its pointer spelling: none of it is numba's public API, and it
+# changes between minor versions.  These are the minor versions it is tested on
+# (pyproject.toml bounds numba to them; constraints.txt pins the tested set); another is
+# refused here, before any kernel compiles, in one line.
+NUMBA_TESTED = ((0, 68),)
+
+
+class NumbaVersionError(ImportError):
+    """The installed numba is not one of NUMBA_TESTED."""
+
+
+def check_numba(version: str) -> None:
+    minor = tuple(int(v) for v in re.findall(r"\d+", version)[:2])
+    if minor not in NUMBA_TESTED:
+        tested = " or ".join(f"{a}.{b}.x" for a, b in NUMBA_TESTED)
+        raise NumbaVersionError(
+            f"numba {version} is installed, but the CPU stage (cpu_prep/intrinsics.py, which "
+            f"uses numba's internals) is tested on numba {tested} only; install the tested "
+            f"versions: bash scripts/setup.sh, or pip install -c constraints.txt -e '.[test]'")
+
+
+def _one_line(exc_type, exc, tb, _default=sys.excepthook):
+    """A wrong numba reaches the user as one line (the CLIs turn only their own errors into
+    one), not as a traceback through the import chain."""
+    if issubclass(exc_type, NumbaVersionError):
+        print(f"error: {exc}", file=sys.stderr)
+    else:
+        _default(exc_type, exc, tb)
+
+
+try:
+    check_numba(numba.__version__)
+except NumbaVersionError:
+    sys.excepthook = _one_line
+    raise
+
+from llvmlite import ir  # noqa: E402  (after the check: numba's internals)
+from numba import types  # noqa: E402
+from numba.core import cgutils  # noqa: E402
+from numba.extending import intrinsic  # noqa: E402
 
 PREFETCH_AHEAD = 16        # iterations ahead: ~8 x 60 ns of work covers a memory latency
 CACHE_LINE = 64
