@@ -1,6 +1,27 @@
 """Shared fixtures: one EGL context for the whole session (objects of two contexts
-interfere), a seeded rng.  No GL here for cpu_prep tests: they never request `gl`."""
+interfere), a seeded rng.  No GL here for cpu_prep tests: they never request `gl`.
+
+Parallel runs (pytest-xdist; scripts/test.sh passes `-n auto --dist loadgroup`): every worker
+is its own process, so it has its own EGL context (app/pipeline/gl.py: one a process) and
+its own session fixtures.  What the workers would otherwise share is made theirs here:
+
+- numba's on-disk cache.  numba's cache index is not safe against two processes saving new
+  signatures of one function at once (numba.core.caching.IndexDataCacheFile.save reads the
+  index, picks the first free data-file number and writes both back without a lock: two
+  processes can each pick `.1`, and the index may then name the other's machine code).  Each
+  worker gets a folder of its own under cpu_prep's (which stays keyed by the package's
+  source), and its subprocesses inherit it through NUMBA_CACHE_DIR.
+- the window's start-up probe memory (app/window/probe.py): LAB_CACHE_DIR, a temporary
+  folder per process (the user's own setting too), so no test reads or writes the user's
+  ~/.cache and two workers never write one file.
+
+Tests of a module whose module-scoped fixture is expensive (the concurrent CLI runs of
+test_bad_input and test_long_run, the bench sweep, a rendered frame) share one worker, so
+that fixture runs once (GROUPED below, scheduled as groups under --dist loadgroup).
+"""
 import os
+import shutil
+import tempfile
 
 import numpy as np
 import pytest
@@ -11,6 +32,70 @@ from hypothesis import settings
 settings.register_profile("lab", deadline=None)
 settings.register_profile("ci", deadline=None, derandomize=True)
 settings.load_profile("ci" if os.environ.get("CI") else "lab")
+
+_WORKER = os.environ.get("PYTEST_XDIST_WORKER")     # set by xdist before this file is imported
+if _WORKER:
+    import numba
+    import cpu_prep           # sets numba.config.CACHE_DIR before any kernel is decorated
+    _numba_dir = os.path.join(numba.config.CACHE_DIR, f"xdist-{_WORKER}")
+    numba.config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"] = _numba_dir
+
+# Modules whose tests must run on one worker: their module-scoped fixture costs seconds to
+# tens of seconds (the CLI processes of every bad-input case; two capture processes per
+# technique; a whole bench sweep; a hangar or city frame), and under plain load
+# distribution each worker holding one of their tests would run it again.
+GROUPED = ("tests/app/test_bad_input.py", "tests/app/test_long_run.py",
+           "tests/app/bench/test_bench_sweep.py", "tests/app/techniques/test_zbin_technique.py",
+           "tests/app/window/test_present.py")
+
+MAX_WORKERS = 8     # each worker holds a GL context, its shaders and numba kernels (~1 GB)
+
+
+def pytest_xdist_auto_num_workers(config):
+    """`-n auto`: one worker a core (at most MAX_WORKERS; LAB_TEST_JOBS overrides), and none
+    when the command names only single tests (`path::test`): a worker's start-up (imports,
+    its own GL context and shaders) would cost more than it saves."""
+    if config.args and all("::" in a for a in config.args):
+        return 0
+    if os.environ.get("LAB_TEST_JOBS"):
+        return max(0, int(os.environ["LAB_TEST_JOBS"]))
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return min(cores or 1, MAX_WORKERS)
+
+
+def pytest_configure(config):
+    # every process its own (a worker would otherwise inherit the controller's folder)
+    config._lab_cache_before = os.environ.get("LAB_CACHE_DIR")
+    config._lab_cache_dir = tempfile.mkdtemp(prefix="lab-test-cache-")
+    os.environ["LAB_CACHE_DIR"] = config._lab_cache_dir
+
+
+def pytest_unconfigure(config):
+    d = getattr(config, "_lab_cache_dir", None)
+    if d:
+        shutil.rmtree(d, ignore_errors=True)
+        if config._lab_cache_before is None:
+            os.environ.pop("LAB_CACHE_DIR", None)
+        else:
+            os.environ["LAB_CACHE_DIR"] = config._lab_cache_before
+
+
+@pytest.hookimpl(tryfirst=True)     # before xdist's own scheduler for --dist loadgroup
+def pytest_xdist_make_scheduler(config, log):
+    """--dist loadgroup with the GROUPED modules as groups.  xdist 3.8 groups by an
+    `xdist_group` mark through the item's `_nodeid`, which pytest 9 no longer reads (node ids
+    come from `_id`), so its marks group nothing here; the scheduler is told the groups by
+    path instead (any other test is its own unit, as with loadgroup)."""
+    if config.getvalue("dist") != "loadgroup":
+        return None
+    from xdist.scheduler import LoadGroupScheduling
+
+    class Grouped(LoadGroupScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            path = nodeid.split("::", 1)[0]
+            return path if path in GROUPED else super()._split_scope(nodeid)
+
+    return Grouped(config, log)
 
 
 @pytest.fixture(scope="session")
