@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from cpu_prep import layouts, zbin as zb
+from cpu_prep import layouts, limits, zbin as zb
 from scenes.model import LIGHT_TYPES
 
 WIDTHS = (32, 64)               # the wave widths the model reports (NVIDIA / RDNA, GCN)
@@ -70,6 +70,7 @@ FIELDS = ("issued", "lanes", "vector_loads", "scalar_loads", "vector_lines", "sc
 ISSUED, LANES, VLOADS, SLOADS, VLINES, SLINES, LDS = range(len(FIELDS))
 NTYPES = len(LIGHT_TYPES)
 SHARED = -2                     # head buffer: shared memory (no global fetch)
+_COUNT_BITS = limits.NODE_COUNT_BITS    # tree node bits (layouts.node_bits)
 
 
 # ---- lanes ------------------------------------------------------------------------------
@@ -138,7 +139,9 @@ class LightList:
 
 
 class Program:
-    """A shading pass as segments (module doc), built by Technique.wave_program."""
+    """A shading pass as segments (module doc), built by Technique.wave_program.  What is
+    the same for every segment of one add() (its branch, head kind and buffer, list) is kept
+    once, in the call table; a segment holds its lane, step, head offset and list range."""
 
     def __init__(self, frame: FrameData, width: int):
         self.frame, self.width = frame, width
@@ -146,8 +149,10 @@ class Program:
         self.buffers: dict[str, int] = {}
         self.buffer("lights", len(frame.build.lights) * LIGHT_BYTES)
         self.lists: list[LightList] = []
-        self._segs: list[dict] = []
+        self.calls: list[tuple] = []
+        self._segs: list[tuple] = []
         self._all: int | None = None
+        self.nodes = None          # the TREE_NODE records add_tree's traversals walk
         self.barriers = 0          # barrier() calls over the pass, every group's
         self.words: dict | None = None
 
@@ -178,32 +183,41 @@ class Program:
             lbuf, ebuf))
         return len(self.lists) - 1
 
-    def add(self, lane, step=0, branch=0, head=None, lights=None) -> None:
+    def add(self, lane, step=0, branch=0, head=None, lights=None, tree: bool = False) -> None:
         """Segments for the pixels `lane` (an index array; scalars broadcast):
         head = (kind, buffer name or SHARED, byte offsets, bytes, scalar) or None,
-        lights = (list id, first, count, scalar) or None."""
+        lights = (list id, first, count, scalar) or None.  tree: each segment is a whole
+        traversal (add_tree) whose head is its node visits and lights its leaves'."""
         lane = np.asarray(lane, np.int64).ravel()
         n = len(lane)
         if n == 0:
             return
-        b = lambda v, dt: np.broadcast_to(np.asarray(v, dt), (n,))
-        seg = {"lane": lane, "step": b(step, np.int64), "branch": b(branch, np.int64)}
-        if head is None:
-            seg.update(kind=b(-1, np.int64), hbuf=b(-1, np.int64), hoff=b(0, np.int64),
-                       hbytes=b(0, np.int64), hscalar=b(False, np.bool_))
-        else:
-            kind, buf, off, nbytes, scalar = head
-            bid = SHARED if buf is SHARED else self.buffer(buf, self.frame.size_of(buf))
-            seg.update(kind=b(KINDS.index(kind), np.int64), hbuf=b(bid, np.int64),
-                       hoff=b(off, np.int64), hbytes=b(nbytes, np.int64), hscalar=b(scalar, np.bool_))
-        if lights is None:
-            seg.update(list=b(-1, np.int64), first=b(0, np.int64), count=b(0, np.int64),
-                       lscalar=b(False, np.bool_))
-        else:
-            lid, first, count, scalar = lights
-            seg.update(list=b(lid, np.int64), first=b(first, np.int64), count=b(count, np.int64),
-                       lscalar=b(scalar, np.bool_))
-        self._segs.append(seg)
+        b = lambda v: np.broadcast_to(np.asarray(v, np.int64), (n,))
+        kind, hbuf, hoff, hbytes, hscalar = -1, -1, 0, 0, False
+        if head is not None:
+            name, buf, hoff, hbytes, hscalar = head
+            kind = KINDS.index(name)
+            hbuf = SHARED if buf is SHARED else self.buffer(buf, self.frame.size_of(buf))
+        lid, first, count, lscalar = (-1, 0, 0, False) if lights is None else lights
+        if not 0 <= int(branch) < 4:
+            raise ValueError(f"branch {branch} out of 0..3")
+        self.calls.append((int(branch), kind, hbuf, int(hbytes), bool(hscalar), int(lid),
+                           bool(lscalar), bool(tree)))
+        self._segs.append((lane, b(step), b(hoff), b(first), b(count), len(self.calls) - 1))
+
+    def add_tree(self, lanes, base, count, nodes, list_id: int, step0: int = 1,
+                 branch: int = 0, shared: bool = False) -> None:
+        """A stackless traversal per lane (tree paper listing 3, glsl/tree.glsl) of `count`
+        nodes from `base`, walked in lockstep by the replay from step `step0`: its node
+        fetches (from `nodes`, or shared memory: the shared-tree paths), then each hit
+        leaf's list (`list_id`, positions = the node's first_light + k)."""
+        if self.nodes is not None and self.nodes is not nodes:
+            raise ValueError("one program walks one node buffer")
+        self.nodes = nodes
+        head = ("lds_node", SHARED, 0, 16, False) if shared else \
+            ("node", "nodes", 0, layouts.TREE_NODE.itemsize, False)
+        self.add(lanes, step=step0, branch=branch, head=head, lights=(list_id, base, count, False),
+                 tree=True)
 
     def bit_words(self, address, lo, hi, bits_buf: str, words: int, masked: bool,
                   scalarized: bool, printed: bool = False) -> None:
@@ -217,18 +231,22 @@ class Program:
                           words=int(words), masked=bool(masked), scalarized=bool(scalarized),
                           printed=bool(printed))
 
-    def segments(self) -> dict[str, np.ndarray]:
-        """Every segment, sorted by (wave, branch, step, lane)."""
-        keys = ("lane", "step", "branch", "kind", "hbuf", "hoff", "hbytes", "hscalar", "list",
-                "first", "count", "lscalar")
+    def segments(self) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """Every segment (lane, step, hoff, first, count, call), sorted by (wave, branch,
+        step, lane), and the call table ((C, 8) int64: branch, kind, hbuf, hbytes, hscalar,
+        list, lscalar, tree)."""
+        calls = np.array(self.calls, np.int64).reshape(-1, 8)
+        names = ("lane", "step", "hoff", "first", "count")
         if not self._segs:
-            return {k: np.zeros(0, np.bool_ if k in ("hscalar", "lscalar") else np.int64) for k in keys}
-        seg = {k: np.concatenate([s[k] for s in self._segs]) for k in keys}
-        if seg["step"].max() >= 1 << 24 or seg["branch"].max() >= 4:
-            raise ValueError("a segment's step or branch is out of the sort key's range")
-        key = ((self.wave[seg["lane"]] * 4 + seg["branch"]) << 24 | seg["step"]) << 6 | self.lane[seg["lane"]]
+            return {k: np.zeros(0, np.int64) for k in names + ("call",)}, calls
+        seg = {k: np.concatenate([s[i] for s in self._segs]) for i, k in enumerate(names)}
+        seg["call"] = np.concatenate([np.full(len(s[0]), s[5], np.int64) for s in self._segs])
+        if seg["step"].max() >= 1 << 24 or seg["step"].min() < 0:
+            raise ValueError("a segment's step is out of 0..2^24")
+        key = ((self.wave[seg["lane"]] * 4 + calls[seg["call"], 0]) << 24 | seg["step"]) << 6 \
+            | self.lane[seg["lane"]]
         order = np.argsort(key, kind="stable")
-        return {k: v[order] for k, v in seg.items()}
+        return {k: v[order] for k, v in seg.items()}, calls
 
 
 # ---- figures ----------------------------------------------------------------------------
@@ -253,6 +271,10 @@ class Figures:
     graphics: bool = False         # a raster pass (vertex and fragment work)
     fragments: int = 0             # its fragments (depth tests)
 
+    def loop_sum(self, name: str) -> int:
+        """A field summed over every loop kind."""
+        return int(self.loops[:, FIELDS.index(name)].sum())
+
     def loop(self, kind: str) -> dict[str, int]:
         return dict(zip(FIELDS, (int(v) for v in self.loops[KINDS.index(kind)])))
 
@@ -272,6 +294,22 @@ class Figures:
         for k in ("atomics", "shared_atomics", "fragments"):
             if getattr(self, k):
                 out[k] = int(getattr(self, k))
+        return out
+
+    def scaled(self, factor: float, caps: dict) -> "Figures":
+        """These figures of a sample of the waves stood for the whole pass: the work scaled
+        by `factor`, each buffer's distinct bytes too but never past its size (`caps`)."""
+        k = lambda v: int(round(v * factor))
+        out = Figures(width=self.width, waves=self.waves, busy_waves=k(self.busy_waves),
+                      pixels=self.pixels, shading_pixels=k(self.shading_pixels),
+                      loops=np.rint(self.loops * factor).astype(np.int64),
+                      tested=np.rint(self.tested * factor).astype(np.int64),
+                      shaded=np.rint(self.shaded * factor).astype(np.int64),
+                      specular=k(self.specular), barriers=k(self.barriers),
+                      unique_bytes={n: min(k(b), -(-caps.get(n, b) // LINE) * LINE)
+                                    for n, b in self.unique_bytes.items()},
+                      atomics=self.atomics, shared_atomics=self.shared_atomics,
+                      graphics=self.graphics, fragments=self.fragments)
         return out
 
     @property
@@ -318,12 +356,9 @@ def replay(prog: Program) -> Replay:
     n_pix = len(fr.cell)
     pl = fr.build.lights
     g = pl.gpu
-    pos = np.ascontiguousarray(g["pos_radius"], np.float32)
-    dirs = np.ascontiguousarray(g["dir_cos_outer"], np.float32)
-    ext = np.ascontiguousarray(g["extent_length"], np.float32)
-    right = np.ascontiguousarray(g["right"], np.float32)
+    L = np.ascontiguousarray(g).view(np.float32).reshape(len(g), layouts.LIGHT_WORDS)
     types = np.ascontiguousarray(pl.type, np.int64)
-    bound = light_bounds(pos, ext, types)
+    bound = light_bounds(L[:, _POS:_POS + 4], L[:, _EXT:_EXT + 4], types)
     P = np.ascontiguousarray(fr.position[:, :3], np.float32)
     spec = np.ascontiguousarray(fr.specular, np.bool_)
     names = list(prog.buffers)
@@ -333,7 +368,7 @@ def replay(prog: Program) -> Replay:
     loops = np.zeros((len(KINDS), len(FIELDS)), np.int64)
     types_acc = np.zeros((3, NTYPES), np.int64)          # tested, shaded, (specular in [2, 0])
     per_pixel = np.zeros((n_pix, 3), np.int64)           # evaluated, nodes, contrib
-    light_args = (pos, dirs, ext, right, types, bound, bool(fr.unbounded))
+    light_args = (L, types, bound, bool(fr.unbounded))
     if prog.words is not None:
         wd = prog.words
         order = np.lexsort((prog.lane, prog.wave))       # pixels by (wave, lane)
@@ -341,13 +376,16 @@ def replay(prog: Program) -> Replay:
                       wd["lo"][order], wd["hi"][order], wd["bits"], wd["words"], wd["masked"],
                       wd["scalarized"], wd["printed"], int(wd["buf"]), P, spec, *light_args,
                       line_base, seen, loops, types_acc, per_pixel)
-    seg = prog.segments()
+    seg, calls = prog.segments()
     if len(seg["lane"]):
         flat = _flatten(prog.lists)
-        _replay_segments(prog.wave[seg["lane"]], seg["branch"], seg["step"], seg["lane"],
-                         seg["kind"], seg["hbuf"], seg["hoff"], seg["hbytes"], seg["hscalar"],
-                         seg["list"], seg["first"], seg["count"], seg["lscalar"], *flat,
-                         P, spec, *light_args, line_base, seen, loops, types_acc, per_pixel)
+        nodes = prog.nodes if prog.nodes is not None else np.zeros(1, layouts.TREE_NODE)
+        depth = np.ascontiguousarray(fr.position[:, 3], np.float32)
+        _replay_segments(prog.wave[seg["lane"]], seg["lane"], seg["step"], seg["hoff"],
+                         seg["first"], seg["count"], seg["call"], calls, *flat,
+                         np.ascontiguousarray(nodes["min_depth"]), np.ascontiguousarray(nodes["max_depth"]),
+                         nodes["first_light"].astype(np.int64), nodes["bits"].astype(np.int64),
+                         depth, P, spec, *light_args, line_base, seen, loops, types_acc, per_pixel)
     busy = np.unique(prog.wave[fr.shading]).size
     fig = Figures(width=prog.width, waves=prog.waves, busy_waves=int(busy), pixels=n_pix,
                   shading_pixels=int(fr.shading.sum()), loops=loops, tested=types_acc[0].copy(),
@@ -408,124 +446,109 @@ def _lines(keys, stamps, stamp, seen, base, off, nbytes) -> int:
     return new
 
 
+# word offsets of a GPU_LIGHT row (layouts: one source), compile-time constants below
+_POS, _DIR = layouts.LIGHT_POS_RADIUS, layouts.LIGHT_DIR_COS_OUTER
+_EXT, _RIGHT = layouts.LIGHT_EXTENT_LENGTH, layouts.LIGHT_RIGHT
+
+
 @numba.njit(inline="always")
-def affects(px, py, pz, i, pos, dirs, ext, right, types, unbounded) -> bool:
-    """glsl light_affects_as in float32 (pixel.glsl, features.py SHAPES): the point at view
-    position P inside light i's volume."""
+def affects(px, py, pz, i, L, types, unbounded) -> bool:
+    """glsl light_affects_as in float32 (pixel.glsl, features.py SHAPES): the view-space
+    point P inside light i's volume; L holds the GPU_LIGHT rows as float32 words."""
     if unbounded:
         return True
-    dx = np.float32(px - pos[i, 0])
-    dy = np.float32(py - pos[i, 1])
-    dz = np.float32(pz - pos[i, 2])
-    d2 = np.float32(dx * dx + dy * dy + dz * dz)
-    r = pos[i, 3]
+    f32 = np.float32
+    dx, dy, dz = f32(px - L[i, _POS]), f32(py - L[i, _POS + 1]), f32(pz - L[i, _POS + 2])
+    d2 = f32(dx * dx + dy * dy + dz * dz)
+    r2 = L[i, _POS + 3] * L[i, _POS + 3]
     t = types[i]
     if t == 0:                                   # point
-        return d2 < r * r
+        return d2 < r2
+    fx, fy, fz = L[i, _DIR], L[i, _DIR + 1], L[i, _DIR + 2]
+    along = f32(dx * fx + dy * fy + dz * fz)
     if t == 1:                                   # spot: the sphere cut by the cone
-        along = np.float32(dx * dirs[i, 0] + dy * dirs[i, 1] + dz * dirs[i, 2])
-        return d2 < r * r and along > np.float32(dirs[i, 3] * np.sqrt(d2))
-    if t == 2:                                   # capsule
-        h = np.float32(0.5) * ext[i, 3]
-        s = np.float32(dx * dirs[i, 0] + dy * dirs[i, 1] + dz * dirs[i, 2])
-        s = min(max(s, -h), h)
-        qx = np.float32(dx - dirs[i, 0] * s)
-        qy = np.float32(dy - dirs[i, 1] * s)
-        qz = np.float32(dz - dirs[i, 2] * s)
-        return np.float32(qx * qx + qy * qy + qz * qz) < r * r
-    # box: local frame (right, up' = right x direction, direction)
-    rx, ry, rz = right[i, 0], right[i, 1], right[i, 2]
-    fx, fy, fz = dirs[i, 0], dirs[i, 1], dirs[i, 2]
-    ux = np.float32(ry * fz - rz * fy)
-    uy = np.float32(rz * fx - rx * fz)
-    uz = np.float32(rx * fy - ry * fx)
-    a = abs(np.float32(dx * rx + dy * ry + dz * rz))
-    b = abs(np.float32(dx * ux + dy * uy + dz * uz))
-    c = abs(np.float32(dx * fx + dy * fy + dz * fz))
-    return a < ext[i, 0] and b < ext[i, 1] and c < ext[i, 2]
+        return d2 < r2 and along > f32(L[i, _DIR + 3] * np.sqrt(d2))
+    if t == 2:                                   # capsule: distance to the segment
+        h = f32(0.5) * L[i, _EXT + 3]
+        s = min(max(along, -h), h)
+        qx, qy, qz = f32(dx - fx * s), f32(dy - fy * s), f32(dz - fz * s)
+        return f32(qx * qx + qy * qy + qz * qz) < r2
+    # box: the local frame (right, up' = right x direction, direction)
+    rx, ry, rz = L[i, _RIGHT], L[i, _RIGHT + 1], L[i, _RIGHT + 2]
+    ux, uy, uz = f32(ry * fz - rz * fy), f32(rz * fx - rx * fz), f32(rx * fy - ry * fx)
+    a = abs(f32(dx * rx + dy * ry + dz * rz))
+    b = abs(f32(dx * ux + dy * uy + dz * uz))
+    return a < L[i, _EXT] and b < L[i, _EXT + 1] and abs(along) < L[i, _EXT + 2]
 
 
 @numba.njit(inline="always")
-def _misses_box(i, pos, bound, lo, hi) -> bool:
+def _misses_box(i, L, bound, lo, hi) -> bool:
     """Light i's bounding sphere misses the box [lo, hi] of the iteration's lane positions."""
-    d2 = 0.0
+    d2 = np.float32(0.0)
     for k in range(3):
-        c = pos[i, k]
-        if c < lo[k]:
-            d2 += (lo[k] - c) ** 2
-        elif c > hi[k]:
-            d2 += (c - hi[k]) ** 2
-    return d2 > float(bound[i]) ** 2
+        c = L[i, _POS + k]
+        e = lo[k] - c if c < lo[k] else (c - hi[k] if c > hi[k] else np.float32(0.0))
+        d2 += e * e
+    return d2 > bound[i] * bound[i]
 
 
 @numba.njit(cache=True)
-def _replay_segments(wave, branch, step, lane, kind, hbuf, hoff, hbytes, hscalar,
-                     lst, first, count, lscalar,
-                     list_start, list_lbuf, list_ebuf, flat_light, flat_slot, flat_eoff,
-                     P, spec, pos, dirs, ext, right, types, bound, unbounded,
-                     line_base, seen, loops, types_acc, per_pixel):
-    n = len(wave)
-    keys = np.zeros(_SET, np.int64)
-    stamps = np.zeros(_SET, np.int64)
-    stamp = 0
-    lo = np.empty(3, np.float32)
-    hi = np.empty(3, np.float32)
-    shapes = np.zeros(8, np.bool_)
-    shaded = np.zeros(8, np.bool_)
-    i = 0
-    while i < n:
-        j = i
-        while j < n and wave[j] == wave[i] and branch[j] == branch[i] and step[j] == step[i]:
-            j += 1
-        # the head: one issued iteration of its kind over the step's lanes that have one
-        stamp += 1
-        k0, heads, lines, scalar, lds = -1, 0, 0, False, False
-        for s in range(i, j):
-            if kind[s] >= 0:
-                k0 = kind[s]
-                heads += 1
-                scalar = hscalar[s]
-                if kind[s] == 1 or kind[s] == 2:         # a node visit (global or shared)
-                    per_pixel[lane[s], 1] += 1
-                if hbuf[s] == -2:                        # shared memory: no global line
-                    lds = True
-                else:
-                    lines += _lines(keys, stamps, stamp, seen, line_base[hbuf[s]], hoff[s], hbytes[s])
-        if k0 >= 0:
-            loops[k0, 0] += 1
-            loops[k0, 1] += heads
-            if lds:
-                loops[k0, 6] += heads
-            elif scalar:
-                loops[k0, 3] += 1
-                loops[k0, 5] += lines
-            else:
-                loops[k0, 2] += 1
-                loops[k0, 4] += lines
-        # the inner light loop: max(count) issued iterations
-        longest = 0
-        for s in range(i, j):
-            if lst[s] >= 0 and count[s] > longest:
-                longest = count[s]
-        if longest > 0:
-            lo[:] = np.inf
-            hi[:] = -np.inf
-            for s in range(i, j):
-                if lst[s] >= 0 and count[s] > 0:
-                    for k in range(3):
-                        lo[k] = min(lo[k], P[lane[s], k])
-                        hi[k] = max(hi[k], P[lane[s], k])
-        # a wave-uniform list every lane of the step walks alike (brute's loop, an
-        # overflowed tile): its figures without visiting each lane at each light
-        uniform = longest > 0 and lscalar[i] and lst[i] >= 0
-        for s in range(i, j):
-            uniform &= lst[s] == lst[i] and first[s] == first[i] and count[s] == count[i]
-        if uniform:
-            _uniform_list(i, j, lane, lst[i], first[i], count[i], list_start, list_lbuf,
-                          list_ebuf, flat_light, flat_slot, flat_eoff, P, spec, pos, dirs, ext,
-                          right, types, bound, unbounded, lo, hi, line_base, seen, loops,
-                          types_acc, per_pixel)
-            longest = 0
+def _issue_lists(n, e_lane, e_list, e_first, e_count, e_scalar, list_start, list_lbuf, list_ebuf,
+                 flat_light, flat_slot, flat_eoff, P, spec, L, types, bound,
+                 unbounded, keys, stamps, stamp, lo, hi, shapes, shaded, line_base, seen, loops,
+                 types_acc, per_pixel, wx, wy, wz, wacc) -> int:
+    """The inner light loops of n lanes run together: max(count) issued iterations, each
+    the lanes' entry and light fetches and affects tests; returns the set's stamp.  The
+    lanes' positions and hit counts live in the work arrays w* while the loops run."""
+    longest = 0
+    same = n > 0                 # every lane walks the same list (one cell, or wave-uniform)
+    for q in range(n):
+        longest = max(longest, e_count[q])
+        same &= e_scalar[q] == e_scalar[0] and e_list[q] == e_list[0] and \
+            e_first[q] == e_first[0] and e_count[q] == e_count[0]
+    if longest == 0:
+        return stamp
+    lo[:] = np.inf
+    hi[:] = -np.inf
+    for q in range(n):
+        px = e_lane[q]
+        wx[q], wy[q], wz[q], wacc[q] = P[px, 0], P[px, 1], P[px, 2], 0
+        per_pixel[px, 0] += e_count[q]
+        if e_count[q] > 0:
+            for k in range(3):
+                lo[k] = min(lo[k], P[px, k])
+                hi[k] = max(hi[k], P[px, k])
+    if same:            # one list walked alike (brute's loop, a tile's list): per light, not lane
+        lid, f0 = e_list[0], e_first[0]
+        col = 3 if e_scalar[0] else 2                   # its loads: scalar or vector
+        loops[5, 0] += longest
+        loops[5, 1] += longest * n
+        for t in range(longest):
+            p = list_start[lid] + f0 + t
+            li = flat_light[p]
+            lines = 0
+            if flat_eoff[p] >= 0:
+                loops[5, col] += 1
+                seen[line_base[list_ebuf[lid]] + flat_eoff[p] // 64] = True
+                lines += 1
+            off = flat_slot[p] * 96
+            for line in range(off // 64, (off + 95) // 64 + 1):
+                seen[line_base[list_lbuf[lid]] + line] = True
+                lines += 1
+            loops[5, col] += 1
+            loops[5, col + 2] += lines
+            types_acc[0, types[li]] += 1
+            if not unbounded and _misses_box(li, L, bound, lo, hi):
+                continue
+            hit, sp = False, False
+            for q in range(n):
+                if affects(wx[q], wy[q], wz[q], li, L, types, unbounded):
+                    wacc[q] += 1
+                    hit = True
+                    sp |= spec[e_lane[q]]
+            types_acc[1, types[li]] += hit
+            types_acc[2, 0] += sp
+    else:
         for t in range(longest):
             stamp += 1
             active, lines, entry_loads, scalar = 0, 0, False, False
@@ -533,36 +556,35 @@ def _replay_segments(wave, branch, step, lane, kind, hbuf, hoff, hbytes, hscalar
             shaded[:] = False
             any_spec = False
             last, last_p, miss = -1, -1, False
-            for s in range(i, j):
-                if lst[s] < 0 or count[s] <= t:
+            for q in range(n):
+                if e_count[q] <= t:
                     continue
-                L = lst[s]
-                p = list_start[L] + first[s] + t
+                lid = e_list[q]
+                p = list_start[lid] + e_first[q] + t
                 li = flat_light[p]
                 active += 1
-                scalar = lscalar[s]
-                per_pixel[lane[s], 0] += 1
+                scalar = e_scalar[q]
                 if p != last_p:                  # lanes of one cell fetch the same entry
                     last_p = p
                     if flat_eoff[p] >= 0:
                         entry_loads = True
-                        lines += _lines(keys, stamps, stamp, seen, line_base[list_ebuf[L]], flat_eoff[p], 4)
-                    lines += _lines(keys, stamps, stamp, seen, line_base[list_lbuf[L]],
+                        lines += _lines(keys, stamps, stamp, seen, line_base[list_ebuf[lid]],
+                                        flat_eoff[p], 4)
+                    lines += _lines(keys, stamps, stamp, seen, line_base[list_lbuf[lid]],
                                     flat_slot[p] * 96, 96)
                 if li != last:
                     last = li
                     shapes[types[li]] = True
-                    miss = not unbounded and _misses_box(li, pos, bound, lo, hi)
+                    miss = not unbounded and _misses_box(li, L, bound, lo, hi)
                 if miss:
                     continue
-                px = lane[s]
-                if affects(P[px, 0], P[px, 1], P[px, 2], li, pos, dirs, ext, right, types, unbounded):
-                    per_pixel[px, 2] += 1
+                if affects(wx[q], wy[q], wz[q], li, L, types, unbounded):
+                    wacc[q] += 1
                     shaded[types[li]] = True
-                    any_spec |= spec[px]
+                    any_spec |= spec[e_lane[q]]
             loops[5, 0] += 1
             loops[5, 1] += active
-            loads = 1 + (1 if entry_loads else 0)
+            loads = 2 if entry_loads else 1
             if scalar:
                 loops[5, 3] += loads
                 loops[5, 5] += lines
@@ -573,50 +595,138 @@ def _replay_segments(wave, branch, step, lane, kind, hbuf, hoff, hbytes, hscalar
                 types_acc[0, ty] += shapes[ty]
                 types_acc[1, ty] += shaded[ty]
             types_acc[2, 0] += any_spec
-        i = j
+    for q in range(n):
+        per_pixel[e_lane[q], 2] += wacc[q]
+    return stamp
+
+
+@numba.njit(inline="always")
+def _issue_head(kind, heads, lines, scalar, lds, loops):
+    """One issued iteration of a head kind over `heads` lanes."""
+    loops[kind, 0] += 1
+    loops[kind, 1] += heads
+    if lds:
+        loops[kind, 6] += heads
+    elif scalar:
+        loops[kind, 3] += 1
+        loops[kind, 5] += lines
+    else:
+        loops[kind, 2] += 1
+        loops[kind, 4] += lines
 
 
 @numba.njit(cache=True)
-def _uniform_list(i, j, lane, L, first, count, list_start, list_lbuf, list_ebuf, flat_light,
-                  flat_slot, flat_eoff, P, spec, pos, dirs, ext, right, types, bound, unbounded,
-                  lo, hi, line_base, seen, loops, types_acc, per_pixel):
-    """The segments i..j-1 walk one wave-uniform list alike: `count` scalar iterations of
-    j - i lanes, each one light (and entry) fetch; the lanes tested only where the light's
-    bounding sphere meets their box."""
-    n = j - i
-    for s in range(i, j):
-        per_pixel[lane[s], 0] += count
-    loops[5, 0] += count
-    loops[5, 1] += count * n
-    for t in range(count):
-        p = list_start[L] + first + t
-        li = flat_light[p]
-        lines = 0
-        if flat_eoff[p] >= 0:
-            loops[5, 3] += 1
-            a = line_base[list_ebuf[L]] + flat_eoff[p] // 64
-            seen[a] = True
-            lines += 1
-        off = flat_slot[p] * 96
-        for line in range(off // 64, (off + 95) // 64 + 1):
-            seen[line_base[list_lbuf[L]] + line] = True
-            lines += 1
-        loops[5, 3] += 1
-        loops[5, 5] += lines
-        ty = types[li]
-        types_acc[0, ty] += 1
-        if not unbounded and _misses_box(li, pos, bound, lo, hi):
-            continue
-        hit, sp = 0, False
+def _replay_segments(wave, lane, step, hoff, first, count, call, calls,
+                     list_start, list_lbuf, list_ebuf, flat_light, flat_slot, flat_eoff,
+                     nmin, nmax, nfirst, nbits, depth,
+                     P, spec, L, types, bound, unbounded,
+                     line_base, seen, loops, types_acc, per_pixel):
+    """Groups of segments of one (wave, branch, step): their heads as one issued iteration,
+    then their lists together; a group's tree segments walk their trees in lockstep, a
+    node visit per lane a step, each visit's hit leaves' lists together."""
+    n = len(wave)
+    biggest, i = 0, 0
+    while i < n:                                         # the largest group, for buffers
+        j = i
+        while j < n and wave[j] == wave[i] and calls[call[j], 0] == calls[call[i], 0] \
+                and step[j] == step[i]:
+            j += 1
+        biggest = max(biggest, j - i)
+        i = j
+    keys = np.zeros(_SET, np.int64)
+    stamps = np.zeros(_SET, np.int64)
+    stamp = 0
+    lo = np.empty(3, np.float32)
+    hi = np.empty(3, np.float32)
+    shapes = np.zeros(8, np.bool_)
+    shaded = np.zeros(8, np.bool_)
+    e_lane = np.zeros(biggest, np.int64)
+    e_list = np.zeros(biggest, np.int64)
+    e_first = np.zeros(biggest, np.int64)
+    e_count = np.zeros(biggest, np.int64)
+    e_scalar = np.zeros(biggest, np.bool_)
+    t_seg = np.zeros(biggest, np.int64)
+    t_cur = np.zeros(biggest, np.int64)
+    wx = np.zeros(biggest, np.float32)
+    wy = np.zeros(biggest, np.float32)
+    wz = np.zeros(biggest, np.float32)
+    wacc = np.zeros(biggest, np.int64)
+    cmask = (1 << _COUNT_BITS) - 1
+    i = 0
+    while i < n:
+        j = i
+        while j < n and wave[j] == wave[i] and calls[call[j], 0] == calls[call[i], 0] \
+                and step[j] == step[i]:
+            j += 1
+        # heads of the plain segments: one issued iteration
+        stamp += 1
+        kind, heads, lines, scalar, lds = -1, 0, 0, False, False
+        m, trees = 0, 0
         for s in range(i, j):
-            px = lane[s]
-            if affects(P[px, 0], P[px, 1], P[px, 2], li, pos, dirs, ext, right, types, unbounded):
-                per_pixel[px, 2] += 1
-                hit += 1
-                sp |= spec[px]
-        if hit:
-            types_acc[1, ty] += 1
-            types_acc[2, 0] += sp
+            c = call[s]
+            if calls[c, 7]:                              # a tree: walked below
+                t_seg[trees] = s
+                t_cur[trees] = 0
+                trees += 1
+                continue
+            if calls[c, 1] >= 0:
+                kind = calls[c, 1]
+                heads += 1
+                scalar = calls[c, 4] != 0
+                if kind == 1 or kind == 2:               # a node visit (global or shared)
+                    per_pixel[lane[s], 1] += 1
+                if calls[c, 2] == -2:
+                    lds = True
+                else:
+                    lines += _lines(keys, stamps, stamp, seen, line_base[calls[c, 2]], hoff[s], calls[c, 3])
+            if calls[c, 5] >= 0 and count[s] > 0:
+                e_lane[m], e_list[m], e_first[m] = lane[s], calls[c, 5], first[s]
+                e_count[m], e_scalar[m] = count[s], calls[c, 6] != 0
+                m += 1
+        if kind >= 0:
+            _issue_head(kind, heads, lines, scalar, lds, loops)
+        stamp = _issue_lists(m, e_lane, e_list, e_first, e_count, e_scalar, list_start,
+                             list_lbuf, list_ebuf, flat_light, flat_slot, flat_eoff, P, spec,
+                             L, types, bound, unbounded, keys, stamps,
+                             stamp, lo, hi, shapes, shaded, line_base, seen, loops, types_acc,
+                             per_pixel, wx, wy, wz, wacc)
+        # the group's traversals in lockstep
+        while trees > 0:
+            stamp += 1
+            heads, lines, m = 0, 0, 0
+            kind, lds = -1, False
+            for q in range(trees):
+                s = t_seg[q]
+                c = call[s]
+                if t_cur[q] >= count[s]:
+                    continue
+                node = first[s] + t_cur[q]
+                heads += 1
+                kind = calls[c, 1]
+                per_pixel[lane[s], 1] += 1
+                if calls[c, 2] == -2:
+                    lds = True
+                else:
+                    lines += _lines(keys, stamps, stamp, seen, line_base[calls[c, 2]], node * 16, 16)
+                d = depth[lane[s]]
+                bits = nbits[node]
+                if d >= nmin[node] and d <= nmax[node]:
+                    if bits & 1:
+                        e_lane[m], e_list[m], e_first[m] = lane[s], calls[c, 5], nfirst[node]
+                        e_count[m], e_scalar[m] = (bits >> 1) & cmask, False
+                        m += 1
+                    t_cur[q] += 1
+                else:
+                    t_cur[q] += bits >> (1 + _COUNT_BITS)
+            if heads == 0:
+                break
+            _issue_head(kind, heads, lines, False, lds, loops)
+            stamp = _issue_lists(m, e_lane, e_list, e_first, e_count, e_scalar, list_start,
+                                 list_lbuf, list_ebuf, flat_light, flat_slot, flat_eoff, P, spec,
+                                 L, types, bound, unbounded, keys, stamps,
+                                 stamp, lo, hi, shapes, shaded, line_base, seen, loops,
+                                 types_acc, per_pixel, wx, wy, wz, wacc)
+        i = j
 
 
 @numba.njit(inline="always")
@@ -627,7 +737,7 @@ def _zbin_mask(lo, hi, w, printed):
 
 @numba.njit(cache=True)
 def _replay_words(order, wave, shading, address, zlo, zhi, bits, words, masked, scalarized,
-                  printed, bits_buf, P, spec, pos, dirs, ext, right, types, bound, unbounded,
+                  printed, bits_buf, P, spec, L, types, bound, unbounded,
                   line_base, seen, loops, types_acc, per_pixel):
     """shade_zbin.comp / raster_shade_cluster.comp: per wave the word range (masked: from
     the lanes' z-bin min / max), per word the lanes' words (a vector load each), then the
@@ -639,6 +749,11 @@ def _replay_words(order, wave, shading, address, zlo, zhi, bits, words, masked, 
     lo = np.empty(3, np.float32)
     hi = np.empty(3, np.float32)
     own = np.zeros(64, np.uint32)
+    wx = np.zeros(64, np.float32)
+    wy = np.zeros(64, np.float32)
+    wz = np.zeros(64, np.float32)
+    w_ev = np.zeros(64, np.int64)
+    w_hit = np.zeros(64, np.int64)
     shapes = np.zeros(8, np.bool_)
     shaded = np.zeros(8, np.bool_)
     empty_min = 0x7FFFFFFF
@@ -657,6 +772,9 @@ def _replay_words(order, wave, shading, address, zlo, zhi, bits, words, masked, 
             w0, w1 = max(w0, mn // 32), min(w1, mx // 32 + 1)
         busy = 0
         for s in range(i, j):
+            q = s - i
+            wx[q], wy[q], wz[q] = P[order[s], 0], P[order[s], 1], P[order[s], 2]
+            w_ev[q], w_hit[q] = 0, 0
             busy += shading[s]
             if shading[s]:
                 for k in range(3):
@@ -714,20 +832,20 @@ def _replay_words(order, wave, shading, address, zlo, zhi, bits, words, masked, 
                         bit += 1
                     own[s - i] = m & (m - np.uint32(1))
                     li = wd * 32 + bit
-                    px = order[s]
+                    q = s - i
                     active += 1
-                    per_pixel[px, 0] += 1
+                    w_ev[q] += 1
                     if li != last:               # lanes of one tile fetch the same light
                         last = li
                         lines += _lines(keys, stamps, stamp, seen, line_base[0], li * 96, 96)
                         shapes[types[li]] = True
-                        miss = not unbounded and _misses_box(li, pos, bound, lo, hi)
+                        miss = not unbounded and _misses_box(li, L, bound, lo, hi)
                     if miss:
                         continue
-                    if affects(P[px, 0], P[px, 1], P[px, 2], li, pos, dirs, ext, right, types, unbounded):
-                        per_pixel[px, 2] += 1
+                    if affects(wx[q], wy[q], wz[q], li, L, types, unbounded):
+                        w_hit[q] += 1
                         shaded[types[li]] = True
-                        any_spec |= spec[px]
+                        any_spec |= spec[order[s]]
                 if active == 0:
                     break
                 t += 1
@@ -743,7 +861,24 @@ def _replay_words(order, wave, shading, address, zlo, zhi, bits, words, masked, 
                     types_acc[0, ty] += shapes[ty]
                     types_acc[1, ty] += shaded[ty]
                 types_acc[2, 0] += any_spec
+        for s in range(i, j):               # the wave's lanes' sums, once
+            per_pixel[order[s], 0] += w_ev[s - i]
+            per_pixel[order[s], 2] += w_hit[s - i]
         i = j
+
+
+def sampled(frame: FrameData, every: int) -> tuple[FrameData, float]:
+    """The frame with only every `every`-th 8x8 group shading (the others read as sky), and
+    the share of the shading pixels it keeps: a replay of it, scaled by 1 / share, stands for
+    the whole frame (the benchmark's 1080p validation runs; every test replays every wave)."""
+    if every <= 1:
+        return frame, 1.0
+    keep = frame.group % every == 0
+    pos = frame.position.copy()
+    pos[~keep] = 0.0
+    share = float((keep & frame.shading).sum()) / max(int(frame.shading.sum()), 1)
+    from dataclasses import replace
+    return replace(frame, position=pos), share
 
 
 def frame_data(renderer, result, opts, unbounded: bool = False) -> FrameData:
@@ -805,21 +940,6 @@ def tree_visits(depth, base, count, nodes) -> np.ndarray:
     out = np.zeros((n, 5), np.int64)
     _tree_visits(*args, out)
     return out
-
-
-def add_tree(prog: Program, lanes, base, count, nodes, list_id: int, step0: int = 1,
-             branch: int = 0, shared: bool = False) -> None:
-    """Segments of a stackless traversal per lane (one step per visit from `step0`): the node
-    fetch (from `nodes`, or shared memory: hybrid's and tree's shared tree), then the hit
-    leaf's list (`list_id`, positions = node first_light + k)."""
-    lanes = np.asarray(lanes, np.int64)
-    v = tree_visits(prog.frame.position[lanes, 3], base, count, nodes)
-    if not len(v):
-        return
-    head = ("lds_node", SHARED, 0, 16, False) if shared else \
-        ("node", "nodes", v[:, 2] * layouts.TREE_NODE.itemsize, layouts.TREE_NODE.itemsize, False)
-    prog.add(lanes[v[:, 0]], step=step0 + v[:, 1], branch=branch, head=head,
-             lights=(list_id, v[:, 3], v[:, 4], False))
 
 
 def rounds(prog: Program, lanes, cells) -> np.ndarray:

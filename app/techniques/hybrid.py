@@ -84,7 +84,7 @@ class Hybrid(Technique):
         lid = entry_list(prog, b.buffers["entries"], opts.duplicated)
         prog.add(lanes, head=cell_head(prog, lanes))
         if not opts.specialised:
-            waves.add_tree(prog, lanes, first, count, nodes, lid)
+            prog.add_tree(lanes, first, count, nodes, lid)
             return prog
         tree = count > 1
         group = frame.group[lanes]
@@ -94,7 +94,7 @@ class Hybrid(Technique):
         shared = one[group]
         prog.barriers += 5 * int(one.sum())          # the base's vote, the load's barrier
         _add_shared_load(prog, frame, lanes[shared], first[shared], count[shared])
-        waves.add_tree(prog, lanes[shared], first[shared], count[shared], nodes, lid, step0=64,
+        prog.add_tree(lanes[shared], first[shared], count[shared], nodes, lid, step0=64,
                        shared=True)
         # the other groups: per wave all lists, all trees or mixed (native: a wave vote)
         rest = ~shared
@@ -113,9 +113,9 @@ class Hybrid(Technique):
             prog.add(lanes[walk][v[:, 0]], step=1 + r[v[:, 0]],
                      head=("node", "nodes", v[:, 2] * 16, 16, True), lights=(lid, v[:, 3], v[:, 4], True))
             lists &= mixed
-        waves.add_tree(prog, lanes[lists], first[lists], count[lists], nodes, lid)
+        prog.add_tree(lanes[lists], first[lists], count[lists], nodes, lid)
         trees = rest & tree
-        waves.add_tree(prog, lanes[trees], first[trees], count[trees], nodes, lid,
+        prog.add_tree(lanes[trees], first[trees], count[trees], nodes, lid,
                        branch=1)               # in a mixed wave, after its list lanes
         return prog
 

@@ -71,6 +71,6 @@ class Tree(Technique):
         ranges = cell_ranges(b)
         cell = frame.cell[lanes]
         prog.add(lanes, head=cell_head(prog, lanes))
-        waves.add_tree(prog, lanes, ranges[cell, 0], ranges[cell, 1], b.buffers["nodes"],
+        prog.add_tree(lanes, ranges[cell, 0], ranges[cell, 1], b.buffers["nodes"],
                        entry_list(prog, b.buffers["entries"], frame.opts.duplicated))
         return prog
