@@ -24,6 +24,15 @@ PixelState resume_pixel(PixelState s) {
 
 PixelState load_pixel() { return resume_pixel(load_pixel_at(ivec2(gl_GlobalInvocationID.xy))); }
 
+// CELLS_ONLY (app.model: a frame that is modelled, not shaded): the shading pass records
+// each pixel's cell (out_cell) and stops there; its light loops do not run.
+// define: CELLS_ONLY
+#if defined(CELLS_ONLY) && CELLS_ONLY
+#define CELLS_ONLY_RETURN(s) { store_pixel(s); return; }
+#else
+#define CELLS_ONLY_RETURN(s)
+#endif
+
 void store_pixel(PixelState s) {
     if (!s.inside) return;
     uint i = uint(s.pixel.y * u_size.x + s.pixel.x);

@@ -65,6 +65,7 @@ void main() {
     if (s.shading) {
         uint cell = fptl_cell(s.pixel, s.depth);
         s.cell = cell;
+        CELLS_ONLY_RETURN(s);
         FptlCell c = fptl_cells[cell];
         if ((c.flags & FPTL_POOL_FULL) != 0u) {
             evaluate_all_lights(s);

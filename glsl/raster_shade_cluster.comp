@@ -28,6 +28,7 @@ void main() {
         ivec2 t = s.pixel / u_tile;
         uint cell = uint(t.y * u_tiles_x + t.x) * uint(u_slices) + slice_of(s.depth);
         s.cell = cell;
+        CELLS_ONLY_RETURN(s);
         uint address = cell * u_words;
         uint last = min(u_window.y - 1u, 0x7FFFFFFFu);
         uint wordEnd = min(u_words, last / 32u + 1u);

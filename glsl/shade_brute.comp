@@ -6,6 +6,7 @@
 
 void main() {
     PixelState s = load_pixel();
+    CELLS_ONLY_RETURN(s);
     if (s.shading) evaluate_all_lights(s);
     store_pixel(s);
     write_wave_stats(s.evaluated, 1u);

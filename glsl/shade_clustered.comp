@@ -12,6 +12,7 @@ void main() {
     PixelState s = load_pixel();
     uint cell = s.shading ? cell_of(s) : 0u;
     s.cell = cell;
+    CELLS_ONLY_RETURN(s);
 #if SCALARIZED
     uint iterations = evaluate_cells_scalarized(s, cell, s.shading);
 #else

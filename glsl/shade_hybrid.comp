@@ -56,6 +56,7 @@ void main() {
     PixelState s = load_pixel();
     uint cell = s.shading ? cell_of(s) : 0u;
     s.cell = cell;
+    CELLS_ONLY_RETURN(s);
     uvec2 r = s.shading ? ranges[cell].offset_count : uvec2(0u);
     uint count = r.y & ~CELL_TREE_BIT;
     bool is_tree = s.shading && count > 1u;         // by structure: which loop can read it

@@ -12,6 +12,7 @@ layout(std430, binding = B_PERFECT_ENTRIES) readonly buffer PerfectEntries { uin
 
 void main() {
     PixelState s = resume_pixel(perfect_load_pixel());
+    CELLS_ONLY_RETURN(s);
     if (s.shading) {
         uvec2 r = perfect_ranges[perfect_band_index(s)];
         uvec2 w = window_part(s, r.y);

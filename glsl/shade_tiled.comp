@@ -10,6 +10,7 @@ void main() {
     PixelState s = load_pixel();
     if (s.shading) {
         s.cell = cell_of(s);
+        CELLS_ONLY_RETURN(s);
         uvec2 r = ranges[s.cell].offset_count;
         if (r.y == 0xFFFFFFFFu)
             evaluate_all_lights(s);

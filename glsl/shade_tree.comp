@@ -10,6 +10,7 @@ void main() {
     PixelState s = load_pixel();
     if (s.shading) {
         s.cell = cell_of(s);
+        CELLS_ONLY_RETURN(s);
         uvec2 r = ranges[s.cell].offset_count;
         traverse_tree(s, r.x, r.y);
     }

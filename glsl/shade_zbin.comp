@@ -115,6 +115,7 @@ void main() {
 #if ZBIN_MASKED
     if (s.shading) s.cell = zbin_of(s.depth);
 #endif
+    CELLS_ONLY_RETURN(s);
     uvec2 zr = s.shading ? zbin_range(s.cell) : uvec2(uint(ZBIN_EMPTY_MIN), 0u);
     uint minIdx = zr.x, maxIdx = zr.y;
 

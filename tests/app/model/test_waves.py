@@ -157,3 +157,20 @@ def test_culling_pass_figures(gl):
                                                  res.build.grid.tile)
         busy = int((covered > 0).sum())
         assert f.loop("cull_test")["lanes"] == 2 * busy * n
+
+
+def test_cells_only_frames_replay_like_shaded_ones(gl):
+    """A frame rendered with CELLS_ONLY (the benchmark's modelled 1080p runs) records the same
+    cells, so its replay equals the shaded frame's, while its light loops did not run."""
+    sc = load_scene("hangar", lights=LIGHTS, seed=4)
+    with Renderer(sc, SIZE) as r:
+        for name in REGISTRY:
+            tech = REGISTRY[name]
+            full = r.render(tech, 0)
+            a = waves.replay(tech.wave_program(waves.frame_data(r, full, tech.resolve_options(None)), 32))
+            cells = r.render(tech, 0, defines={"CELLS_ONLY": 1})
+            assert np.array_equal(cells.cell, full.cell), name
+            assert int(cells.evaluated.sum()) == 0, f"{name}: CELLS_ONLY still shaded"
+            b = waves.replay(tech.wave_program(waves.frame_data(r, cells, tech.resolve_options(None)), 32))
+            assert np.array_equal(a.evaluated, b.evaluated), name
+            assert np.array_equal(a.figures.loops, b.figures.loops), name
