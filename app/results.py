@@ -20,9 +20,21 @@ One row is one measured configuration (a rendered frame, or a CPU-stage-only ser
     setup_ms                            untimed set-up (e.g. the floor's list building): not
                                         part of any cost
     evaluated_pp ... floor_position_pct hardware-neutral figures and exactness
+    model_version                       the GPU cost model's version (app.model.cost)
+    model_<gpu>_cull_ms, _shade_ms,     modelled on each named GPU (app.model.cost.GPUS):
+      _lighting_ms, _frame_ms, _bound   culling passes, shading pass, both; frame = this
+                                        machine's measured CPU stage + modelled lighting;
+                                        the limit that bounds the shading pass
+    w<W>_issued_pw, _simd, _lines_pi,   the shading pass's per-wave figures at W = 32 and 64
+      _scalar_share                     lanes (app.model.waves): issued iterations per busy
+                                        wave, SIMD use, distinct 64-B lines per issued
+                                        iteration, share of its loads that are scalar
+    waves                               every pass's full figures per width, as JSON
 
 Studies (column `study`):
     path        every technique, every scene, light count and camera-path frame
+    paper_<name> the papers' own settings (1920x1080), modelled only (app.bench.validation):
+                paper_fig7, paper_zbin_table, paper_zbin_hangar, paper_fptl
     <option>    one per technique option that declares study values (OptionSpec.study): its
                 values, over the techniques that declare it, on the study scene (frame 0)
     cutoff      the light cutoff against an unbounded reference, every technique
@@ -39,6 +51,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .model.cost import GPUS
+from .model.waves import WIDTHS
 from .techniques import REGISTRY
 from .techniques.options import OptionSpec, all_specs
 
@@ -48,6 +62,7 @@ STAGES = CPU_STAGES + (UPLOAD,)
 FRAME_PASS = "gbuffer"         # the frame's own pass (app.pipeline.gbuffer), not a technique's
 GPU_PARTS = ("gbuffer", "cull", "shade", "lighting")
 FIXED_STUDIES = ("path", "cutoff", "cpu")
+PAPER_PREFIX = "paper_"        # paper_<name>: the papers' settings, modelled (app.bench.validation)
 CPU_PREFIX = "cpu_"            # cpu_<option>: an option study's CPU-only series
 
 _HEAD = ["study", "scene", "lights", "visible", "width", "height", "frame", "frames",
@@ -60,9 +75,14 @@ _TAIL = [
     "evaluated_pp", "exact_pp", "waste", "nodes_pp", "wave_iters",
     "bytes_lights", "bytes_culling", "error_ref", "image_error", "image_flip", "radiance_ratio",
     "mismatch_count", "mismatch_hash", "floor_position_pct", "stats",
+    "model_version",
+    *[f"model_{g.key}_{k}" for g in GPUS for k in ("cull_ms", "shade_ms", "lighting_ms", "frame_ms", "bound")],
+    *[f"w{w}_{k}" for w in WIDTHS for k in ("issued_pw", "simd", "lines_pi", "scalar_share")],
+    "waves",
 ]
-TEXT_COLUMNS = {"study", "scene", "technique", "role", "gpu_passes", "error_ref",
-                "stats"}      # stats: the technique's numeric meta stats of the frame, as JSON
+TEXT_COLUMNS = {"study", "scene", "technique", "role", "gpu_passes", "error_ref", "stats",
+                "model_version", "waves", *(f"model_{g.key}_bound" for g in GPUS)}
+# stats: the technique's numeric meta stats of the frame, as JSON; waves: app.model figures
 
 
 def option_specs() -> dict[str, OptionSpec]:

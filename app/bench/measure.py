@@ -138,3 +138,32 @@ def fill_floor_positions(rows: list[dict], reference: str, floor: str) -> None:
         for r in group.values():
             r["floor_position_pct"] = 100.0 * (b["gpu_shade_ms"] - r["gpu_shade_ms"]) / span \
                 if span > 0 else math.nan
+
+
+def model_cells(figures: dict) -> dict:
+    """The modelled GPU columns and the per-wave figures of a frame (app.model)."""
+    from ..model import cost, predict
+    r = {"model_version": cost.MODEL_VERSION}
+    for key, m in predict.modelled(figures).items():
+        r[f"model_{key}_cull_ms"], r[f"model_{key}_shade_ms"] = m["cull"], m["shade"]
+        r[f"model_{key}_lighting_ms"] = m["cull"] + m["shade"]
+        r[f"model_{key}_bound"] = m["bound"]
+    for width, passes in figures.items():
+        f = passes[predict.SHADE]
+        issued = int(f.loops[:, 0].sum())
+        loads = f.loop_sum("vector_loads") + f.loop_sum("scalar_loads")
+        r[f"w{width}_issued_pw"] = issued / f.busy_waves if f.busy_waves else 0.0
+        r[f"w{width}_simd"] = f.simd_use
+        r[f"w{width}_lines_pi"] = (f.loop_sum("vector_lines") + f.loop_sum("scalar_lines")) / issued \
+            if issued else 0.0
+        r[f"w{width}_scalar_share"] = f.loop_sum("scalar_loads") / loads if loads else 0.0
+    r["waves"] = json.dumps({str(w): {name: f.as_dict() for name, f in passes.items()}
+                             for w, passes in figures.items()}, sort_keys=True)
+    return r
+
+
+def model_frame_cells(row: dict) -> dict:
+    """model_<gpu>_frame_ms: this machine's measured CPU stage + the modelled lighting."""
+    from ..model import cost
+    return {f"model_{g.key}_frame_ms": row["cpu_total_ms"] + row[f"model_{g.key}_lighting_ms"]
+            for g in cost.GPUS if f"model_{g.key}_lighting_ms" in row}

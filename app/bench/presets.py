@@ -35,6 +35,11 @@ class Preset:
     cpu_repeat: int
     seed: int = 0
     cpu_threads: int = 1          # numba threads of the CPU stage (0: numba's default)
+    # the papers' settings, modelled only (app.bench.validation); paper_size None: none
+    paper_size: tuple[int, int] | None = (1920, 1080)
+    paper_lights: tuple[int, ...] = (8192, 16384, 32768, 65536)
+    paper_frames: int = 2         # camera-path frames of figure 7
+    paper_sample: int = 8         # the shading replay over every k-th 8x8 group (scaled)
 
 
 QUICK = Preset(
@@ -50,7 +55,8 @@ FULL = Preset(
     heavy_eval_pp=4096.0, cutoffs=(256, 1024, 4096, 16384, 65536), cutoff_scenes=("arena", "city"),
     cutoff_lights=16384, study_scene="arena", study_lights=32768, heat_scene="city",
     cpu_scene="arena", cpu_size=(1920, 1080),
-    cpu_lights=(1024, 2048, 4096, 8192, 16384, 32768, 65536), cpu_repeat=9)
+    cpu_lights=(1024, 2048, 4096, 8192, 16384, 32768, 65536), cpu_repeat=9,
+    paper_frames=16, paper_sample=2)
 
 PRESETS = {"quick": QUICK, "full": FULL}
 
@@ -76,7 +82,7 @@ def preset_from_args(args) -> Preset:
         if not scenes:
             raise UserError("--scenes names no scene")
         ch.update(scenes=scenes, study_scene=scenes[0], heat_scene=scenes[-1],
-                  cpu_scene=scenes[0], cutoff_scenes=scenes[:1])
+                  cpu_scene=scenes[0], cutoff_scenes=scenes[:1], paper_size=None)
     if args.lights:
         lights = int_list(args.lights, "--lights")
         ch.update(lights=lights, study_lights=max(lights), cutoff_lights=min(lights))
@@ -93,6 +99,8 @@ def preset_from_args(args) -> Preset:
         ch["cpu_lights"] = int_list(args.cpu_lights, "--cpu-lights")
     if args.cpu_size:
         ch["cpu_size"] = tuple(args.cpu_size)
+    if getattr(args, "papers", None) is not None:
+        ch["paper_size"] = preset.paper_size if args.papers else None
     if args.threads is not None:
         if args.threads < 0:
             raise UserError("--threads must be >= 0")

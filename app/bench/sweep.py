@@ -3,8 +3,9 @@ plan (app.bench.plan) through Renderer.render like any frame, takes the timing s
 render(samples=N), checks every frame against the reference's, runs the CPU-only series, and
 writes DIR/results.csv (app.results), DIR/maps.npz, DIR/run.json and the report.
 
-Timing: every configuration is rendered once with read-back (counters, image); then its
-timing samples are taken.  The first render of a configuration's programs in the process is
+Timing: every configuration is rendered once with read-back (counters, image, and, while
+its buffers are there, the wave replay and the GPU cost model: app.model); then its timing
+samples are taken.  The first render of a configuration's programs in the process is
 a warm-up (shader and numba compilation) whose timing is discarded; later ones count as a
 sample.  A configuration whose loop evaluates more than `heavy_eval_pp` lights a pixel gets
 `heavy_repeat` samples, one of an option study (a single frame) `study_repeat`.  The sample
@@ -24,6 +25,7 @@ configuration as its read-back render starts, then the group's rounds of samples
 """
 from __future__ import annotations
 
+import argparse
 from dataclasses import fields, replace
 from itertools import groupby
 import json
@@ -34,6 +36,7 @@ import time
 import numpy as np
 
 from .. import cli
+from ..model import predict
 from ..results import CPU_PREFIX, STAGES, columns, option_studies, read_csv, stats, write_csv
 from ..techniques import REGISTRY, with_role
 from . import measure
@@ -114,6 +117,8 @@ class Sweep:
         renderer still holds its frame)."""
         res = self.render(renderer, job, True)
         self.keep_maps(job, res, renderer)
+        figures = predict.frame_figures(renderer, REGISTRY[job.technique], res, job.opts,
+                                        unbounded=job.cutoff < 0)
         types = tuple(np.unique(self.lights_for(job)["type"]).tolist())   # shader features
         key = (self.serial, job.technique, job.opts, job.cutoff < 0, types)
         samples = measure.samples_of(res.meta) if key in self.warm else []
@@ -123,7 +128,9 @@ class Sweep:
             self.refs[(job.scene, job.lights, job.frame, job.cutoff)] = res
         want = self.p.heavy_repeat if heavy else \
             self.p.repeat if job.study in ("path", "cutoff") else self.p.study_repeat
-        return self.row(job, res, renderer), samples, want
+        row = self.row(job, res, renderer)
+        row.update(measure.model_cells(figures))
+        return row, samples, want
 
     def measure_group(self, renderer, group: list[Job], first: int, total: int) -> None:
         """Rows of a group of configurations compared with each other: each one's read-back
@@ -144,6 +151,7 @@ class Sweep:
                     samples += measure.samples_of(self.render(renderer, job, False).meta)
         for job, row, samples, _ in pending:
             row.update(measure.timing_cells(samples))
+            row.update(measure.model_frame_cells(row))
             self.rows.append(row)
 
     def row(self, job: Job, res, renderer) -> dict:
@@ -224,8 +232,49 @@ class Sweep:
             if renderer is not None:
                 renderer.release()
         measure.fill_floor_positions(self.rows, self.reference, self.floor)
+        self.paper_series()
         self.cpu_series()
         return self.rows
+
+    # ---- the papers' settings, modelled only ------------------------------------------------
+
+    def paper_series(self) -> None:
+        """app.bench.validation's configurations at the papers' resolution: one read-back
+        render each, its wave figures and modelled GPU ms; no timing samples."""
+        from ..pipeline.renderer import Renderer
+        from .validation import paper_jobs
+        jobs = paper_jobs(self.p)
+        renderer, current = None, None
+        try:
+            for i, pj in enumerate(jobs, 1):
+                job = pj.job
+                if job.scene != current:
+                    if renderer is not None:
+                        renderer.release()
+                    renderer = Renderer(self.scene(job.scene, job.lights), self.p.paper_size)
+                    current = job.scene
+                renderer.scene = self.scene(job.scene, job.lights)
+                w, h = self.p.paper_size
+                self.progress(i, len(jobs), f"{job.describe()} at {w}x{h} (modelled)")
+                tech = REGISTRY[job.technique]
+                res = renderer.render(tech, job.frame, job.opts, frames=pj.frames,
+                                      lights=self.lights_for(job), defines={"CELLS_ONLY": 1})
+                figures, implied = predict.modelled_frame(renderer, tech, res, job.opts,
+                                                          sample=self.p.paper_sample)
+                r = {"study": job.study, "scene": job.scene, "lights": job.lights,
+                     "visible": int(res.meta["stats"].get("visible_lights", 0)), "width": w,
+                     "height": h, "frame": job.frame, "frames": pj.frames,
+                     "technique": tech.name, "role": tech.role, "cutoff": 0}
+                r.update(measure.option_cells(job.opts))
+                r.update(measure.figure_cells(res))
+                r.update(implied)                  # the shading loops did not run on llvmpipe
+                r.update(measure.model_cells(figures))
+                r["cpu_total_ms"] = float(sum(res.meta["cpu_ms"].values()))
+                r.update(measure.model_frame_cells(r))
+                self.rows.append(r)
+        finally:
+            if renderer is not None:
+                renderer.release()
 
     def _forget(self, job: Job) -> None:
         """Drop references no later job needs (full-resolution frames are ~50 MB each)."""
@@ -349,6 +398,9 @@ def sweep_main(argv) -> None:
     p.add_argument("--cpu-size", type=cli.parse_size, help="override: WxH of the CPU series")
     p.add_argument("--threads", type=int, help="numba threads of the CPU stage (default 1, "
                                                "as the paper's figure 4; 0: numba's default)")
+    p.add_argument("--papers", action=argparse.BooleanOptionalAction, default=None,
+                   help="the papers' settings at 1920x1080, modelled (default: on, off with "
+                        "--scenes)")
     args = p.parse_args(argv)
     preset = preset_from_args(args)
     command = "python -m app.bench " + " ".join(argv)

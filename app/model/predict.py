@@ -7,23 +7,45 @@ each named GPU's wave width, through the cost model.
 """
 from __future__ import annotations
 
+import numpy as np
+
 from . import cost, waves
 
 SHADE = "shade"        # the shading pass's name in the figures (its timed passes may be many)
 
 
 def frame_figures(renderer, technique, result, opts=None, unbounded: bool = False,
-                  widths=waves.WIDTHS) -> dict[int, dict[str, waves.Figures]]:
+                  widths=waves.WIDTHS, sample: int = 1) -> dict[int, dict[str, waves.Figures]]:
     """Every timed pass's figures at each wave width, for the frame the renderer just
-    rendered with read-back (its buffers are still there)."""
+    rendered with read-back (its buffers are still there).  `sample` > 1 replays the
+    shading pass over every sample-th 8x8 group only and scales (waves.sampled)."""
+    return _figures(renderer, technique, result, opts, unbounded, widths, sample)[0]
+
+
+def modelled_frame(renderer, technique, result, opts=None, sample: int = 1):
+    """(figures, per-pixel means the 64-lane replay implies over the shading pixels it
+    replayed: evaluated_pp, exact_pp, nodes_pp, waste) of a frame rendered with the shading
+    passes' CELLS_ONLY switch (their light loops skipped: the replay stands for them)."""
+    figures, rp, shading = _figures(renderer, technique, result, opts, False, waves.WIDTHS, sample)
+    ev, ex, nd = (a[shading].astype(np.float64) for a in (rp.evaluated, rp.contrib, rp.nodes))
+    mean = lambda a: float(a.mean()) if len(a) else 0.0
+    return figures, {"evaluated_pp": mean(ev), "exact_pp": mean(ex), "nodes_pp": mean(nd),
+                     "waste": float(ev.sum() / ex.sum()) if ex.sum() else float("nan")}
+
+
+def _figures(renderer, technique, result, opts, unbounded, widths, sample):
     opts = technique.resolve_options(opts)
     fr = waves.frame_data(renderer, result, opts, unbounded)
-    out = {}
+    part, share = waves.sampled(fr, sample)
+    out, last = {}, None
     for width in widths:
         passes = dict(technique.cull_figures(fr, width))
-        passes[SHADE] = waves.replay(technique.wave_program(fr, width)).figures
+        prog = technique.wave_program(part, width)
+        last = waves.replay(prog)
+        shade = last.figures
+        passes[SHADE] = shade if share >= 1.0 else shade.scaled(1.0 / max(share, 1e-9), prog.buffers)
         out[width] = passes
-    return out
+    return out, last, part.shading
 
 
 def modelled(figures: dict[int, dict[str, waves.Figures]], gpus=cost.GPUS) -> dict[str, dict]:

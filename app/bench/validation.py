@@ -1,0 +1,72 @@
+"""The papers' own settings, rendered at their resolution (1920x1080) and modelled only:
+what the GPU cost model (app.model) predicts where the papers published a measurement.
+The report's validation section sets each beside the published figure (app.report.validation).
+
+    paper_fig7         tree paper figure 7: clustered, tree, hybrid along the camera path at
+                       8k-65k lights; "CTF-TitanPass" (lights in the level's box) is the lab's
+                       arena, "EpicCitadel" (lights on geometry, long views) its city
+    paper_zbin_table   Drobot's optimization table: zbin's four variants, a 256-light bit
+                       array (Zombies opening scene: the lab's study scene)
+    paper_zbin_hangar  Drobot's hangar: tiled buffer vs + z-bin, the lab's hangar, 256 lights
+    paper_fptl         Mikkelsen's interior at 1080p: fine-pruned vs coarse lists (the lab's
+                       corridor, 1,024 lights: the chapter's 10-bit index limit)
+    paper_scenes       every builtin scene at 4,096 lights: the modelled ranking per GPU
+
+Each configuration is rendered once on llvmpipe with its shading passes' CELLS_ONLY switch:
+the G-buffer, the CPU stage and the culling passes run, and the shading pass records each
+pixel's cell without running its light loops (at 1080p they would cost llvmpipe seconds a
+frame and say nothing the path study does not).  The wave replay, over every
+`paper_sample`-th 8x8 group and scaled, stands for the shading loops; the row's per-pixel
+figures are the replay's (tests/app/model: they equal the shaders' counters).  No timing
+samples, no exactness columns: the same techniques are checked at the path resolution.
+The floor (perfect) is left out of paper_scenes: its untimed set-up tests every light at
+every pixel, minutes a 1080p frame on llvmpipe.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..results import PAPER_PREFIX
+from ..techniques import REGISTRY
+from .plan import Job
+from .presets import Preset
+
+FIG7_SCENES = ("arena", "city")
+FIG7_TECHNIQUES = ("clustered", "tree", "hybrid")
+ZBIN_LIGHTS = 256                 # the slides' 256-bit array
+FPTL_LIGHTS = 1024                # the chapter's 10-bit indices
+
+
+@dataclass(frozen=True)
+class PaperJob:
+    job: Job
+    frames: int                   # the camera path's frames for job.frame
+
+
+def paper_jobs(p: Preset) -> list[PaperJob]:
+    """The papers' configurations of a preset (skipped when the preset has no paper size)."""
+    if not p.paper_size:
+        return []
+    out = []
+
+    def add(study, scene, lights, frame, name, frames=1, **opts):
+        t = REGISTRY[name]
+        out.append(PaperJob(Job(PAPER_PREFIX + study, scene, lights, frame, name,
+                                t.Options().with_(**opts)), frames))
+
+    for scene in FIG7_SCENES:
+        for n in p.paper_lights:
+            for f in range(p.paper_frames):
+                for name in FIG7_TECHNIQUES:
+                    add("fig7", scene, n, f, name, p.paper_frames)
+    for v in range(4):
+        add("zbin_table", p.study_scene, ZBIN_LIGHTS, 0, "zbin", zbin_variant=v)
+    for v in (0, 1):
+        add("zbin_hangar", "hangar", ZBIN_LIGHTS, 0, "zbin", zbin_variant=v)
+    for v in (0, 1):
+        add("fptl", "corridor", FPTL_LIGHTS, 0, "fptl", fptl_variant=v)
+    for scene in p.scenes:
+        for name, t in REGISTRY.items():
+            if t.role != "floor":
+                add("scenes", scene, p.study_lights, 0, name)
+    return out
