@@ -44,6 +44,7 @@ from .inspect import Inspection, inspect
 from .keys import CHAR_KEYS, MOVE_KEYS, key_names
 from .options import WindowOptions
 from .panel import LabState, Panel
+from .model import FrameModel
 from .timers import Timers
 from .ui import LabUI
 from .views import HEAT_OF, VIEWS, Overlay, view_note
@@ -109,6 +110,7 @@ class LabWindow(mglw.WindowConfig):
         self.figures: dict = {}
         self.overlay = Overlay()
         self.timers = Timers()
+        self.model = FrameModel()
         self.costs = probe.FrameCosts()
         self.announced: set = set()
         self.seen: set = set()
@@ -468,6 +470,10 @@ class LabWindow(mglw.WindowConfig):
         wall_ms = (time.perf_counter() - t_start) * 1e3
         self.timers.add(config, result.meta["gpu_ms"], result.meta["cpu_ms"], wall_ms)
         self.figures["wall_ms"] = round(wall_ms, 2)
+        rerender = lambda: (r, tech, opts, r.render(tech, self.path_frame, opts, frames=self.args.path_frames,
+                                                   lights=lights, readback=False, camera=fc, figures=True))
+        self.model.update((config, key), time.perf_counter() - self.key_since, self.scripted, rerender)
+        self.figures["model"] = self.model.line((config, key))
         self._record(step)
         if self.args.frames is not None and self.frame >= self.args.frames:
             if self.args.screenshot:

@@ -30,6 +30,8 @@ def hud_lines(f: dict, *, position: str, role: str, software: bool, playing: boo
         f"CPU {sum(cpu.values()):.1f} ms: " + "  ".join(f"{k} {v:.1f}" for k, v in cpu.items()),
         f"GPU {sum(gpu.values()):.1f} ms{wall}: " + "  ".join(f"{k} {v:.1f}" for k, v in gpu.items()),
     ]
+    if f.get("model"):
+        lines.append(f["model"])
     if setup:
         lines.append(f"set-up, untimed {sum(setup.values()):.1f} ms: "
                      + "  ".join(f"{k} {v:.1f}" for k, v in setup.items()))

@@ -396,3 +396,16 @@ def test_maps_view_shows_the_techniques_own_structure(tmp_path):
     proc = run(["app.window", "--window", "headless", "--scene", "gallery", "--size", "32x18",
                 "--technique", "brute", "--view", "maps", "--frames", "1"])
     assert proc.returncode == 2 and "maps" in proc.stderr
+
+
+def test_hud_shows_the_modelled_gpu_time():
+    """A scripted run models its first still frame: the HUD gives every named GPU's modelled
+    lighting ms (app.model) beside the measured llvmpipe ms."""
+    from app.model import cost
+    frames, summary, _ = run_window(SMALL + ["--technique", "hybrid", "--frames", "2"])
+    line = next(l for l in summary["screenshot_hud"][0] if l.startswith("modelled GPU ms")) \
+        if summary.get("screenshot_hud") else frames[-1]["model"]
+    assert f"(v{cost.MODEL_VERSION})" in line
+    values = {g.key: float(line.split(f"{g.key} ")[1].split()[0]) for g in cost.GPUS}
+    assert all(v > 0 for v in values.values()), line
+    assert values["h200"] < values["ps4"], line          # 10x the ALUs and 27x the bandwidth
