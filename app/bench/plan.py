@@ -59,7 +59,7 @@ def plan(p: Preset, light_counts: Callable[[str, tuple], tuple[int, ...]]) -> li
             for f in range(p.frames):
                 jobs += [Job("path", scene, n, f, t, default[t]) for t in names]
         n = light_counts(scene, (p.study_lights,))[0]
-        for study, (spec, techs) in option_studies().items():
+        for study, (spec, techs) in (option_studies().items() if p.option_studies else ()):
             if scene == study_scene(p, spec):
                 for v in spec.study:
                     jobs += [Job(study, scene, n, 0, t, default[t].with_(**{study: v}))

@@ -46,6 +46,10 @@ from .machine import machine_info
 from .plan import Job, plan, study_scene
 from .presets import Preset, preset_from_args
 
+# The wave replay of a rendered row walks about this many lane iterations a width: every
+# k-th 8x8 group of a heavier frame (app.model.predict.frame_figures), scaled
+REPLAY_BUDGET = 4_000_000
+
 
 class Sweep:
     def __init__(self, preset: Preset, log=sys.stderr):
@@ -118,7 +122,7 @@ class Sweep:
         res = self.render(renderer, job, True)
         self.keep_maps(job, res, renderer)
         figures = predict.frame_figures(renderer, REGISTRY[job.technique], res, job.opts,
-                                        unbounded=job.cutoff < 0)
+                                        unbounded=job.cutoff < 0, budget=REPLAY_BUDGET)
         types = tuple(np.unique(self.lights_for(job)["type"]).tolist())   # shader features
         key = (self.serial, job.technique, job.opts, job.cutoff < 0, types)
         samples = measure.samples_of(res.meta) if key in self.warm else []
@@ -242,7 +246,7 @@ class Sweep:
         """app.bench.validation's configurations at the papers' resolution: one read-back
         render each, its wave figures and modelled GPU ms; no timing samples."""
         from ..pipeline.renderer import Renderer
-        from .validation import paper_jobs
+        from .validation import paper_jobs, scaled_lights
         jobs = paper_jobs(self.p)
         renderer, current = None, None
         try:
@@ -258,7 +262,8 @@ class Sweep:
                 self.progress(i, len(jobs), f"{job.describe()} at {w}x{h} (modelled)")
                 tech = REGISTRY[job.technique]
                 res = renderer.render(tech, job.frame, job.opts, frames=pj.frames,
-                                      lights=self.lights_for(job), defines={"CELLS_ONLY": 1})
+                                      lights=scaled_lights(self.lights_for(job), pj.radius_scale),
+                                      defines={"CELLS_ONLY": 1})
                 figures, implied = predict.modelled_frame(renderer, tech, res, job.opts,
                                                           sample=self.p.paper_sample)
                 r = {"study": job.study, "scene": job.scene, "lights": job.lights,
@@ -298,7 +303,7 @@ class Sweep:
         p = self.p
         out = [("cpu", p.cpu_scene, n, t, REGISTRY[t].Options())
                for n in self.light_counts(p.cpu_scene, p.cpu_lights) for t in REGISTRY]
-        if tuple(p.cpu_size) != tuple(p.size) and p.study_scene in p.scenes:
+        if tuple(p.cpu_size) != tuple(p.size) and p.study_scene in p.scenes and p.option_studies:
             for study, (spec, techs) in option_studies().items():
                 scene = study_scene(p, spec)
                 n = self.light_counts(scene, (p.study_lights,))[0]
@@ -387,6 +392,9 @@ def sweep_main(argv) -> None:
     g = p.add_mutually_exclusive_group()
     g.add_argument("--quick", action="store_true", help="reduced resolution and counts (default)")
     g.add_argument("--full", action="store_true", help="1920x1080, 8192..65536 lights, whole path")
+    g.add_argument("--gpu-check", action="store_true",
+                   help="for a real GPU (scripts/gpu_check.sh): 1920x1080, every technique, arena "
+                        "and city at 8192, 32768 and 65536 lights, measured against modelled")
     p.add_argument("--out", required=True, help="output folder (results.csv, report.md, PNGs)")
     p.add_argument("--size", type=cli.parse_size, help="override the preset's WxH")
     p.add_argument("--scenes", help="override: comma-separated builtin names or scene files")

@@ -21,8 +21,11 @@ U units (SMs / CUs) at f Hz):
              scalar cache; its own throughput is not modelled)
              + lds_reads x 16 / (U x lds)        (tree nodes read from shared memory)
     DRAM     T_dram = (unique bytes read + per-pixel bytes) / bandwidth
-             every distinct 64-B line of the pass's buffers once (a perfect L2), plus the
-             G-buffer's 36 B and the outputs' 36 B a pixel (colour, counters, cell)
+             every distinct 64-B line of the pass's buffers once (a perfect L2), plus a
+             shading pass's 52 B a pixel: the G-buffer's 36 B read, the colour's 16 B written
+             (the 20 B of counters and cell the lab's shaders also write for the exactness
+             check are left out: a production pass writes none, and they are the same for
+             every technique; a measured GPU time includes them)
     raster   T_rast = max(vertices x vertex / (U_g x lanes x f), fragments / (rops x f))
              (a raster pass: vertex work on the graphics-capable units U_g, one depth
              test per ROP and clock)
@@ -103,18 +106,33 @@ GPUS = (
              "is unpublished"),
 )
 BY_KEY = {g.key: g for g in GPUS}
+# GL_RENDERER strings of the modelled GPUs (lower case), for measured-vs-modelled runs
+RENDERER_NAMES = {"gtx980": ("gtx 980",), "rx480": ("rx 480", "polaris10", "ellesmere"),
+                  "ps4": ("liverpool",), "h200": ("h200",)}
 
-# Instructions per issued iteration, counted from the GLSL: one per scalar add / mul / fma /
-# compare / select / bit op after the vec3 ops are split (a vec3 op is 3); memory ops are the
-# loads (timed by L1 / DRAM, not here); transcendentals (sqrt, inversesqrt, log, exp, rcp of a
-# division) counted apart.  (alu, trans) per loop kind:
+
+def match(renderer: str) -> GPU | None:
+    """The modelled GPU a GL_RENDERER string names, if any."""
+    r = renderer.lower()
+    return next((BY_KEY[k] for k, names in RENDERER_NAMES.items() if any(n in r for n in names)), None)
+
+# Instructions per issued iteration, counted from the GLSL by one rule: one per scalar add /
+# mul / fma / compare / select / bit op after vec3 ops are split (a vec3 op is 3, a dot 3),
+# one issue slot per load or store instruction (their data is timed by L1 / DRAM), a loop's
+# counter, test and branch 3; an integer division by a uniform 10 plus a reciprocal (GPUs
+# have no integer divider); transcendentals (sqrt, inversesqrt, log, exp, rcp) counted apart.
+# (alu, trans) per loop kind:
 INSTRUCTIONS = {
-    "cell": (12, 1),        # cell_of: tile index, listing 4's slice (one log), the record's address
-    "node": (14, 0),        # visit_node: the depth-bounds test, leaf bits, the skip or step
-    "lds_node": (14, 0),
-    "word": (16, 0),        # lane_word: the tile word, range_mask / printed mask, popcount
+    "cell": (32, 3),        # cell_of: two divisions for the tile, listing 4's slice (a log),
+                            # the cell index, the record's load
+    "node": (19, 0),        # visit_node: loop, address, load, counter, the depth-bounds test,
+                            # leaf bit, count and skip fields, the cursor
+    "lds_node": (19, 0),
+    "word": (40, 0),        # lane_word: address, load, range_mask and the window mask, AND,
+                            # popcount, the wave OR (a few cross-lane steps), loop
     "load": (6, 0),         # load_shared_tree: one node a lane
-    "light": (6, 0),        # the light loop's own work: counter, entry address, the fetch
+    "light": (13, 0),       # the light loop: counter, entry and light addresses, 4 loads,
+                            # s.evaluated, d = P - L (the test's shared part)
     # culling passes
     "depth": (6, 0),        # a tile's min/max depth: one texel, two shared atomics
     "cull_test": (40, 2),   # tile_cull's sphere test (four planes, inversesqrt each pair) /
@@ -127,11 +145,11 @@ INSTRUCTIONS = {
 }
 # The light loop per shape: the affects test, and the shading code where it affects
 # (count, hash, radiance, Lambert response), as (alu, trans):
-TEST = {"point": (8, 0), "spot": (14, 1), "capsule": (16, 0), "box": (20, 0)}
-SHADE = {"point": (36, 3), "spot": (48, 4), "capsule": (46, 3), "box": (34, 3)}
-GGX = (55, 6)               # material.glsl's GGX term on top (specular surfaces)
+TEST = {"point": (8, 0), "spot": (13, 1), "capsule": (16, 0), "box": (23, 0)}
+SHADE = {"point": (45, 4), "spot": (57, 5), "capsule": (54, 4), "box": (60, 3)}
+GGX = (75, 6)               # material.glsl's GGX term on top (specular surfaces)
 WAVE = (40, 0)              # per wave: the G-buffer fetch, the stores, the counters
-PIXEL_BYTES = 36 + 36       # G-buffer read, outputs written, per pixel
+PIXEL_BYTES = 36 + 16       # G-buffer read, colour written, per pixel (module doc)
 assert set(INSTRUCTIONS) <= set(KINDS) and set(TEST) == set(SHADE) == set(LIGHT_TYPES)
 
 
@@ -180,5 +198,5 @@ def bound(f: Figures, gpu: GPU) -> str:
     return max(t, key=t.get)
 
 
-__all__ = ["MODEL_VERSION", "GPU", "GPUS", "BY_KEY", "INSTRUCTIONS", "TEST", "SHADE", "GGX",
+__all__ = ["MODEL_VERSION", "GPU", "GPUS", "BY_KEY", "match", "INSTRUCTIONS", "TEST", "SHADE", "GGX",
            "instructions", "times", "pass_ms", "bound"]

@@ -15,10 +15,16 @@ SHADE = "shade"        # the shading pass's name in the figures (its timed passe
 
 
 def frame_figures(renderer, technique, result, opts=None, unbounded: bool = False,
-                  widths=waves.WIDTHS, sample: int = 1) -> dict[int, dict[str, waves.Figures]]:
+                  widths=waves.WIDTHS, sample: int = 1, budget: int | None = None
+                  ) -> dict[int, dict[str, waves.Figures]]:
     """Every timed pass's figures at each wave width, for the frame the renderer just
     rendered with read-back (its buffers are still there).  `sample` > 1 replays the
-    shading pass over every sample-th 8x8 group only and scales (waves.sampled)."""
+    shading pass over every sample-th 8x8 group only and scales (waves.sampled); `budget`
+    chooses that sample from the frame's own counters: about `budget` lane iterations (the
+    lights and nodes its pixels visited) a width."""
+    if budget and result.evaluated is not None:
+        work = int(result.evaluated.sum(dtype=np.int64) + result.nodes.sum(dtype=np.int64))
+        sample = max(sample, -(-work // budget))
     return _figures(renderer, technique, result, opts, unbounded, widths, sample)[0]
 
 

@@ -12,7 +12,8 @@ and never imports the benchmark.
 
 Modules: common (plotting and row helpers, roles, colours), spread (what counts as a
 finding), aggregate (path means, Pareto front), accuracy, path, cpu, options, maps, cutoff
-(one figure each), tables.
+(one figure each), tables, gpu (the modelled GPU cost, its Pareto fronts, which figure to
+believe), validation (the model beside the papers' measurements).
 """
 from __future__ import annotations
 
@@ -28,11 +29,13 @@ from .accuracy import fig_accuracy
 from .common import Colors, Roles, num, order, sel
 from .cpu import fig_cpu
 from .cutoff import EXPLANATION as CUTOFF_EXPLANATION, fig_cutoff
+from .gpu import believe_text, fig_gpu_pareto, fig_gpu_scenes, fig_measured
 from .maps import fig_classification, fig_heat, fig_own_maps
 from .notes import technique_notes
 from .options import fig_option, studied_options
 from .path import fig_path
 from .tables import floor_table, summary_table
+from .validation import validation
 
 
 def write_report(out: Path, rows: list[dict], maps: dict, info: dict) -> list[str]:
@@ -56,6 +59,13 @@ def write_report(out: Path, rows: list[dict], maps: dict, info: dict) -> list[st
         sections.append("\n".join(body) + "\n")
 
     section("What accuracy costs: culling waste vs frame cost", *fig_accuracy(rows, out, colors, roles))
+    section("Modelled GPU cost at 1920x1080, per scene and GPU (app/model)",
+            *fig_gpu_scenes(rows, out, colors, roles))
+    section("Culling waste against modelled GPU time: the Pareto front under each GPU",
+            *fig_gpu_pareto(rows, out, colors, roles))
+    vpng, vtext, vtables = validation(rows, out, colors)
+    section("Validation: the cost model beside the papers' measurements", vpng, vtext, vtables)
+    section("Measured on a real GPU against modelled", *fig_measured(rows, out, colors, info))
     section("GPU lighting time along the camera path (tree paper figure 7)",
             *fig_path(rows, out, colors, roles))
     ftable, ftext = floor_table(rows, roles)
@@ -96,6 +106,7 @@ def _head(rows, info, roles) -> list[str]:
         f"- run time: {info.get('elapsed_s', 0):.0f} s; {len(rows)} rows in results.csv",
         "",
     ]
+    head += believe_text(rows, info, roles)
     if info.get("software", False):
         head += ["> **Software rasterizer.** GPU passes were timed as wall clock around the "
                  "dispatch plus glFinish on a CPU rasterizer that shares the cores with the CPU "

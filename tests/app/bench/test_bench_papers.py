@@ -1,0 +1,115 @@
+"""The papers' settings (app.bench.validation), modelled only, and the report's sections that
+read them: the modelled GPU cost per scene, the Pareto front under each GPU, the validation
+beside the papers' figures and the measured-against-modelled section; and the gpu-check
+preset scripts/gpu_check.sh runs."""
+from __future__ import annotations
+
+from dataclasses import replace
+import math
+
+import numpy as np
+import pytest
+
+from app import report
+from app.bench.plan import plan
+from app.bench.presets import GPU_CHECK, QUICK
+from app.bench.sweep import Sweep
+from app.bench.validation import FIG7_BASE, FIG7_TECHNIQUES, paper_jobs, scaled_lights
+from app.model import cost
+from app.results import PAPER_PREFIX
+from app.techniques import REGISTRY
+
+SMALL = replace(QUICK, paper_size=(96, 64), paper_lights=(256, 512), paper_frames=1,
+                paper_sample=2, scenes=("arena", "corridor"), study_lights=256)
+
+
+def test_paper_jobs_are_the_papers_settings():
+    jobs = paper_jobs(QUICK)
+    fig7 = [j for j in jobs if j.job.study == PAPER_PREFIX + "fig7"]
+    assert len(fig7) == 2 * len(QUICK.paper_lights) * QUICK.paper_frames * len(FIG7_TECHNIQUES)
+    for j in fig7:     # radii shrink so that a pixel's overdraw stays at the 8k value
+        assert j.radius_scale == pytest.approx((FIG7_BASE / j.job.lights) ** (1 / 3))
+    table = [j.job for j in jobs if j.job.study == PAPER_PREFIX + "zbin_table"]
+    assert sorted(j.opts.zbin_variant for j in table) == [0, 1, 2, 3]
+    assert all(j.lights == 256 for j in table)
+    scenes = [j.job for j in jobs if j.job.study == PAPER_PREFIX + "scenes"]
+    assert {j.technique for j in scenes} == {t for t, x in REGISTRY.items() if x.role != "floor"}
+    assert not paper_jobs(replace(QUICK, paper_size=None))
+
+
+def test_scaled_lights_scale_every_size():
+    from scenes.model import make_lights
+    L = make_lights(3)
+    L["radius"], L["length"], L["extent"] = 2.0, 4.0, 1.0
+    s = scaled_lights(L, 0.5)
+    assert (s["radius"] == 1.0).all() and (s["length"] == 2.0).all() and (s["extent"] == 0.5).all()
+    assert (L["radius"] == 2.0).all() and scaled_lights(L, 1.0) is L
+
+
+def test_gpu_check_preset_plans_every_technique_on_two_scenes():
+    jobs = plan(GPU_CHECK, lambda scene, counts: tuple(counts))
+    assert {j.study for j in jobs} == {"path"}
+    assert {j.scene for j in jobs} == {"arena", "city"}
+    assert {j.lights for j in jobs} == {8192, 32768, 65536}
+    assert {j.technique for j in jobs} == set(REGISTRY)
+    assert len(jobs) == len(REGISTRY) * 2 * 3 * GPU_CHECK.frames
+    assert GPU_CHECK.size == (1920, 1080) and not paper_jobs(GPU_CHECK)
+    assert not Sweep(GPU_CHECK).cpu_jobs()
+
+
+@pytest.fixture(scope="module")
+def paper_rows(gl):
+    s = Sweep(SMALL)
+    s.paper_series()
+    return s.rows
+
+
+def test_paper_rows_are_modelled_not_shaded(paper_rows):
+    assert {r["study"] for r in paper_rows} == {PAPER_PREFIX + k for k in
+                                                ("fig7", "zbin_table", "zbin_hangar", "fptl", "scenes")}
+    for r in paper_rows:
+        where = f"{r['study']} {r['scene']} {r['technique']}"
+        assert r["width"] == 96 and r["height"] == 64, where
+        assert r["model_version"] == cost.MODEL_VERSION, where
+        for g in cost.GPUS:
+            assert r[f"model_{g.key}_shade_ms"] > 0, where
+            assert r[f"model_{g.key}_lighting_ms"] >= r[f"model_{g.key}_shade_ms"], where
+        assert r["evaluated_pp"] > 0 and r["evaluated_pp"] >= r["exact_pp"], where  # the replay's
+        assert "mismatch_count" not in r, where            # not checked here: no brute frame
+        assert 0 < r["w32_simd"] <= 1 and 0 < r["w64_simd"] <= 1, where
+
+
+def test_report_sections_from_paper_rows(paper_rows, tmp_path):
+    info = {"software": True, "gl_renderer": "llvmpipe"}
+    report.write_report(tmp_path, paper_rows, {}, info)
+    md = (tmp_path / "report.md").read_text()
+    for title in ("Modelled GPU cost at 1920x1080", "the Pareto front under each GPU",
+                  "Validation: the cost model beside the papers' measurements",
+                  "Which number to believe"):
+        assert title in md, title
+    assert md.count("agrees") + md.count("disagrees") >= 6
+    assert "Drobot's optimization table" in md and "| scalarized tile + zbin | 80% |" in md
+    assert "Mikkelsen's interior" in md and "Drobot's hangar" in md
+    assert "No real GPU in this run" in md
+    for png in ("gpu_scenes.png", "gpu_pareto.png", "validation_fig7.png"):
+        assert (tmp_path / png).stat().st_size > 10_000, png
+
+
+def test_measured_against_modelled_on_a_named_gpu(paper_rows, tmp_path):
+    """Path rows measured on a GPU the model names: twice the modelled time reads 2.00x, and
+    a measured order the model shares counts as agreeing."""
+    rows = []
+    for r in paper_rows:
+        if r["study"] == PAPER_PREFIX + "scenes":
+            m = dict(r, study="path", frame=0)
+            m["gpu_lighting_ms"] = 2.0 * r["model_h200_lighting_ms"]
+            rows.append(m)
+    info = {"software": False, "gl_renderer": "NVIDIA H200/PCIe/SSE2"}
+    from app.report.common import Colors, Roles
+    from app.report.gpu import fig_measured
+    png, text, table = fig_measured(rows, tmp_path, Colors(list(REGISTRY), Roles.from_registry()), info)
+    assert png and (tmp_path / png).exists()
+    assert "2.00x" in table and "0.50x" not in table
+    frames = len({(r["scene"], r["lights"]) for r in rows})
+    assert f"In {frames} of {frames} frames" in text[1]
+    assert cost.match(info["gl_renderer"]).key == "h200" and cost.match("llvmpipe") is None
