@@ -106,6 +106,7 @@ class FrameData:
     size_of: object = None         # size_of(buffer name) -> bytes the frame provided
     names: frozenset = frozenset()  # the buffers the frame provided
     unbounded: bool = False        # UNBOUNDED_FALLOFF: every light affects every point
+    live: np.ndarray | None = None  # (N,) bool: the pixels a sampled replay walks (sampled())
 
     @property
     def shading(self) -> np.ndarray:
@@ -372,7 +373,8 @@ def replay(prog: Program) -> Replay:
     if prog.words is not None:
         wd = prog.words
         order = np.lexsort((prog.lane, prog.wave))       # pixels by (wave, lane)
-        _replay_words(order, prog.wave[order], fr.shading[order], wd["address"][order],
+        live = np.ones(n_pix, np.bool_) if fr.live is None else fr.live
+        _replay_words(order, prog.wave[order], fr.shading[order], live[order], wd["address"][order],
                       wd["lo"][order], wd["hi"][order], wd["bits"], wd["words"], wd["masked"],
                       wd["scalarized"], wd["printed"], int(wd["buf"]), P, spec, *light_args,
                       line_base, seen, loops, types_acc, per_pixel)
@@ -736,7 +738,7 @@ def _zbin_mask(lo, hi, w, printed):
 
 
 @numba.njit(cache=True)
-def _replay_words(order, wave, shading, address, zlo, zhi, bits, words, masked, scalarized,
+def _replay_words(order, wave, shading, live, address, zlo, zhi, bits, words, masked, scalarized,
                   printed, bits_buf, P, spec, L, types, bound, unbounded,
                   line_base, seen, loops, types_acc, per_pixel):
     """shade_zbin.comp / raster_shade_cluster.comp: per wave the word range (masked: from
@@ -770,9 +772,10 @@ def _replay_words(order, wave, shading, address, zlo, zhi, bits, words, masked, 
                     mn = min(mn, zlo[s])
                     mx = max(mx, zhi[s])
             w0, w1 = max(w0, mn // 32), min(w1, mx // 32 + 1)
-        busy = 0
+        busy, alive = 0, False
         for s in range(i, j):
             q = s - i
+            alive |= live[s]
             wx[q], wy[q], wz[q] = P[order[s], 0], P[order[s], 1], P[order[s], 2]
             w_ev[q], w_hit[q] = 0, 0
             busy += shading[s]
@@ -781,7 +784,7 @@ def _replay_words(order, wave, shading, address, zlo, zhi, bits, words, masked, 
                     lo[k] = P[order[s], k] if busy == 1 else min(lo[k], P[order[s], k])
                     hi[k] = P[order[s], k] if busy == 1 else max(hi[k], P[order[s], k])
         if busy == 0:
-            if scalarized and w1 > w0:           # the native loop runs its words unguarded
+            if scalarized and w1 > w0 and alive:  # the native loop runs its words unguarded
                 loops[3, 0] += w1 - w0
             i = j
             continue
@@ -878,7 +881,7 @@ def sampled(frame: FrameData, every: int) -> tuple[FrameData, float]:
     pos[~keep] = 0.0
     share = float((keep & frame.shading).sum()) / max(int(frame.shading.sum()), 1)
     from dataclasses import replace
-    return replace(frame, position=pos), share
+    return replace(frame, position=pos, live=keep), share
 
 
 def frame_data(renderer, result, opts, unbounded: bool = False) -> FrameData:

@@ -174,3 +174,20 @@ def test_cells_only_frames_replay_like_shaded_ones(gl):
             b = waves.replay(tech.wave_program(waves.frame_data(r, cells, tech.resolve_options(None)), 32))
             assert np.array_equal(a.evaluated, b.evaluated), name
             assert np.array_equal(a.figures.loops, b.figures.loops), name
+
+
+def test_a_sampled_replay_stands_for_the_whole_frame(gl):
+    """Every k-th group replayed and scaled (the benchmark's heavy and 1080p rows): close to
+    the whole replay, and the groups left out add nothing (not even a scalarized loop's
+    unguarded words)."""
+    sc = load_scene("arena", lights=LIGHTS, seed=11)
+    with Renderer(sc, (160, 96)) as r:
+        for name, opts in (("clustered", {}), ("tree", {}), ("zbin", {"zbin_variant": 2})):
+            tech = REGISTRY[name]
+            res = r.render(tech, 0, opts)
+            whole = predict.frame_figures(r, tech, res, opts)[64]["shade"]
+            part = predict.frame_figures(r, tech, res, opts, sample=3)[64]["shade"]
+            for k in range(len(waves.KINDS)):
+                a, b = whole.loops[k, 0], part.loops[k, 0]
+                assert abs(a - b) <= 0.25 * max(a, 1) + 2, (name, waves.KINDS[k], a, b)
+            assert part.busy_waves == pytest.approx(whole.busy_waves, rel=0.25)
