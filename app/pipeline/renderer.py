@@ -191,7 +191,7 @@ class Renderer:
         w, h = self.size
         meta = {
             "technique": technique.name, "options": opts.as_dict(), "features": list(features),
-            "wave": "native" if self._frame.native else "emulated-64",
+            "wave": f"native-{self.limits.native_wave}" if self._frame.native else "emulated-64",
             "cpu_ms": records[-1]["cpu_ms"], "gpu_ms": records[-1]["gpu_ms"],
             "setup_ms": dict(self._frame.setup_ms), "bytes": dict(self._frame.bytes),
             "stats": stats, "resolution": [w, h], "frame": frame,
@@ -302,18 +302,16 @@ class Renderer:
             self.buffers[name].bind_to_storage_buffer(i)
             if p.timed and name not in FRAME_OUTPUTS:   # the measured technique's data
                 f.bytes[name] = f.provided[name][0]
-        native = p.native_wave and self.limits.native_ballot
-        f.native |= native
-        optional = dict(defines, WAVE_NATIVE=int(native))
+        wave = self.limits.wave_define if p.native_wave else 0   # the loader writes its #extension lines
+        f.native |= bool(wave)
+        optional = dict(defines, WAVE_NATIVE=wave)
         if f.debug_pixel is not None and OUT_STATS in p.writes:   # shading passes only
             bindings[DEBUG_SLOT] = len(bindings)
             self.buffers[DEBUG_SLOT].bind_to_storage_buffer(bindings[DEBUG_SLOT])
             optional["DEBUG_PIXEL"] = 1
             uniforms = dict(uniforms, u_debug_pixel=f.debug_pixel)
         if p.kind == "compute":
-            prog = self.programs.compute(p.shader, dict(p.defines), virtual,
-                                         gl.NATIVE_WAVE_EXTENSIONS if native else (),
-                                         bindings, optional, where)
+            prog = self.programs.compute(p.shader, dict(p.defines), virtual, (), bindings, optional, where)
             work = lambda: prog.run(*p.groups)
         else:
             prog = self.programs.program(*p.shader, dict(p.defines), virtual, bindings, optional, where)

@@ -97,7 +97,7 @@ def test_every_variant_is_exact_and_counts_its_loops(gl, hangar, native):
         got = r.render(ZBIN, 0, {"zbin_variant": v, "native_wave": native})
         assert_exact({"brute": ref, "zbin": got}, f"variant {VARIANTS[v]}")
         assert got.meta["stats"]["variant"] == VARIANTS[v]
-        assert got.meta["wave"] == ("native" if native else "emulated-64")
+        assert got.meta["wave"] == (f"native-{r.limits.native_wave}" if native else "emulated-64")
         res[v] = got
     shading = ref.depth > 0
     for v, got in res.items():
