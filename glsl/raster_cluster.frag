@@ -21,9 +21,8 @@
 //   RASTER_MSAA: each covered sample stands for the full-resolution pixel of its quadrant,
 //   at the (dilated) proxy's exact depth at that sample (raster.py's doc).
 // define: RASTER_MSAA RASTER_COMPACT WAVE_NATIVE
-#if RASTER_COMPACT && WAVE_NATIVE
-#extension GL_ARB_shader_ballot : require
-#extension GL_ARB_gpu_shader_int64 : require
+#define WAVE_FRAGMENT 1          // wave.glsl (through raster_common.glsl): no group emulation
+#if RASTER_COMPACT && WAVE_NATIVE      // the loader writes the native path's #extension lines
 #define COMPACT 1
 #else
 #define COMPACT 0

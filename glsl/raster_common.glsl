@@ -1,10 +1,13 @@
 // raster (Drobot 2017): what the tile and the cluster rasterizers' fragment shaders share:
 // the proxies, the bit arrays (tiles or clusters x words, bit N = sorted light N), the
-// untimed twin's counters, the slides' WaveCompactValue and the atomic mark.  The including
-// shader enables the extensions first (GLSL wants them before any declaration) and defines
-// COMPACT (WaveCompactValue on the native subgroup) to 0 or 1.
+// untimed twin's counters and the atomic mark, compacted by wave.glsl's waveCompactValue
+// (the slides' WaveCompactValue; helper invocations never the lane that issues an atomic).
+// The including shader defines WAVE_FRAGMENT (wave.glsl's fragment stage: the wave*
+// functions on the native path only) and COMPACT (RASTER_COMPACT on a native path) to 0 or
+// 1; the shader loader writes the native path's #extension lines after #version.
 // define: RASTER_STATS
 #include "generated.glsl"
+#include "wave.glsl"
 #include "raster_structs.glsl"
 
 layout(std430, binding = B_RASTER_PROXIES) readonly buffer Proxies { RasterProxy proxies[]; };
@@ -29,21 +32,6 @@ uniform ivec2 u_sample_pixel[4];   // MSAA: the full-res pixel of sample k in it
 uniform vec2 u_sample_pos[4];       //   and sample k's position in the low-res pixel
 
 flat in uint v_light;
-
-#if COMPACT
-// The slides' WaveCompactValue: this lane's index among the active lanes holding the same
-// value (0: the first of them).
-uint waveCompactValue(uint checkValue) {
-    uint64_t mask;
-    for (;;) {                                        // loop until all active lanes removed
-        uint firstValue = readFirstInvocationARB(checkValue);
-        mask = ballotARB(firstValue == checkValue);   // only for the remaining active lanes
-        if (firstValue == checkValue) break;          // exclude lanes with firstValue next time
-    }
-    uvec2 m = unpackUint2x32(mask & gl_SubGroupLtMaskARB);
-    return uint(bitCount(m.x) + bitCount(m.y));
-}
-#endif
 
 void mark(uint word) {
     uint bit = 1u << (v_light & 31u);

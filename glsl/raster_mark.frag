@@ -9,9 +9,8 @@
 //   RASTER_STATS    the untimed twin: counts fragments, atomics and each light's tiles
 //   u_mode          0 front faces, 1 back faces, 2 stencil sequence (u_step 0 front, 1 back)
 // define: RASTER_MSAA RASTER_COMPACT WAVE_NATIVE
-#if RASTER_COMPACT && WAVE_NATIVE
-#extension GL_ARB_shader_ballot : require
-#extension GL_ARB_gpu_shader_int64 : require
+#define WAVE_FRAGMENT 1          // wave.glsl (through raster_common.glsl): no group emulation
+#if RASTER_COMPACT && WAVE_NATIVE      // the loader writes the native path's #extension lines
 #define COMPACT 1
 #else
 #define COMPACT 0

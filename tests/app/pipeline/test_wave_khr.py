@@ -1,11 +1,10 @@
 """The KHR wave path (GL_KHR_shader_subgroup, WAVE_NATIVE = gl.WAVE_KHR) compiled by glslang
 for OpenGL, since llvmpipe has no KHR_shader_subgroup to run it: the texts the shader loader
 makes for every program a native render compiles, with WAVE_NATIVE = KHR (the shading
-passes; raster's mark and cluster fragment stages, whose compaction is still their own ARB
-code in raster_common.glsl), and every wave function in a compute and a fragment stage
-(every.frag: raster's compaction on wave.glsl's waveCompactValue).  A syntax or type error
-in the KHR path fails here.  A missing glslangValidator fails (the set-up installs it with
-LAB_WITH_XVFB=1), never skips."""
+passes; raster's mark and cluster fragment stages, whose compaction is wave.glsl's
+waveCompactValue, checked to reach the subgroup calls), and every wave function in a compute
+and a fragment stage.  A syntax or type error in the KHR path fails here.  A missing
+glslangValidator fails (the set-up installs it with LAB_WITH_XVFB=1), never skips."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -89,17 +88,26 @@ def test_native_programs_compile_on_the_khr_path(gl, tmp_path):
                  ("raster_proxy.vert", "raster_cluster.frag")):
         assert want in names, (want, names)
     assert any(k.names == ("shade_clustered.comp",) and dict(k.defines)["SCALARIZED"] for k in programs)
-    zbin_checked = False
+    zbin_checked, compact_checked = False, set()
     for n, key in enumerate(sorted(programs.values())):
         sources, texts = stage_texts(key)
         stages = ["comp"] if len(texts) == 1 else ["vert", "frag"]
         for source, text, stage in zip(sources, texts, stages):
             pre = compile_khr(tmp_path, f"p{n}_{source.files[0]}", source, text, stage)
+            d = dict(key.defines)
+            if stage == "frag" and d.get("RASTER_COMPACT"):
+                # raster's compaction: wave.glsl's waveCompactValue on KHR alone (helper
+                # invocations not counted), no ARB call left
+                assert not ARB_CALLS.findall(pre), (source.files[0], set(ARB_CALLS.findall(pre)))
+                assert "waveCompactValue(" in pre[pre.index("void mark"):], source.files[0]
+                for fn in ("subgroupBroadcastFirst", "subgroupBallot", "subgroupBallotExclusiveBitCount",
+                           "gl_HelperInvocation"):
+                    assert fn in pre, (source.files[0], fn)
+                compact_checked.add(source.files[0])
             if stage != "comp":
                 continue
             # a shading pass: the wave API on KHR alone, no ARB call left
             assert not ARB_CALLS.findall(pre), (source.files[0], set(ARB_CALLS.findall(pre)))
-            d = dict(key.defines)
             if source.files[0] == "shade_zbin.comp" and d.get("SCALARIZED") and d.get("ZBIN_MASKED"):
                 body = pre[pre.index("void main"):]     # the slides' final listing, on KHR
                 for fn in ("waveAllMin", "waveAllMax", "waveAllBitOr", "waveReadFirstLane"):
@@ -108,6 +116,7 @@ def test_native_programs_compile_on_the_khr_path(gl, tmp_path):
                     assert fn in pre, fn
                 zbin_checked = True
     assert zbin_checked
+    assert compact_checked == {"raster_mark.frag", "raster_cluster.frag"}, compact_checked
 
 
 # Every wave function, in a compute stage and (WAVE_FRAGMENT) a fragment stage: the latter
