@@ -751,7 +751,9 @@ def _compaction(variant: int) -> str:
     if not variant & 2:
         return "off"
     from ..pipeline import gl
-    return "native subgroup" if gl.limits().native_ballot else "unavailable (no GL_ARB_shader_ballot): plain atomics"
+    if gl.limits().native_wave:
+        return "native subgroup"
+    return "unavailable (neither GL_KHR_shader_subgroup nor GL_ARB_shader_ballot): plain atomics"
 
 
 def cluster_tile(width: int, height: int, lights: int, tile: int, slices: int, budget_mib: float) -> int:
