@@ -3,14 +3,19 @@ interfere), a seeded rng.  No GL here for cpu_prep tests: they never request `gl
 
 Parallel runs (pytest-xdist; scripts/test.sh passes `-n auto --dist loadgroup`): every worker
 is its own process, so it has its own EGL context (app/pipeline/gl.py: one a process) and
-its own session fixtures.  What the workers would otherwise share is made theirs here:
+its own session fixtures.  What the workers would share is made safe, or made theirs, here:
 
-- numba's on-disk cache.  numba's cache index is not safe against two processes saving new
-  signatures of one function at once (numba.core.caching.IndexDataCacheFile.save reads the
-  index, picks the first free data-file number and writes both back without a lock: two
-  processes can each pick `.1`, and the index may then name the other's machine code).  Each
-  worker gets a folder of its own under cpu_prep's (which stays keyed by the package's
-  source), and its subprocesses inherit it through NUMBA_CACHE_DIR.
+- numba's on-disk cache stays shared (cpu_prep's folder, keyed by the package's source), so
+  a kernel one worker compiled is loaded by the other and by every later run, but its index
+  is made safe for them: numba.core.caching.IndexDataCacheFile.save reads the index, picks
+  the first free data-file number and writes both back without a lock, so two processes
+  saving new signatures of one function at once can each pick `.1`, and the index may then
+  name the other's machine code.  Here every test process holds a lock on that index while
+  it saves (_lock_numba_cache_saves).  The CLI subprocesses some tests start (capture,
+  bench, window) do not take it: a collision needs one of them and another process to save
+  different signatures of one function within the same millisecond; two saves of one
+  signature are harmless.  (A folder per worker was tried: each then compiles what the
+  other already had, minutes of a "warm" run.)
 - the window's start-up probe memory (app/window/probe.py): LAB_CACHE_DIR, a temporary
   folder per process (the user's own setting too), so no test reads or writes the user's
   ~/.cache and two workers never write one file.
@@ -33,12 +38,26 @@ settings.register_profile("lab", deadline=None)
 settings.register_profile("ci", deadline=None, derandomize=True)
 settings.load_profile("ci" if os.environ.get("CI") else "lab")
 
-_WORKER = os.environ.get("PYTEST_XDIST_WORKER")     # set by xdist before this file is imported
-if _WORKER:
-    import numba
-    import cpu_prep           # sets numba.config.CACHE_DIR before any kernel is decorated
-    _numba_dir = os.path.join(numba.config.CACHE_DIR, f"xdist-{_WORKER}")
-    numba.config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"] = _numba_dir
+
+def _lock_numba_cache_saves() -> None:
+    """Serialize numba's cache-index updates across processes (see the module docstring):
+    save() re-reads the index under the lock, so each process sees the others' entries."""
+    import fcntl
+    from numba.core import caching
+    cls = caching.IndexDataCacheFile
+    if getattr(cls.save, "_lab_locked", False):
+        return
+    unlocked = cls.save
+
+    def save(self, key, data):
+        os.makedirs(self._cache_path, exist_ok=True)
+        with open(self._index_path + ".lock", "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)        # released when the file closes
+            return unlocked(self, key, data)
+
+    save._lab_locked = True
+    cls.save = save
+
 
 # Modules whose tests must run on one worker: their module-scoped fixture costs seconds to
 # tens of seconds (the CLI processes of every bad-input case; two capture processes per
@@ -48,7 +67,7 @@ GROUPED = ("tests/app/test_bad_input.py", "tests/app/test_long_run.py",
            "tests/app/bench/test_bench_sweep.py", "tests/app/techniques/test_zbin_technique.py",
            "tests/app/window/test_present.py")
 
-MAX_WORKERS = 8     # each worker holds a GL context, its shaders and numba kernels (~1 GB)
+MAX_WORKERS = 8     # each worker holds a GL context, its shaders and numba kernels (0.3-0.8 GB)
 
 
 def pytest_xdist_auto_num_workers(config):
@@ -64,6 +83,7 @@ def pytest_xdist_auto_num_workers(config):
 
 
 def pytest_configure(config):
+    _lock_numba_cache_saves()
     # every process its own (a worker would otherwise inherit the controller's folder)
     config._lab_cache_before = os.environ.get("LAB_CACHE_DIR")
     config._lab_cache_dir = tempfile.mkdtemp(prefix="lab-test-cache-")
