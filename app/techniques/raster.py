@@ -114,8 +114,8 @@ from ..pipeline.passes import (WAVE_STATS, Buffer, Draw, HostStep, Pass, Stencil
                                image_groups)
 from .base import Technique, prepare, shading_passes
 from .options import option
-from .zbin import (VARIANTS as SHADE_VARIANTS, ZBin, _wave_counters, add_bit_words, attach_zbins,
-                   tile_boxes, variant_flags)
+from .zbin import (VARIANTS as SHADE_VARIANTS, ShadingOptions, _wave_counters, add_bit_words,
+                   attach_zbins, tile_boxes, variant_flags)
 
 VARIANTS = ("atomic", "atomic + 4xMSAA", "atomic + compaction", "atomic + compaction + 4xMSAA")
 PROXY_SPHERE, PROXY_CONE, PROXY_CAPSULE, PROXY_BOX = 0, 1, 2, 3
@@ -465,7 +465,7 @@ class Raster(Technique):
     glsl = {"raster_structs.glsl": STRUCTS_GLSL}
 
     @dataclass(frozen=True)
-    class Options(ZBin.Options):
+    class Options(ShadingOptions):          # zbin's shading loop's options (not its tile_depth)
         raster_variant: int = option(0, "the slides' tile rasterizer table: 0 atomic, 1 + 4xMSAA "
                                         "at half resolution, 2 + wave compaction, 3 both",
                                      lo=0, hi=3, study=(0, 1, 2, 3))
