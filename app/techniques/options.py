@@ -142,6 +142,11 @@ class TreeOptions(TechniqueOptions):
                              lo=1, hi=65536, power_of_two=True)
     sort_buckets: int = option(0, "0: exact depth sort; >0: the testbed's approximate bucket "
                                   "sort with this many buckets (512)", lo=0, hi=32768)
+    # a choice as an int (options are int/float/bool): cpu_prep.tree.BUILD_BOTTOMUP / _TOPDOWN
+    tree_build: int = option(0, "tree build: 0 bottomup (the paper's full trees, O(n)), "
+                                "1 topdown (a split per node minimising the expected work per "
+                                "pixel, O(n log n); cpu_prep.tree_topdown)",
+                             lo=0, hi=1, study=(0, 1))
 
 
 @dataclass(frozen=True)
