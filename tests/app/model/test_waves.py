@@ -23,7 +23,7 @@ VARIANTS = [
     ("hybrid", {"specialised": False}), ("hybrid", {"scalarize": True}),
     ("hybrid", {"duplicated": True, "radius_scale": 4.0}),
     *[("zbin", {"zbin_variant": v}) for v in (0, 1, 2)], ("zbin", {"printed_mask": True}),
-    ("zbin", {"bit_tile": 3}),
+    ("zbin", {"bit_tile": 3}), ("zbin", {"tile_depth": False, "zbin_variant": 2}),
     *[("fptl", {"fptl_variant": v}) for v in (1, 2, 3)], ("fptl", {"type_loops": False}),
     *[("raster", {"raster_variant": v}) for v in (1, 2)], ("raster", {"cluster": True}),
     ("raster", {"zbin_variant": 0}),

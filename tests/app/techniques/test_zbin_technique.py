@@ -212,14 +212,18 @@ def test_native_and_emulated_waves_agree(gl, hangar):
 
 
 def test_printed_mask_is_exact_and_looser(gl, hangar):
-    """The listing's mask as printed leaks lights of other words: exact, more evaluations."""
+    """The listing's mask as printed leaks lights of other words: exact, more evaluations
+    (on the CPU's tiles; the tile depth test removes most of what it leaks)."""
     r, ref = hangar
     for v in (1, 3):
-        tight = r.render(ZBIN, 0, {"zbin_variant": v})
-        printed = r.render(ZBIN, 0, {"zbin_variant": v, "printed_mask": True})
-        assert_exact({"brute": ref, "zbin": printed}, "printed mask")
-        assert (printed.evaluated >= tight.evaluated).all()
-        assert printed.evaluated.sum() > tight.evaluated.sum()
+        for depth in (False, True):
+            opts = {"zbin_variant": v, "tile_depth": depth}
+            tight = r.render(ZBIN, 0, opts)
+            printed = r.render(ZBIN, 0, dict(opts, printed_mask=True))
+            assert_exact({"brute": ref, "zbin": printed}, f"printed mask {opts}")
+            assert (printed.evaluated >= tight.evaluated).all()
+            if not depth:
+                assert printed.evaluated.sum() > tight.evaluated.sum()
 
 
 def test_tile_options_and_bins_keep_exactness(gl, hangar):
@@ -288,3 +292,32 @@ def test_capture_runs_zbin_with_its_flags(tmp_path):
     assert s["bit_tile_used"] == 16 and s["variant"] == "tile + zbin" and s["zbins"] == 8096
     assert meta["bytes"]["tile_bits"] == s["bits_bytes"] and meta["bytes"]["zbins"] == 8096 * 4
     assert s["lane_iterations"] > 0 and s["wave_iterations"] > 0
+
+
+def test_tile_depth_keeps_only_bits_of_lights_meeting_the_tiles_depths(gl, hangar):
+    """zbin_tile_depth.comp: the culled bits are a subset of the CPU's, exactly those whose
+    light's depth range meets the tile's min / max depth (no geometry: none), and the frame
+    stays exact with fewer lights evaluated."""
+    r, ref = hangar
+    got = r.render(ZBIN, 0, {"zbin_variant": 0})
+    b = got.build
+    cpu = np.ascontiguousarray(b.buffers["tile_bits"]).view(np.uint32)
+    culled = r.read("zbin_bits").view(np.uint32)
+    assert ((culled & ~cpu) == 0).all()
+    g, n = b.grid, len(b.lights)
+    words = culled.size // (g.tiles_x * g.tiles_y)
+    depth = got.depth[::-1]                                   # GL row order
+    lo, hi = b.lights.depth_lo, b.lights.depth_hi
+    rng = np.random.default_rng(0)
+    for t in rng.choice(g.tiles_x * g.tiles_y, 40, replace=False):
+        ty, tx = divmod(int(t), g.tiles_x)
+        d = depth[ty * g.tile:(ty + 1) * g.tile, tx * g.tile:(tx + 1) * g.tile]
+        d = d[d > 0]
+        ids = np.nonzero(np.unpackbits(cpu[t * words:(t + 1) * words].view(np.uint8), bitorder="little"))[0]
+        want = ids[(lo[ids] <= d.max()) & (hi[ids] >= d.min())] if d.size else ids[:0]
+        have = np.nonzero(np.unpackbits(culled[t * words:(t + 1) * words].view(np.uint8), bitorder="little"))[0]
+        assert np.array_equal(want, have), (t, want, have)
+    off = r.render(ZBIN, 0, {"zbin_variant": 0, "tile_depth": False})
+    assert_exact({"brute": ref, "zbin": got}, "tile depth")
+    assert got.evaluated.sum() < off.evaluated.sum()
+    assert 0 < got.meta["stats"]["depth_kept_share"] < 1
