@@ -4,7 +4,7 @@ The dtype is the single source of truth.  `glsl_struct()` writes the GLSL declar
 `std430_offsets()` computes where std430 would place each member, so a test can hold the
 two to each other (and a GL test round-trips a buffer through a shader).
 
-    lights (GpuLight, 64 B, visible lights sorted by depth)  <- light index lists (uint)
+    lights (GpuLight, 96 B, visible lights sorted by depth)  <- light index lists (uint)
     bounds (vec4, 16 B per light: culling sphere, view space, margins included)
     tree nodes (TreeNode, 16 B)  -> firstLightIndex into the index list
     out_stats (PixelStats, 16 B per pixel), wave_stats (WaveStats, 16 B per 8x8 group),

@@ -235,8 +235,10 @@ def range_mask(lo: int, hi: int, word: int) -> int:
 def zbin_word_mask(min_idx: int, max_idx: int, word: int) -> int:
     """The slides' per-lane Z-bin mask of one word, as printed (int arithmetic as in the
     listing).  It clamps the start into the word but keeps the width of the whole range, so
-    it is conservative but leaks: bit 31 of every word before the range, and the tail of
-    the range's last word past max_idx.  The shader's ZBIN_PRINTED_MASK."""
+    it is conservative but leaks: bit 31 of every word before the range, the tail of the
+    range's last word past max_idx, and, once the range is 32 or wider, every whole word
+    (the first word's head below min_idx too: the 32-wide case is the full mask).  The
+    shader's ZBIN_PRINTED_MASK."""
     local_min = min(max(min_idx - word * 32, 0), 31)
     width = min(max(max_idx - min_idx + 1, 0), 32)
     return 0xFFFFFFFF if width == 32 else bit_field_mask(width, local_min)

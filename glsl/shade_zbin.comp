@@ -79,7 +79,8 @@ uint range_mask(uint lo, uint hi, uint w) {
 
 // Each lane's Z-bin mask of word `wordIndex`.  The listing as printed (ZBIN_PRINTED_MASK)
 // clamps the start to the word but takes the width of the whole range: it leaks bit 31 of
-// the words before the range and the tail of its last word (more evaluations, still exact:
+// the words before the range, the tail of its last word, and once the range is 32 or wider
+// the whole of every word, the first's head too (more evaluations, still exact:
 // cpu_prep.zbin.zbin_word_mask); the default masks exactly the lights min..max.
 uint zbin_word_mask(uint minIdx, uint maxIdx, uint wordIndex) {
 #if ZBIN_PRINTED_MASK

@@ -38,9 +38,10 @@ departs from the slides, and why:
     16384 (k + 1)), i.e. words [512 k, 512 (k + 1)), so one dispatch loops at most 512 words
     and 16,384 bits;
   * the listing's per-lane Z-bin mask, as printed, clamps the start into the word but keeps
-    the width of the whole range: it lets through bit 31 of every word before the bin's range
-    and the tail of its last word (exact, but city at 8,192 lights evaluates 32 lights a
-    pixel instead of 5.3 in tile + zbin).  The default masks exactly the ids min..max with
+    the width of the whole range: it lets through bit 31 of every word before the bin's range,
+    the tail of its last word and, once the range spans 32 ids or more, whole words (the first
+    word's head too) (exact, but city at 8,192 lights evaluates 32 lights a pixel instead of
+    5.3 in tile + zbin, on the CPU's tiles).  The default masks exactly the ids min..max with
     the same BitFieldMask and 32-wide wrap; `printed_mask` runs the listing as printed;
   * the emulated wave skips the listing's WaveReadFirstLane on reductions that are already
     group-uniform, and ORs up to 32 words per round of barriers (wave.glsl groupOrWords*):
@@ -110,8 +111,9 @@ class ShadingOptions(WaveOptions):
                                          "doubles until they fit (Unity URP Forward+)",
                                    lo=1 / 64, hi=limits.MAX_STORAGE_BYTES / 2**20)
     printed_mask: bool = option(False, "the slides' Z-bin word mask as printed: it leaks bit 31 "
-                                       "of earlier words and the tail of the last (more "
-                                       "evaluations, still exact)", study=(False, True))
+                                       "of earlier words, the tail of the last, and whole words "
+                                       "(the first's head too) once the range is 32 or wider "
+                                       "(more evaluations, still exact)", study=(False, True))
 
 
 DEPTH_GROUP = 64              # zbin_tile_depth.comp: one 8x8 group a tile
@@ -337,13 +339,15 @@ def _notes(technique, rows) -> tuple[str, list[str]]:
     text = []
     b = technique.build(_frame_1080p(256), None)
     clustered = 60 * 32 * 18 * (256 // 8)
-    text += ["The slides' memory table (1080p, a 256-light bit array) against this technique's "
-             "own build at 1920x1080 with 256 visible lights (bytes of its buffers):", "",
-             "| structure | slides | measured |", "|---|---|---|",
-             f"| {SLIDES_MEMORY[0][0]} | {SLIDES_MEMORY[0][1]} | {b.buffers['tile_bits'].nbytes:,} B |",
-             f"| {SLIDES_MEMORY[1][0]} | {SLIDES_MEMORY[1][1]} | + {b.buffers['zbins'].nbytes:,} B |",
-             f"| {SLIDES_MEMORY[2][0]} | {SLIDES_MEMORY[2][1]} | {clustered:,} B (60 x 32 x 18 cells "
-             f"x 32 B; this lab's clustered keeps index lists instead) |", ""]
+    text += ["The slides' memory table (1080p, a 256-light bit array) beside this technique's "
+             "own build at 1920x1080 with 256 visible lights:", "",
+             "| structure | slides | this lab |", "|---|---|---|",
+             f"| {SLIDES_MEMORY[0][0]} | {SLIDES_MEMORY[0][1]} | {b.buffers['tile_bits'].nbytes:,} B "
+             f"(its buffer's bytes) |",
+             f"| {SLIDES_MEMORY[1][0]} | {SLIDES_MEMORY[1][1]} | + {b.buffers['zbins'].nbytes:,} B "
+             f"(its buffer's bytes) |",
+             f"| {SLIDES_MEMORY[2][0]} | {SLIDES_MEMORY[2][1]} | {clustered:,} B (arithmetic: 60 x "
+             f"32 x 18 cells x 32 B; this lab's clustered keeps index lists, no bit arrays) |", ""]
     path = [r for r in rows if r["study"] == "path" and r["technique"] == technique.name]
     for scene in dict.fromkeys(r["scene"] for r in path):
         st = [json.loads(r["stats"]) for r in path if r["scene"] == scene and r.get("stats")]
