@@ -6,7 +6,9 @@ declarations, so an option is written in one place only.
     @dataclass(frozen=True)
     class Options(GridOptions, ListOptions): ...
 
-An option a technique does not declare is an error for that technique, never ignored.
+An option a technique does not declare is an error for that technique, never ignored; so is
+an option its current mode does not read (Options.ignored(): e.g. raster's stencil in cluster
+mode), set to other than its default.
 """
 from __future__ import annotations
 
@@ -56,6 +58,13 @@ class OptionSpec:
         return v
 
 
+def _given(spec: OptionSpec, value) -> str:
+    """The flag as given on the command line: --stencil / --no-stencil / --zbins 64."""
+    if spec.kind is bool:
+        return spec.flag if value else "--no-" + spec.flag[2:]
+    return f"{spec.flag} {value:g}" if isinstance(value, float) else f"{spec.flag} {value}"
+
+
 _declared = [0]     # declaration order: options list in the order they are written
 
 
@@ -71,7 +80,28 @@ def option(default, help: str, *, lo=None, hi=None, study=(), power_of_two=False
 
 @dataclass(frozen=True)
 class TechniqueOptions:
-    """Base of every technique's Options (no options of its own)."""
+    """Base of every technique's Options (no options of its own).  A technique whose modes
+    read different options overrides ignored(); every instance is checked against it when
+    made (make, with_, the constructor), so no option is silently ignored."""
+
+    def __post_init__(self) -> None:
+        self.check_modes()
+
+    def ignored(self) -> dict[str, str]:
+        """{option name: the mode that ignores it, in words} for these values: the options
+        the technique does not read in the mode they select (e.g. raster with --cluster 1:
+        {"stencil": "in cluster mode (--cluster 1)", ...}).  None by default."""
+        return {}
+
+    def check_modes(self) -> None:
+        """A one-line UserError when an option this mode ignores is not at its default,
+        naming the option and the mode."""
+        ignored = self.ignored()
+        for s in self.specs() if ignored else ():
+            value = getattr(self, s.name)
+            if s.name in ignored and value != s.default:
+                raise UserError(f"{_given(s, value)} is ignored {ignored[s.name]}: leave it at "
+                                f"its default ({_given(s, s.default)})")
 
     @classmethod
     def specs(cls) -> tuple[OptionSpec, ...]:
@@ -101,7 +131,11 @@ class TechniqueOptions:
             raise UserError(f"{where + ': ' if where else ''}{flags} "
                             f"{'is not an option' if len(unknown) == 1 else 'are not options'} "
                             f"of this technique (its options: {takes})")
-        return cls(**{k: specs[k].check(v, where) for k, v in values.items()})
+        checked = {k: specs[k].check(v, where) for k, v in values.items()}
+        try:
+            return cls(**checked)
+        except UserError as exc:                        # check_modes(): name the technique
+            raise UserError(f"{where}: {exc}" if where else str(exc)) from None
 
     def with_(self, **values) -> "TechniqueOptions":
         return type(self).make(dict(self.as_dict(), **values))
