@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import ctypes
+import re
 import time
 
 import moderngl
@@ -77,6 +78,18 @@ class Limits:
         """Loop iterations one shader invocation may run before the driver silently stops
         its loops (software rasterizers), None where there is no such limit."""
         return SOFTWARE_LOOP_BUDGET if self.software else None
+
+    @property
+    def loop_lanes(self) -> int:
+        """Invocations whose loop iterations share that budget: llvmpipe runs 8 (256-bit
+        vectors of 32-bit lanes, its renderer string's "256 bits") in lockstep, and counts
+        the vector's iterations, so lanes whose loops run at different steps (tree leaves)
+        add up (measured: city, 1M lights, a tree pixel lost 8,708 of 42,779 lights in
+        16,384-light windows).  1 where there is no budget."""
+        if not self.software:
+            return 1
+        m = re.search(r"(\d+) bits", self.renderer)
+        return max(1, int(m.group(1)) // 32) if m else 8
 
 
 def context() -> moderngl.Context:

@@ -45,6 +45,7 @@ class FrameInput:
     max_depth: float
     arena: Arena | None = None
     loop_budget: int | None = None   # the driver's loop limit per invocation (None: none)
+    loop_lanes: int = 1              # ... shared by this many lanes in lockstep (gl.Limits)
 
     @property
     def size(self) -> tuple[int, int]:

@@ -163,7 +163,7 @@ class Renderer:
         cam = camera or self.camera(frame, frames)
         lights = self.scene.lights if lights is None else lights
         return FrameInput(lights, cam, self.scene.max_depth or cam.far, self.arena,
-                          self.limits.loop_budget)
+                          self.limits.loop_budget, self.limits.loop_lanes)
 
     def render(self, technique, frame: int = 0, opts=None, frames: int = 64,
                lights: np.ndarray | None = None, readback: bool = True, camera=None,

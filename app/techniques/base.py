@@ -106,11 +106,15 @@ def prepare_binned(frame: FrameInput, opts, slices: int, sort_buckets: int = 0):
     return b, offsets, entries
 
 
-def windows(frame: FrameInput, longest: int) -> list[tuple[int, int]]:
+def windows(frame: FrameInput, longest: int, steps: int = 1) -> list[tuple[int, int]]:
     """Dispatch windows [lo, hi) of a pass whose pixels meet at most `longest` lights: one
     window on a driver without a loop limit, else windows of limits.DISPATCH_WINDOW lights
-    (glsl/pixel.glsl: the same lights in the same order, carried over between dispatches)."""
-    size = limits.DISPATCH_WINDOW
+    (glsl/pixel.glsl: the same lights in the same order, carried over between dispatches).
+    `steps`: the inner loops a lane's lights may be split over (a tree traversal: one per
+    leaf it hits).  The driver counts its lockstep lanes' iterations together, and lanes
+    whose inner loops run at different steps add up, so such a pass's windows shrink by
+    min(steps, frame.loop_lanes): every lane's in-window part summed stays in the budget."""
+    size = limits.DISPATCH_WINDOW // max(1, min(int(steps), frame.loop_lanes))
     if frame.loop_budget is None or longest <= size:
         return [(0, limits.WINDOW_ALL)]
     k = -(-int(longest) // size)
@@ -131,12 +135,12 @@ def shading_pass(build: Build, shader: str, reads: tuple[str, ...] = (), defines
 
 
 def shading_passes(build: Build, shader: str, reads: tuple[str, ...] = (), longest: int = 0,
-                   uniforms=None, waves_cleared: bool = True, **kw) -> list[Pass]:
+                   uniforms=None, waves_cleared: bool = True, steps: int = 1, **kw) -> list[Pass]:
     """shading_pass() as one dispatch per window of `longest` (the most lights a pixel's
-    loops can meet); later windows carry the earlier ones' outputs over."""
+    loops can meet; `steps`: windows()'); later windows carry the earlier ones' outputs over."""
     return [shading_pass(build, shader, reads, uniforms=dict(uniforms or {}, u_window=win),
                          waves_cleared=waves_cleared and k == 0, **kw)
-            for k, win in enumerate(windows(build.frame, longest))]
+            for k, win in enumerate(windows(build.frame, longest, steps))]
 
 
 # ---- the wave replay's walks several techniques share (app.model.waves) -------------------
