@@ -12,8 +12,8 @@ and step:
     step    the alignment key: the segments of one wave with the same (branch, step) run as
             one issued iteration of their loop, lanes without one masked.  A per-lane list
             loop is one step; a tree traversal one step per node visit (a lane's k-th visit
-            is step k: lockstep, no re-synchronisation); a scalarized loop gives the lanes of
-            one round the same step.
+            runs with the other lanes' k-th: lockstep, no re-synchronisation); a scalarized
+            loop gives the lanes of one round the same step.
     branch  sides of a divergent if/else that a wave runs one after the other (the hybrid's
             mixed path: its list lanes, then its tree lanes).
     head    the fetch of the step itself (a cell record, a tree node, a bit-array word, a node
@@ -31,9 +31,10 @@ and step:
 Per issued iteration the replay counts the active lanes, the load instructions (vector or
 scalar), the distinct 64-byte lines they touch, and, for light iterations, the light shapes
 tested and shaded (a shape's code runs when any active lane needs it) and whether an affected
-lane is specular (GGX).  A bit-array technique (zbin, raster) walks words instead of lists:
-replay_words() replays its word loop directly (materialising a segment per word and lane
-would cost more than the loop).
+lane is specular (GGX).  Two loops are walked by the replay itself rather than given as
+segments, which would cost more than the loops: a lane's tree traversal (Program.add_tree:
+one segment a lane, the kernel steps the lanes' traversals in lockstep, a node visit a
+step) and a bit-array technique's word loop (Program.bit_words: zbin, raster).
 
 Per pixel it adds up what the lane evaluated, visited and found affecting, so a test can hold
 the replay to the shader's own counters (PixelStats.evaluated, .nodes; contrib_count up to
