@@ -396,10 +396,57 @@ def build_corridor(lights: int | None = None, seed: int = 0, distribution: str |
     return _finish("corridor", cams, meshes, np.concatenate([caps, boxes, spots, points]))
 
 
+# ----------------------------------------------------------------------------- contention
+CONTENTION_LO = (-24.0, 0.0, -16.0)
+CONTENTION_HI = (24.0, 10.0, 16.0)
+CONTENTION_BIG = ((-12.0, 5.0, 0.0), (0.0, 6.0, -4.0), (12.0, 5.0, 4.0))   # the full-screen lights
+CONTENTION_BIG_RADIUS = 64.0      # past the hall's 58.5 m diagonal: every visible point, any camera
+CONTENTION_BIG_COLOR = ((1.0, 0.82, 0.62), (1.0, 1.0, 1.0), (0.62, 0.78, 1.0))
+
+
+def _contention_geometry() -> list[Mesh]:
+    wall, stone = (0.6, 0.6, 0.62), (0.5, 0.48, 0.45)
+    m = [box_mesh(CONTENTION_LO, CONTENTION_HI, wall, inward=True)]
+    for x in (-16.0, 0.0, 16.0):                                   # two rows of pillars
+        for z in (-8.0, 8.0):
+            m.append(box_mesh((x - 0.8, 0, z - 0.8), (x + 0.8, 10, z + 0.8), stone, bottom=False))
+    for x, z, h in ((-8, -3, 1.5), (8, 5, 2.5), (-20, 12, 1.0), (20, -12, 3.0)):   # a few crates
+        m.append(box_mesh((x - 1.5, 0, z - 1.5), (x + 1.5, h, z + 1.5), (0.6, 0.47, 0.3), bottom=False))
+    return m
+
+
+def build_contention(lights: int | None = None, seed: int = 0, distribution: str | None = None) -> Scene:
+    """Drobot 2017's atomic contention case ("3 x full screen lights", the tile rasterizer
+    table): a closed hall 48 x 10 x 32 m, three point lights whose spheres hold the whole
+    hall (every camera inside them: every pixel of every frame is lit by all three, so each
+    of a tile's pixels issues its atomic on the same word), plus a field of small point
+    lights (radius 0.5-2 m, uniform in the hall or on its geometry).  `lights=N`: N lights
+    in all, the first min(N, 3) the full-screen ones; default 256 (the slides' cluster case)."""
+    n, rng, dist = _check_args("contention", lights, seed, distribution, 256, "uniform")
+    meshes = _contention_geometry()
+    k = min(n, len(CONTENTION_BIG))
+    big = make_lights(k)
+    big["position"] = np.asarray(CONTENTION_BIG, np.float64)[:k]
+    big["radius"] = CONTENTION_BIG_RADIUS
+    big["color"] = np.asarray(CONTENTION_BIG_COLOR, np.float64)[:k]
+    big["intensity"] = 8.0           # 0.08 at 10 m: under half a small light's at half a metre
+    small = _distribute(n - k, dist, meshes, np.array(CONTENTION_LO), np.array(CONTENTION_HI),
+                        rng, (0.5, 2.0))
+    cams = _cams([
+        ((-22, 2, 0), (22, 3, 0)),                # along the hall
+        ((0, 9, 15), (0, 0, -10)),                # high, looking down
+        ((22, 1.7, -14), (-22, 2, 14)),           # corner, longest diagonal
+        ((-10, 1.7, 4), (-16, 1.5, 8)),           # close to a pillar
+        ((0, 4, -15), (0, 3, 15)),                # across the hall
+    ], near=0.1, far=200.0)
+    return _finish("contention", cams, meshes, np.concatenate([big, small]))
+
+
 BUILTIN_SCENES = {
     "city": build_city,
     "arena": build_arena,
     "hangar": build_hangar,
     "gallery": build_gallery,
     "corridor": build_corridor,
+    "contention": build_contention,
 }

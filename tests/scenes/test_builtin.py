@@ -7,14 +7,15 @@ from scenes import BUILTIN_SCENES, LIGHT_DTYPE, Camera, Scene, SceneError, load_
 from scenes.geometry import mesh_triangles
 from scenes.model import LIGHT_POINT, LIGHT_SPOT, LIGHT_TYPE_NAMES
 
-DEFAULT_LIGHTS = {"city": 4096, "arena": 4096, "hangar": 512, "gallery": 46, "corridor": 512}
+DEFAULT_LIGHTS = {"city": 4096, "arena": 4096, "hangar": 512, "gallery": 46, "corridor": 512,
+                  "contention": 256}
 DEFAULT_DIST = {"city": "geometry", "arena": "uniform", "hangar": "uniform", "gallery": "geometry",
-                "corridor": "uniform"}
+                "corridor": "uniform", "contention": "uniform"}
 NAMES = list(BUILTIN_SCENES)
 
 
 def test_registry_order():
-    assert NAMES == ["city", "arena", "hangar", "gallery", "corridor"]
+    assert NAMES == ["city", "arena", "hangar", "gallery", "corridor", "contention"]
 
 
 def _check_scene(s: Scene, n: int):
@@ -156,6 +157,28 @@ def test_corridor_mixes_all_four_shapes(dist):
     assert (box["extent"] > 0).all()
     # a box's up is never along its direction (its axes are defined)
     assert (np.abs(np.einsum("ij,ij->i", box["up"], box["direction"])) < 0.99).all()
+
+
+@pytest.mark.parametrize("dist", ["uniform", "geometry"])
+def test_contention_three_full_screen_lights(dist):
+    """Drobot's contention case: the first three lights hold the whole hall (so every
+    camera of the path sees them on every pixel), the rest is a field of small points."""
+    from scenes.builtin import CONTENTION_HI, CONTENTION_LO
+    s = BUILTIN_SCENES["contention"](300, 0, dist)
+    L = s.lights
+    assert len(L) == 300 and (L["type"] == LIGHT_POINT).all()
+    corners = np.array([[x, y, z] for x in (CONTENTION_LO[0], CONTENTION_HI[0])
+                        for y in (CONTENTION_LO[1], CONTENTION_HI[1])
+                        for z in (CONTENTION_LO[2], CONTENTION_HI[2])])
+    big = L[:3]
+    reach = np.linalg.norm(corners[None] - big["position"][:, None].astype(np.float64), axis=2).max(1)
+    assert (big["radius"] > reach).all()
+    lo, hi = s.bounds()
+    for c in [s.camera, *s.path]:
+        assert np.all(np.array(c.position) > lo) and np.all(np.array(c.position) < hi)
+    small = L[3:]
+    assert small["radius"].min() >= 0.5 - 1e-6 and small["radius"].max() <= 2.0 + 1e-6
+    assert len(BUILTIN_SCENES["contention"](2, 0, dist).lights) == 2
 
 
 def test_zero_lights_allowed():
