@@ -20,7 +20,16 @@
 // touched (exact at cluster granularity, and the same marks in practice).
 //   RASTER_MSAA: each covered sample stands for the full-resolution pixel of its quadrant,
 //   at the (dilated) proxy's exact depth at that sample (raster.py's doc).
-// define: RASTER_MSAA RASTER_COMPACT WAVE_NATIVE
+//   RASTER_DEPTH_BOUND: the slides' "conservative depth from prepass to early reject": a
+//   pixel only ever reads the cluster of its own depth's slice, so of a tile's clusters only
+//   slices [near, far] of its min / max scene depth (raster_tile_depth.comp) are read, and
+//   a tile with no geometry has none.  MARK and WALK write only those, with one exception
+//   that keeps the WALK's search exact: a MARK range wholly outside [near, far] writes one
+//   cluster no pixel reads, just outside on its own side (its far end when in front, far + 1
+//   when behind), so a WALK still tells "the tile's back faces are all in front of the read
+//   slices" (walk nothing there) and "behind them" (walk to far) from "no MARK at all"
+//   (walk to far, the unbounded rule); raster.py's doc has the argument.
+// define: RASTER_MSAA RASTER_COMPACT WAVE_NATIVE RASTER_DEPTH_BOUND
 #define WAVE_FRAGMENT 1          // wave.glsl (through raster_common.glsl): no group emulation
 #if RASTER_COMPACT && WAVE_NATIVE      // the loader writes the native path's #extension lines
 #define COMPACT 1
@@ -31,6 +40,10 @@
 #include "slices.glsl"
 
 flat in vec2 v_tri_depth;     // min, max view depth of the triangle's three corners
+#if RASTER_DEPTH_BOUND
+// per tile (x ~bits of the min scene depth, y bits of the max; y 0: no geometry)
+layout(std430, binding = B_RASTER_TILE_DEPTH) readonly buffer TileDepth { uvec2 tile_depth[]; };
+#endif
 
 uint cell_word(ivec2 pixel, uint slice) {
     ivec2 t = pixel / u_tile;
@@ -46,12 +59,31 @@ void column(ivec2 pixel, float lo, float hi) {
     if (any(greaterThanEqual(pixel, u_size))) return;
     uint s0 = slice_of(lo * (1.0 - SHADER_SLACK));
     uint s1 = slice_of(hi * (1.0 + SHADER_SLACK));
-    if (u_mode == 5) s0 = 0u;                          // eye inside: from the near plane
-    if (u_mode == 4) {                                 // WALK: to the column's farthest MARK
-        uint top = uint(u_slices - 1);
-        s1 = top;
-        while (s1 > s0 && !marked(pixel, s1)) --s1;
-        if (s1 == s0 && !marked(pixel, s0)) s1 = top;  // no MARK at or past s0: to the end
+    uint top = uint(u_slices - 1);
+    uint near = 0u, far = top;                         // the slices this tile's pixels read
+#if RASTER_DEPTH_BOUND
+    ivec2 t = pixel / u_tile;
+    uvec2 bound = tile_depth[t.y * u_tiles_x + t.x];
+    if (bound.y == 0u) return;                         // no geometry: no pixel reads the tile
+    near = slice_of(uintBitsToFloat(~bound.x) * (1.0 - SHADER_SLACK));
+    far = slice_of(uintBitsToFloat(bound.y) * (1.0 + SHADER_SLACK));
+#endif
+    if (u_mode == 3) {                                 // MARK: [s0, s1] within [near, far]
+        if (s1 < near) s0 = s1;                        //   wholly in front: its far end alone
+        else if (s0 > far) s0 = s1 = far + 1u;         //   wholly behind: far + 1 alone
+        else { s0 = max(s0, near); s1 = min(s1, far); }
+    } else {
+        if (u_mode == 5) s0 = 0u;                      // eye inside: from the near plane
+        if (u_mode == 4) {                             // WALK: to the column's farthest MARK
+            if (s0 > far) return;                      //   wholly behind what the tile reads
+            uint end = min(top, far + 1u);
+            s1 = end;
+            while (s1 > s0 && !marked(pixel, s1)) --s1;
+            if (s1 == s0 && !marked(pixel, s0)) s1 = far;   // no MARK at or past s0: to the end
+        }
+        s0 = max(s0, near);
+        s1 = min(s1, far);
+        if (s0 > s1) return;
     }
 #if RASTER_STATS
     atomicAdd(counters[2], 1u);

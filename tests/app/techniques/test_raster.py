@@ -11,7 +11,13 @@ the scene's depth mark 8x8 tile bit arrays with atomics.
     and without it, on scenes built to strain it: huge triangles, huge lights, far planes);
   * occlusion: lights behind a wall mark nothing and are counted; the variants' counters
     (MSAA fewer fragments, compaction fewer atomics);
-  * the cluster rasterizer (MARK / WALK, eye-inside walks from the near plane) exact too.
+  * the cluster rasterizer (MARK / WALK, eye-inside walks from the near plane) exact too,
+    with the depth prepass's bound (every cluster a pixel reads holds the unbounded bits,
+    with fewer marks) and without;
+  * one rule for options: an option the mode ignores is refused in one line, and no option
+    study trips over it;
+  * the contention scene (three full-screen lights): every variant exact, the atomics the
+    slides' table is about, and the report's notes that set them beside the slides'.
 """
 from __future__ import annotations
 
@@ -149,9 +155,10 @@ def test_mesh_factors_circumscribe():
 VARIANTS = [dict(raster_variant=v) for v in range(4)] + [
     dict(stencil=True), dict(stencil=True, raster_variant=3), dict(early_depth=False, raster_variant=1),
     dict(zbin_variant=0, raster_variant=2, native_wave=True),
-    dict(cluster=True), dict(cluster=True, raster_variant=3, cluster_tile=8, cluster_slices=24)]
+    dict(cluster=True), dict(cluster=True, raster_variant=3, cluster_tile=8, cluster_slices=24),
+    dict(cluster=2), dict(cluster=2, raster_variant=1, cluster_tile=8)]
 IDS = ["atomic", "msaa", "compact", "both", "stencil", "stencil-both", "no-early-msaa", "base-native",
-       "cluster", "cluster-both"]
+       "cluster", "cluster-both", "cluster-unbounded", "cluster-unbounded-msaa"]
 
 
 @pytest.mark.parametrize("opts", VARIANTS, ids=IDS)
@@ -180,8 +187,8 @@ def _hard_lights(rng, eye, n_eye=12, n_near=20):
 
 
 @pytest.mark.parametrize("opts", [{}, dict(raster_variant=3), dict(stencil=True), dict(cluster=True),
-                                  dict(cluster=True, raster_variant=1, cluster_tile=4)],
-                         ids=["atomic", "both", "stencil", "cluster", "cluster-msaa"])
+                                  dict(cluster=True, raster_variant=1, cluster_tile=4), dict(cluster=2)],
+                         ids=["atomic", "both", "stencil", "cluster", "cluster-msaa", "cluster-unbounded"])
 def test_eye_inside_near_plane_and_far_plane(gl, opts):
     rng = np.random.default_rng(7)
     L = _hard_lights(rng, np.asarray(CAMERA.position))
@@ -297,3 +304,167 @@ def test_builtin_scenes_every_mode(gl, name):
         for opts in (dict(cluster=True), dict(raster_variant=3), dict(stencil=True, zbin_variant=1)):
             res = render_on(r, dict(opts, raster_stats=False), techniques=["brute", "raster"])
             assert_exact(res, f"{name} {opts}")
+
+
+# ---------------------------------------------------------------------------- cluster depth bound
+
+@pytest.mark.parametrize("variant", [0, 1, 3])
+def test_cluster_depth_bound_keeps_every_read_cluster(gl, variant):
+    """The bound (cluster 1) against none (cluster 2): the same bits in every cluster a pixel
+    reads, so the same evaluations; fewer marks and atomics (the clusters in front of and
+    behind each tile's surfaces, and the tiles with no geometry: sky above the backdrop)."""
+    rng = np.random.default_rng(20 + variant)
+    L = np.concatenate([random_shapes(rng, 300, (-14, -1, -34), (14, 7, 6)),
+                        _hard_lights(rng, np.asarray(CAMERA.position), n_eye=4, n_near=6)])
+    cam = Camera(CAMERA.position, (0.0, 3.0, -20.0), near=0.1, far=80.0)   # sky in the top rows
+    with Renderer(make_scene(L, size=(96, 64), camera=cam)) as r:
+        got = {}
+        for cluster in (1, 2):
+            res = r.render(RASTER, 0, RASTER.resolve_options(dict(cluster=cluster, raster_variant=variant,
+                                                                  cluster_tile=8)))
+            got[cluster] = (res, r.read("raster_bits").copy())
+        (b, bits_b), (u, bits_u) = got[1], got[2]
+        g = b.build.grid
+        words = b.meta["stats"]["words_per_tile"]
+        read = np.unique(b.cell[b.depth > 0])
+        assert np.array_equal(b.cell, u.cell)
+        rows = lambda bits: bits.view(np.uint32).reshape(g.cells, words)[read]
+        assert np.array_equal(rows(bits_b), rows(bits_u)), "a read cluster lost or gained a bit"
+        assert np.array_equal(b.evaluated, u.evaluated)
+        sb, su = b.meta["stats"], u.meta["stats"]
+        assert sb["raster_marks"] < su["raster_marks"] and sb["raster_atomics"] < su["raster_atomics"]
+        assert "raster tile depth" in b.meta["gpu_ms"] and "raster tile depth" not in u.meta["gpu_ms"]
+        res = render_on(r, dict(cluster=1, raster_variant=variant), techniques=["brute", "raster"])
+        assert_exact(res, f"cluster depth bound, variant {variant}")
+
+
+def test_cluster_depth_pass_figures(gl):
+    """The cluster mode's timed passes have their figures for the cost model: the tile depth
+    pass (bounded), the proxies; names as the timed passes'."""
+    from app.model import predict
+    from scenes import load_scene
+    sc = load_scene("arena", lights=512, seed=2)
+    with Renderer(sc, (72, 48)) as r:
+        for cluster, tile in ((1, 32), (1, 12), (2, 32)):
+            res = r.render(RASTER, 0, dict(cluster=cluster, cluster_tile=tile))
+            timed = {k.split(" (")[0] for k in res.meta["gpu_ms"] if k != "gbuffer"}
+            for width, passes in predict.frame_figures(r, RASTER, res, dict(cluster=cluster,
+                                                                             cluster_tile=tile)).items():
+                assert set(passes) - {predict.SHADE} <= timed | {"raster proxies"}, (cluster, passes.keys())
+                assert ("raster tile depth" in passes) == (cluster == 1)
+                if cluster == 1:
+                    f = passes["raster tile depth"]
+                    assert f.loop("depth")["lanes"] == 72 * 48
+                    assert (f.shared_atomics > 0) == (tile % 8 == 0)
+
+
+# ---------------------------------------------------------------------------- one rule for options
+
+@pytest.mark.parametrize("values, flag, mode", [
+    (dict(cluster=1, stencil=True), "--stencil", "cluster mode (--cluster 1)"),
+    (dict(cluster=2, zbin_variant=0), "--zbin-variant 0", "cluster mode (--cluster 2)"),
+    (dict(cluster=1, zbins=64), "--zbins 64", "cluster mode"),
+    (dict(cluster=1, printed_mask=True), "--printed-mask", "cluster mode"),
+    (dict(cluster=1, native_wave=True), "--native-wave", "cluster mode"),
+    (dict(cluster=1, bit_tile=16), "--bit-tile 16", "cluster mode"),
+    (dict(cluster=1, early_depth=False), "--no-early-depth", "cluster mode"),
+    (dict(cluster_tile=16), "--cluster-tile 16", "tile mode (--cluster 0)"),
+    (dict(cluster_slices=24), "--cluster-slices 24", "tile mode"),
+    (dict(zbin_variant=0, zbins=64), "--zbins 64", "without z-bins (--zbin-variant 0)"),
+    (dict(zbin_variant=2, printed_mask=True), "--printed-mask", "without z-bins (--zbin-variant 2)"),
+])
+def test_an_option_the_mode_ignores_is_refused(values, flag, mode):
+    from app.errors import UserError
+    with pytest.raises(UserError) as ei:
+        RASTER.resolve_options(values)
+    msg = str(ei.value)
+    assert "\n" not in msg and msg.startswith(f"raster: {flag} is ignored ") and mode in msg, msg
+    with pytest.raises(UserError, match="is ignored"):              # however it is made
+        RASTER.Options(**values)
+    base = {k: v for k, v in values.items() if k in ("cluster", "zbin_variant")}
+    with pytest.raises(UserError, match="is ignored"):
+        RASTER.resolve_options(base).with_(**values)
+
+
+def test_the_modes_take_their_own_options():
+    """Each mode takes what it reads, defaults of the others included; every raster option
+    is read by some mode; another technique's option is refused as before."""
+    from app.errors import UserError
+    ok = [dict(cluster=1, raster_variant=3, cluster_tile=8, cluster_slices=24, bit_budget_mib=8.0),
+          dict(cluster=2, stencil=False, zbin_variant=3, native_wave=False, raster_stats=False),
+          dict(stencil=True, zbin_variant=1, zbins=64, printed_mask=True, native_wave=True,
+               bit_tile=16, early_depth=False),
+          dict(zbin_variant=0, zbins=RASTER.Options().zbins)]
+    for values in ok:
+        assert RASTER.resolve_options(values).as_dict() == dict(RASTER.Options().as_dict(), **values)
+    modes = [RASTER.Options(cluster=c, zbin_variant=z) for c in (0, 1, 2) for z in (0, 3) if not (c and z != 3)]
+    read = set().union(*(set(RASTER.Options.names()) - set(o.ignored()) for o in modes))
+    assert read == set(RASTER.Options.names())
+    with pytest.raises(UserError, match="--tile is not an option of this technique"):
+        RASTER.resolve_options({"tile": 16})
+
+
+def test_no_option_study_trips_over_the_rule():
+    """The benchmark's studies are the defaults plus one option (app.bench.plan): every
+    declared study value of every technique makes valid options."""
+    for t in REGISTRY.values():
+        for spec in t.Options.specs():
+            for v in spec.study:
+                assert getattr(t.Options().with_(**{spec.name: v}), spec.name) == v, (t.name, spec.name)
+
+
+def test_capture_refuses_an_ignored_option_in_one_line():
+    import subprocess
+    import sys
+    from pathlib import Path
+    p = subprocess.run([sys.executable, "-m", "app.capture", "--scene", "arena", "--technique", "raster",
+                        "--cluster", "1", "--stencil"], cwd=Path(__file__).resolve().parents[3],
+                       capture_output=True, text=True, timeout=120)
+    lines = p.stderr.strip().splitlines()
+    assert p.returncode == 2 and len(lines) == 1, p.stderr
+    assert "--stencil is ignored in cluster mode (--cluster 1)" in lines[0] and "raster" in lines[0]
+
+
+# ---------------------------------------------------------------------------- the contention case
+
+def test_contention_scene_variants(gl):
+    """The slides' "3 x full screen lights": every pixel marks the three lights, so the plain
+    rasterizer issues at least three atomics a pixel, all of a tile's on the same words;
+    MSAA draws a quarter of the fragments, compaction merges a subgroup's atomics; exact."""
+    from scenes import load_scene
+    scene = load_scene("contention")
+    size = (96, 54)
+    with Renderer(scene, size) as r:
+        st = {}
+        for v in range(4):
+            res = render_on(r, dict(raster_variant=v), techniques=["brute", "raster"])
+            assert_exact(res, f"contention variant {v}")
+            assert (res["brute"].contrib_count[res["brute"].depth > 0] >= 3).all()
+            st[v] = res["raster"].meta["stats"]
+    px = size[0] * size[1]
+    assert st[0]["raster_atomics"] == st[0]["raster_pixel_marks"] >= 3 * px
+    assert st[1]["raster_fragments"] < 0.5 * st[0]["raster_fragments"]
+    assert st[2]["raster_atomics"] < 0.5 * st[0]["raster_atomics"]
+    assert st[3]["raster_atomics"] < st[1]["raster_atomics"] and st[3]["raster_atomics"] < st[2]["raster_atomics"]
+
+
+def test_notes_set_the_slides_tables_beside_the_run(gl):
+    """raster's report notes: the slides' tile rasterizer table beside the contention scene's
+    atomics (rendered there, at the slides' 240x135 tiles) and the variant study's rows; the
+    cluster study's waste with and without the depth bound; the same text twice."""
+    import json
+    stats = lambda a, m, t: json.dumps({"raster_atomics": a, "raster_marks": m, "bit_tile_used": t})
+    row = lambda study, **kw: dict(dict(study=study, scene="arena", lights=4096.0, width=64.0, height=36.0,
+                                        gpu_cull_ms=2.0, evaluated_pp=4.0, waste=2.0, stats=stats(90, 9, 8)), **kw)
+    rows = [row("raster_variant", raster_variant=float(v), gpu_cull_ms=2.0 - 0.25 * v) for v in range(4)]
+    rows += [row("cluster", cluster=float(c), evaluated_pp=(4.5, 17.0, 17.0)[c], waste=(2.4, 8.6, 8.6)[c],
+                 gpu_cull_ms=(1.0, 3.0, 4.0)[c], stats=stats((900, 500, 700)[c], (40, 70, 90)[c], (8, 32, 32)[c]))
+             for c in range(3)]
+    title, text = RASTER.report_notes(rows)
+    assert text == RASTER.report_notes(rows)[1]
+    assert "| atomic + compaction + 4xMSAA | 0.10 ms (7%) | " in text and "1920x1080: 240x135 tiles" in text
+    line = next(l for l in text.splitlines() if l.startswith("| atomic |"))
+    assert int(line.split("|")[3].replace(",", "")) >= 3 * 1920 * 1080       # every pixel, three lights
+    assert "tiles evaluate 4.5 lights a pixel" in text and "17 lights a pixel with the depth bound" in text
+    assert "leaves the evaluations as they are" in text and "500 atomics against 700" in text
+    assert "32 px clusters against 8 px tiles" in text
