@@ -239,6 +239,17 @@ CASES = {
     "frame_negative": (flag_case("--frame", "-1"), r"--frame"),
     "frames_zero": (flag_case("--frames", "0"), r"--frames"),
     "unknown_flag": (flag_case("--bogus-flag"), r"--bogus-flag"),
+    # an option the technique's mode ignores (issue 20 item 7): refused, naming it and the mode
+    "raster_cluster_stencil": (flag_case("--technique", "raster", "--cluster", "1", "--stencil"),
+                               r"--stencil is ignored in cluster mode \(--cluster 1\)"),
+    "raster_cluster_native_wave": (flag_case("--technique", "raster", "--cluster", "2", "--native-wave"),
+                                   r"--native-wave is ignored in cluster mode \(--cluster 2\)"),
+    "raster_cluster_zbin_variant": (flag_case("--technique", "raster", "--cluster", "1", "--zbin-variant", "1"),
+                                    r"--zbin-variant 1 is ignored in cluster mode"),
+    "raster_tile_cluster_slices": (flag_case("--technique", "raster", "--cluster-slices", "24"),
+                                   r"--cluster-slices 24 is ignored in tile mode"),
+    "raster_no_zbins_zbins": (flag_case("--technique", "raster", "--zbin-variant", "2", "--zbins", "64"),
+                              r"--zbins 64 is ignored without z-bins \(--zbin-variant 2\)"),
 }
 
 
