@@ -11,12 +11,15 @@
 //       light whose depth range meets the cell's pixels);
 //   (e) the bits OR-reduced per cell (shared atomics), the survivors appended to the cell's
 //       list in batch order: the first 24 into its blocks (fptl_common.glsl), the rest into
-//       the spill.
+//       the spill; the list's length and state (spilled, pool full) written in band into
+//       its words, the only thing of a cell that shading reads.
 // A batch that fills is pruned and emptied and the scan goes on, so a tile's coarse list
 // may pass 64 (flag FPTL_COARSE_OVER).  A cell whose list passes 24 is counted first
 // (scan 1), reserves exactly its spill in the pool, and the tile scans again (scan 2) to
 // write it; the same lights in the same order, so the same positions.  A cell the pool
-// cannot hold is flagged FPTL_POOL_FULL and shades every light.  On a driver with a loop
+// cannot hold is flagged FPTL_POOL_FULL and shades every light.  The flags also go to the
+// cell's record (fptl_cells: coarse, pruned, flags), which the statistics and the next scan
+// window read.  On a driver with a loop
 // limit a dispatch scans the class positions [u_scan.x, u_scan.y) and carries each cell's
 // state over from the previous one (fptl.scan_windows).
 // define: FPTL_PRUNE
@@ -264,15 +267,20 @@ void main() {
         if (!empty) scan(mode, dmin, dmax);
     }
     barrier();
+    // the lists with their state in band (fptl_common.glsl): all shading reads of a cell
     for (uint w = me; w < S * FPTL_LIST_WORDS; w += 64u) {
+        uint c = w / FPTL_LIST_WORDS, b = w % FPTL_LIST_WORDS;
+        uint listed = min(s_pruned[c], FPTL_CAP);
         uint v = s_words[w];
 #if FPTL_INDEX_BITS == 10
-        uint listed = min(s_pruned[w / FPTL_LIST_WORDS], FPTL_CAP);
-        uint b = 3u * (w % FPTL_LIST_WORDS);
-        v = (v & 0x3FFFFFFFu) | ((listed > b ? min(listed - b, 3u) : 0u) << 30u);   // the A2 count
+        v = (v & 0x3FFFFFFFu) | (fptl_block_count(b, listed, s_flags[c]) << 30u);   // the A2 count
+#else
+        if (b == 0u) v = fptl_count_word(listed, s_flags[c]);
 #endif
         fptl_lists[first_cell * FPTL_LIST_WORDS + w] = v;
     }
+    // the records, for the statistics (and the next scan window's state); shading never
+    // reads them
     if (me < S)
         fptl_cells[first_cell + me] = FptlCell(s_coarse, s_pruned[me],
                                                s_flags[me] | (s_coarse > FPTL_BATCH ? FPTL_COARSE_OVER : 0u), 0u);

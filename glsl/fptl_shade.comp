@@ -1,7 +1,11 @@
 #version 430
 // fptl, deferred lighting: every pixel of a tile (or 2.5D cell) pulls the same fine-pruned
-// list (fptl_lists.comp), then the cell's spill of lists longer than 24.  A cell the spill
-// pool could not hold shades every light.
+// list (fptl_lists.comp) as the chapter stores it, and nothing else of the cell: the list's
+// length and state are in band in its words (fptl_common.glsl).  10-bit indices: the eight
+// R10G10B10A2 blocks, the length the sum of their 2-bit counts (the chapter's 32 B a tile,
+// read whole); 16/32-bit: the count word, then the index words the list fills.  A spilled
+// list (flagged in its counts / count word) then reads its scan windows' spill heads and
+// spill; a cell the spill pool could not hold shades every light.
 //
 // The chapter's fixed sequence of per-type loops (its step 1(b)): the lights are sorted by
 // shape on the CPU (point, capsule | spot | box: the chapter's sphere/capsule, cone and box
@@ -19,7 +23,6 @@
 // define: FPTL_TYPE_LOOPS
 
 layout(std430, binding = B_FPTL_LISTS) readonly buffer Lists { uint fptl_lists[]; };
-layout(std430, binding = B_FPTL_CELLS) readonly buffer Cells { FptlCell fptl_cells[]; };
 layout(std430, binding = B_FPTL_SPILL_HEADS) readonly buffer Heads { uvec2 fptl_spill_heads[]; };
 layout(std430, binding = B_FPTL_SPILL) readonly buffer Spill { uint fptl_spill[]; };
 
@@ -60,18 +63,30 @@ void shade_run(inout PixelState s, uint first, uint count, bool spill) {
 #endif
 }
 
+// The cell's list state from its words: (entries in the blocks, FPTL_SPILLED / FPTL_POOL_FULL).
+uvec2 list_state(uint first) {
+#if FPTL_INDEX_BITS == 10
+    uint sum = 0u;                         // all eight blocks: 32 B, one aligned fetch
+    for (uint b = 0u; b < FPTL_LIST_WORDS; ++b) sum += fptl_lists[first + b] >> 30u;
+    return fptl_decode_counts(fptl_lists[first] >> 30u, sum);
+#else
+    return fptl_decode_count_word(fptl_lists[first]);
+#endif
+}
+
 void main() {
     PixelState s = load_pixel();
     if (s.shading) {
         uint cell = fptl_cell(s.pixel, s.depth);
         s.cell = cell;
         CELLS_ONLY_RETURN(s);
-        FptlCell c = fptl_cells[cell];
-        if ((c.flags & FPTL_POOL_FULL) != 0u) {
+        uint first = cell * FPTL_LIST_WORDS;
+        uvec2 state = list_state(first);
+        if ((state.y & FPTL_POOL_FULL) != 0u) {
             evaluate_all_lights(s);
         } else {
-            shade_run(s, cell * FPTL_LIST_WORDS, min(c.pruned, FPTL_CAP), false);
-            if (c.pruned > FPTL_CAP)
+            shade_run(s, first, state.x, false);
+            if ((state.y & FPTL_SPILLED) != 0u)      // only flagged cells read spill heads
                 for (uint scan = 0u; scan < u_scans; ++scan) {
                     uvec2 head = fptl_spill_heads[scan * u_cells + cell];
                     shade_run(s, head.x, head.y, true);

@@ -13,11 +13,14 @@ pixel of the tile against each light's true shape, packed as R10G10B10A2 blocks.
                                   invocation tests its 2x2 pixels with evaluate_light's own
                                   decision, a 64-bit mask per invocation, (e) OR-reduced; the
                                   survivors appended in order
-                                  -> fptl_lists[cell]  (8 blocks: 3 x 10-bit index + 2-bit count)
-                                  -> fptl_cells[cell]  (coarse, pruned, flags)   (16 B a cell)
+                                  -> fptl_lists[cell]  (8 blocks: 3 x 10-bit index + 2-bit
+                                     count; the length, spill and pool-full state in band)
+                                  -> fptl_cells[cell]  (coarse, pruned, flags: statistics)
                                   -> fptl_spill_heads / fptl_spill (lists past 24)
-    shade        fptl_shade.comp  the pixel's cell list (+ its spill), the chapter's fixed
-                                  sequence of per-type loops -> evaluate_light_as
+    shade        fptl_shade.comp  the pixel's cell list as stored: its eight words, the
+                                  length from their 2-bit counts (+ the spill, where the
+                                  counts flag one), the chapter's fixed sequence of per-type
+                                  loops -> evaluate_light_as
     counts       (host step)      per-tile coarse / pruned counts -> meta stats, build.data
 
 Variants (`fptl_variant`, bit flags like zbin's): 0 fine-pruned per tile (the chapter),
@@ -26,6 +29,13 @@ per 2.5D cell (16 depth slices, listing 4; the chapter's "negates the need for c
 3 coarse per cell (the cell's depth range instead of the pixels' shapes).  `type_loops`
 (on by default) shades with the chapter's per-type loops; off, one loop whose light code
 branches on each light's type: what the sort by shape buys.
+
+Shading reads the lists as the chapter stores them: 32 B a tile at 10-bit indices, the
+length the sum of the blocks' 2-bit counts; a list's two other states, spilled and pool
+full, are count patterns no plain list has (an empty block 0 before full blocks:
+glsl/fptl_common.glsl has the format), so no slot and no index value is given up, and only a
+flagged cell reads its spill heads.  The cells' 16-byte records (coarse, pruned, flags) are
+written for the statistics, the maps and the next scan window, never read by shading.
 
 Where the lab departs from the chapter, and why (nothing is ever dropped silently):
   * coarse lists past 64: the chapter keeps at most 64 coarse lights in LDS.  Here the
@@ -37,17 +47,26 @@ Where the lab departs from the chapter, and why (nothing is ever dropped silentl
     light affects a pixel of the tile, so its shape rectangle meets the tile; a coarse one
     has an AABB inside its sphere's rectangle); only past SPILL_MAX_ENTRIES can it run
     short, and then the cell is flagged (FPTL_POOL_FULL) and shades every visible light,
-    still exact (stats spilled_lights, pool_full_cells, spill_capacity, spill_used);
+    still exact (stats spilled_lights, pool_full_cells, spill_capacity, spill_used).  The
+    chapter's engine has no spill (24 is its limit); here a spilled tile reads 8 B of
+    heads per scan window and 4 B a spilled light beyond its 32 B;
   * more than 1,024 visible lights (10-bit indices): the lists take a documented wider
-    format for that frame: 16-bit indices (two a word, 12 words = 48 B a cell) up to
-    65,536 lights, 32-bit (24 words = 96 B) beyond; stat index_bits;
+    format for that frame: a count word (the length and the state) and 16-bit indices (two
+    a word: 13 words = 52 B a cell) up to 65,536 lights, 32-bit (25 words = 100 B) beyond;
+    stat index_bits.  Shading reads the count word and the index words the list fills
+    (fptl_common.glsl says why a count word and not a sentinel);
   * the chapter's per-type loops run per shape, not per class: its sphere/capsule class is
     one execution path in its engine, here a point's test and a capsule's are different
     code, so the class is sorted point before capsule and each gets its own loop;
   * the AABB pass computes in double precision, with the float32 test's margins
     (cpu_prep.limits) on the convex bound and a pixel margin: conservative for all shapes;
   * on a driver with a loop limit (llvmpipe) list building runs as scan windows of
-    SCAN_WINDOW lights carrying each cell's state over, and shading in dispatch windows.
+    SCAN_WINDOW lights carrying each cell's state over (through the records), and shading
+    in dispatch windows;
+  * the chapter's lighting pulls the tile's list and lights into scalar registers
+    (__XB_MakeUniform over 8x8 pixel-shader waves); fptl_shade.comp, a compute pass, does
+    not make them wave-uniform (an 8x8 group lies in one 16x16 tile, but nothing in the
+    shader says so), so the replay counts the list's words and lights as vector loads.
 """
 from __future__ import annotations
 
@@ -60,7 +79,7 @@ from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT, LIGH
 
 from ..model import waves
 from ..pipeline.passes import Buffer, HostStep, Pass
-from .base import Technique, add_all_lights, cell_head, prepare, shading_passes
+from .base import Technique, add_all_lights, prepare, shading_passes
 from .options import TechniqueOptions, option
 
 TILE = 16                    # the chapter's tile: 64 invocations x 2x2 pixels
@@ -84,7 +103,14 @@ _LOOP_RANK = np.array([LOOP_ORDER.index(t) for t in range(len(LIGHT_TYPES))], np
 
 # Cell flags: the tile's coarse list passed 64 (pruned batch by batch); the cell's list
 # passed 24 (the rest in the spill); the spill pool ran short (the cell shades every light).
+# SPILLED and POOL_FULL are also in the list's words (its state in band: what shading
+# reads), with these values in the wide formats' count word.
 FLAG_COARSE_OVER, FLAG_SPILLED, FLAG_POOL_FULL = 1, 2, 4
+STATE = FLAG_SPILLED | FLAG_POOL_FULL
+# 10-bit blocks' count patterns of the two states (fptl_common.glsl): an empty block 0 before
+# full blocks, which no plain list has (it fills its blocks front to back)
+SPILLED_COUNTS = (0,) + (3,) * 7           # the 24 slots full, the rest in the spill
+POOL_FULL_COUNTS = (0, 1) + (0,) * 6       # no list: every light
 
 # GPU structs of this technique (the GLSL is generated from them: fptl_structs.glsl).
 FPTL_AABB = np.dtype([
@@ -123,9 +149,15 @@ def index_bits(n: int) -> int:
     return 10 if n <= INDEX10_MAX else 16 if n <= INDEX16_MAX else 32
 
 
+def head_words(bits: int) -> int:
+    """Words before a cell's indices: none at 10 bits (the counts are in the blocks' A2
+    fields), the count word in the wide formats."""
+    return 0 if bits == 10 else 1
+
+
 def list_words(bits: int) -> int:
-    """32-bit words of one cell's list of LIST_CAP lights."""
-    return {10: LIST_CAP // 3, 16: LIST_CAP // 2, 32: LIST_CAP}[bits]
+    """32-bit words of one cell's list of LIST_CAP lights, its count word included."""
+    return head_words(bits) + LIST_CAP // (32 // bits)
 
 
 def class_order(types: np.ndarray) -> np.ndarray:
@@ -279,9 +311,10 @@ class Fptl(Technique):
                       uniforms=dict(grid_u, u_scan=(lo, hi), u_scan_index=k,
                                     u_spill_capacity=capacity, u_slices=g.slices, u_two=2))
                  for k, (lo, hi) in enumerate(scans)]
-        # a pixel meets at most every visible light (its list, or every light when flagged)
+        # a pixel meets at most every visible light (its list, or every light when flagged);
+        # shading reads the lists' words (their state in band), never the cells' records
         shade = shading_passes(build, "fptl_shade.comp",
-                               ("fptl_lists", "fptl_cells", "fptl_spill_heads", "fptl_spill"),
+                               ("fptl_lists", "fptl_spill_heads", "fptl_spill"),
                                longest=n, defines=dict(common, FPTL_TYPE_LOOPS=int(opts.type_loops)),
                                uniforms=grid_u)
         counts = HostStep("fptl counts", ("fptl_cells", "fptl_counter"),
@@ -330,25 +363,29 @@ class Fptl(Technique):
         return {"light_aabb": aabb, "fptl_lists": lists}
 
     def wave_program(self, frame, width):
-        """fptl_shade.comp: the cell's record, then its packed list and each scan window's
-        spill, every run as one loop per shape compiled (type_loops) or one loop."""
+        """fptl_shade.comp: the cell's list words (the eight blocks, or the wide formats'
+        count word), whose in-band state says the length and whether the cell spilled or
+        shades every light; then its packed list, and each scan window's spill head and
+        spill for spilled cells only; every run as one loop per shape compiled (type_loops)
+        or one loop."""
         prog = waves.Program(frame, width)
         b, opts = frame.build, frame.opts
+        bits = index_bits(len(b.lights))
         lanes = np.nonzero(frame.shading)[0]
-        cells = frame.read("fptl_cells").view(FPTL_CELL)
+        words = frame.read("fptl_lists")
+        listed, state = decode_state(words, bits)
         cell = frame.cell[lanes]
-        prog.add(lanes, head=cell_head(prog, lanes, "fptl_cells", FPTL_CELL))
-        full = (cells["flags"][cell] & FLAG_POOL_FULL) != 0
+        prog.add(lanes, head=("cell", "fptl_lists", cell * list_words(bits) * 4,
+                              state_bytes(bits), False))
+        full = (state[cell] & FLAG_POOL_FULL) != 0
         add_all_lights(prog, lanes[full], step=1, branch=1)
         lanes, cell = lanes[~full], cell[~full]
         shapes = np.unique(b.lights.type)            # the shapes whose loops are compiled
-        idx, off = decode_lists(frame.read("fptl_lists"), index_bits(len(b.lights)))
+        idx, off = decode_lists(words, bits)
         main = prog.add_list(idx.ravel(), entry_off=off.ravel(), entry_buf="fptl_lists")
-        pruned = cells["pruned"][cell].astype(np.int64)
-        _add_runs(prog, lanes, main, cell * LIST_CAP, np.minimum(pruned, LIST_CAP), 8, shapes,
-                  opts.type_loops)
+        _add_runs(prog, lanes, main, cell * LIST_CAP, listed[cell], 8, shapes, opts.type_loops)
         heads = np.ascontiguousarray(frame.read("fptl_spill_heads")).view(np.uint32).reshape(-1, 2).astype(np.int64)
-        spilled = pruned > LIST_CAP
+        spilled = (state[cell] & FLAG_SPILLED) != 0
         if spilled.any():
             lanes, cell = lanes[spilled], cell[spilled]
             used = int(heads.sum(1).max(initial=0))
@@ -372,16 +409,44 @@ class Fptl(Technique):
                 "pruned": (t["pruned"], "pruned lights / tile")}
 
 
+def _words(words: np.ndarray, bits: int) -> np.ndarray:
+    return np.ascontiguousarray(words).view(np.uint32).reshape(-1, list_words(bits)).astype(np.int64)
+
+
 def decode_lists(words: np.ndarray, bits: int) -> tuple[np.ndarray, np.ndarray]:
     """(cells, LIST_CAP) light indices of every cell's packed list (fptl_common.glsl
     fptl_get) and the byte offset of the word each is read from."""
-    per = LIST_CAP // list_words(bits)
-    w = np.ascontiguousarray(words).view(np.uint32).reshape(-1, list_words(bits)).astype(np.int64)
+    per = 32 // bits
+    w = _words(words, bits)
     k = np.arange(LIST_CAP)
-    word, shift = k // per, (k % per) * (32 // per)
+    word, shift = head_words(bits) + k // per, (k % per) * (32 // per)
     idx = (w[:, word] >> shift) & ((1 << bits) - 1)
     off = (np.arange(len(w))[:, None] * list_words(bits) + word) * 4
     return idx, off
+
+
+def decode_state(words: np.ndarray, bits: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per cell (entries in its blocks, state bits FLAG_SPILLED | FLAG_POOL_FULL) from its
+    words, as fptl_shade.comp decodes them (fptl_common.glsl fptl_decode_counts /
+    fptl_decode_count_word): at 10 bits the sum of the blocks' 2-bit counts, a pattern
+    with an empty block 0 and full blocks after it a spilled list (24 listed), with one
+    entry in block 1 a pool-full cell; in the wide formats the count word."""
+    w = _words(words, bits)
+    if bits != 10:
+        return w[:, 0] & 0xFF, (w[:, 0] >> 8) & STATE
+    counts = w >> 30
+    total, c0 = counts.sum(1), counts[:, 0]
+    marked = (c0 == 0) & (total != 0)
+    spilled = marked & (total == sum(SPILLED_COUNTS))
+    listed = np.where(marked, np.where(spilled, LIST_CAP, 0), total)
+    state = np.where(marked, np.where(spilled, FLAG_SPILLED, STATE), 0)
+    return listed.astype(np.int64), state.astype(np.int64)
+
+
+def state_bytes(bits: int) -> int:
+    """Bytes of a cell's words shading reads before its loops: the eight blocks whole (the
+    sum of their counts), or the wide formats' count word."""
+    return 4 * list_words(bits) if bits == 10 else 4
 
 
 def _add_runs(prog, lanes, list_id: int, first, count, step: int, shapes, type_loops: bool) -> None:

@@ -10,6 +10,9 @@ test_hard_cases, test_loop_budget).
   * the lists are the chapter's: a tile's fine list is exactly the set of lights that
     affect some pixel of the tile (the perfect culler's per-pixel lists, united per tile),
     in shape-class order, packed as R10G10B10A2 blocks whose 2-bit counts are right;
+  * shading reads the lists as stored: the length and the spill / pool-full state are in
+    band in the words (every state's encoding decodes back, and agrees with the cells'
+    records, which the shading pass does not bind);
   * every cap overflows and stays exact: coarse lists past 64, pruned lists past 24 (the
     spill), a spill pool that runs short (the cell shades every light), more than 1,024
     visible lights (16-bit indices) and the 32-bit format, scan windows on a loop-limited
@@ -55,12 +58,52 @@ def test_class_order_sorts_by_shape_class_stably():
     assert fptl.class_order(np.zeros(0, np.uint8)).size == 0
 
 
-@pytest.mark.parametrize("n,bits,words", [(0, 10, 8), (1024, 10, 8), (1025, 16, 12),
-                                          (65536, 16, 12), (65537, 32, 24)])
+@pytest.mark.parametrize("n,bits,words", [(0, 10, 8), (1024, 10, 8), (1025, 16, 13),
+                                          (65536, 16, 13), (65537, 32, 25)])
 def test_index_widths(n, bits, words):
     assert fptl.index_bits(n) == bits
     assert fptl.list_words(bits) == words
-    assert words * 32 // bits >= fptl.LIST_CAP if bits < 32 else words == fptl.LIST_CAP
+    # the chapter's 8 blocks hold 24 with no count word; the wide formats' count word first
+    assert (words - fptl.head_words(bits)) * (32 // bits) == fptl.LIST_CAP
+    assert fptl.head_words(bits) == (0 if bits == 10 else 1)
+
+
+def encode(listed: int, state: int, bits: int) -> np.ndarray:
+    """One cell's words as fptl_lists.comp writes them (fptl_common.glsl fptl_block_count,
+    fptl_count_word), indices 5, 6, 7, ... in its slots."""
+    per, w = 32 // bits, np.zeros(fptl.list_words(bits), np.uint32)
+    h = fptl.head_words(bits)
+    for k in range(fptl.LIST_CAP if state else listed):
+        w[h + k // per] |= np.uint32((5 + k) << (k % per) * bits % 32)
+    if bits == 10:
+        for b in range(8):
+            c = (fptl.POOL_FULL_COUNTS[b] if state & fptl.FLAG_POOL_FULL else
+                 fptl.SPILLED_COUNTS[b] if state & fptl.FLAG_SPILLED else min(max(listed - 3 * b, 0), 3))
+            w[b] = (int(w[b]) & 0x3FFFFFFF) | c << 30
+    else:
+        w[0] = (0 if state & fptl.FLAG_POOL_FULL else listed) | state << 8
+    return w
+
+
+@pytest.mark.parametrize("bits", [10, 16, 32])
+def test_list_state_is_in_band_and_decodes_back(bits):
+    """Every plain length 0-24, a spilled list and a pool-full cell: the words alone give the
+    length and the state (decode_state = the shader's decoding), and the 10-bit states are
+    count patterns no plain list has (an empty block 0 before full blocks), with every
+    slot still a light."""
+    cases = [(k, 0) for k in range(fptl.LIST_CAP + 1)] + \
+        [(fptl.LIST_CAP, fptl.FLAG_SPILLED), (fptl.LIST_CAP, fptl.FLAG_SPILLED | fptl.FLAG_POOL_FULL)]
+    words = np.stack([encode(k, st, bits) for k, st in cases])
+    listed, state = fptl.decode_state(words, bits)
+    want_state = [st for _, st in cases]
+    assert state.tolist() == want_state
+    assert listed.tolist() == [0 if st & fptl.FLAG_POOL_FULL else k for k, st in cases]
+    idx, _ = fptl.decode_lists(words, bits)
+    assert idx[-2].tolist() == list(range(5, 5 + fptl.LIST_CAP))      # a spilled list keeps 24
+    if bits == 10:
+        patterns = {tuple((w >> 30).tolist()) for w in words}
+        assert len(patterns) == len(cases)
+        assert tuple((words[-2] >> 30).tolist()) == fptl.SPILLED_COUNTS
 
 
 def test_tile_counts_match_a_direct_count(rng):
@@ -107,8 +150,10 @@ def render(r, opts=None, lights=None):
 
 
 def read_lists(r, res):
-    """{cell: [light indices]} decoded from the frame's buffers (fptl_common.glsl), checking
-    the R10G10B10A2 blocks' counts on the way; and the cells' records."""
+    """{cell: [light indices]} decoded from what shading reads (fptl_common.glsl): the
+    list's words, whose in-band state gives its length and whether it spilled (then the
+    spill heads) or shades every light (then every light); checking the R10G10B10A2
+    blocks' counts and the state against the cells' records on the way; and the records."""
     n = res.meta["stats"]["visible_lights"]
     bits = res.meta["stats"]["index_bits"]
     words = fptl.list_words(bits)
@@ -117,17 +162,34 @@ def read_lists(r, res):
     heads = r.read("fptl_spill_heads").reshape(-1, len(cells), 2)
     spill = r.read("fptl_spill")
     per, mask = {10: 3, 16: 2, 32: 1}[bits], {10: 0x3FF, 16: 0xFFFF, 32: 0xFFFFFFFF}[bits]
+    h0 = fptl.head_words(bits)
+    in_band, state = fptl.decode_state(lists, bits)
     out = {}
     for c, rec in enumerate(cells):
         listed = min(int(rec["pruned"]), fptl.LIST_CAP)
-        idx = [int(lists[c, k // per] >> (32 // per * (k % per))) & mask for k in range(listed)]
-        if bits == 10:     # the chapter's blocks: 2-bit count of the active indices
-            counts = (lists[c] >> 30).tolist()
+        assert state[c] == rec["flags"] & fptl.STATE, (c, state[c], rec["flags"])
+        full = bool(state[c] & fptl.FLAG_POOL_FULL)
+        if not full:
+            assert in_band[c] == listed, (c, in_band[c], listed)
+        idx = [int(lists[c, h0 + k // per] >> (32 // per * (k % per))) & mask for k in range(listed)]
+        counts = (lists[c] >> 30).tolist()
+        if bits != 10:                                   # the count word
+            assert lists[c, 0] == (0 if full else listed) | int(state[c]) << 8, c
+        elif full:
+            assert tuple(counts) == fptl.POOL_FULL_COUNTS, (c, counts)
+        elif state[c]:
+            assert tuple(counts) == fptl.SPILLED_COUNTS and listed == 24, (c, counts)
+        else:              # the chapter's blocks: 2-bit count of the active indices
             assert counts == [min(max(listed - 3 * b, 0), 3) for b in range(8)], (c, counts)
             assert sum(counts) == listed
-        for h in heads[:, c]:
-            idx += spill[h[0]:h[0] + h[1]].tolist()
-        if not rec["flags"] & fptl.FLAG_POOL_FULL:
+        if state[c] & fptl.FLAG_SPILLED:
+            for h in heads[:, c]:
+                idx += spill[h[0]:h[0] + h[1]].tolist()
+        else:
+            assert not heads[:, c, 1].any(), c
+        if full:
+            idx = list(range(n))                         # the cell shades every light
+        else:
             assert len(idx) == rec["pruned"], c
         assert all(i < n for i in idx)
         out[c] = idx
@@ -432,6 +494,52 @@ def test_scan_windows_give_the_same_lists(gl, monkeypatch):
     assert np.array_equal(cells_one["pruned"], cells_many["pruned"])
     assert np.array_equal(cells_one["coarse"], cells_many["coarse"])
     assert many.meta["stats"]["spilled_lights"] > 0
+
+
+def test_shading_reads_the_words_not_the_records(gl, monkeypatch):
+    """The shading pass binds the lists, spill heads and spill, never the cells' records;
+    records overwritten between list building and shading (every flag set, every count
+    huge) change nothing it does: the same counters as the frame with its records (spilled
+    cells), and, with a short pool (which cells it fails is the GPU's race), exact, every
+    pixel evaluating what its cell's words say (its list and spill, or every light)."""
+    from app.pipeline.passes import OUT_CELL, HostStep
+    rng = np.random.default_rng(11)
+    L = np.concatenate([crowd(60, radius=9.0), random_shapes(rng, 100, (-14, -1, -34), (14, 7, 6))])
+    passes = T.passes
+    garbage = lambda got: ({"fptl_cells": np.full(got["fptl_cells"].nbytes // 4, 0xFFFFFFFF, np.uint32)}, [])
+
+    def spoiled(build, opts):
+        steps = passes(build, opts)
+        last = max(k for k, p in enumerate(steps) if getattr(p, "name", "") == "fptl_lists")
+        return steps[:last + 1] + [HostStep("spoil records", ("fptl_cells",), garbage)] + \
+            [p for p in steps[last + 1:] if getattr(p, "name", "") != "fptl counts"]
+
+    with Renderer(make_scene(L, size=(64, 48), camera=CAMERA)) as r:
+        want = render(r)
+        shade = [p for p in passes(want.build, T.resolve_options({}))
+                 if getattr(p, "shader", "") == "fptl_shade.comp"]
+        assert shade and all("fptl_cells" not in p.reads for p in shade)
+        assert want.meta["stats"]["spilled_lights"] > 0 and want.meta["stats"]["pool_full_cells"] == 0
+        monkeypatch.setattr(T, "passes", spoiled)
+        got = render(r)
+        assert (np.ascontiguousarray(r.read("fptl_cells")).view(np.uint32) == 0xFFFFFFFF).all()
+        for k in ("evaluated", "contrib_count", "contrib_hash"):
+            assert np.array_equal(getattr(got, k), getattr(want, k)), k
+        # a short pool: some cells flagged full in their words
+        monkeypatch.setattr(fptl, "SPILL_MAX_ENTRIES", 200)
+        short = render(r)
+        bits, n = short.meta["stats"]["index_bits"], short.meta["stats"]["visible_lights"]
+        listed, state = fptl.decode_state(r.read("fptl_lists"), bits)
+        heads = r.read("fptl_spill_heads").reshape(-1, len(listed), 2).astype(np.int64)
+        cell = r.read(OUT_CELL).astype(np.int64)
+        ref = render_on(r, techniques=["brute"])
+    assert_exact({"brute": ref["brute"], "fptl": short}, "records spoiled, short pool")
+    full = (state & fptl.FLAG_POOL_FULL) != 0
+    assert full.any() and not full.all()
+    per_cell = np.where(full, n, listed + np.where(state & fptl.FLAG_SPILLED, heads[..., 1].sum(0), 0))
+    covered = np.ascontiguousarray(short.depth[::-1]).ravel() > 0
+    ev = np.ascontiguousarray(short.evaluated[::-1]).ravel()
+    assert np.array_equal(ev[covered], per_cell[cell[covered]])
 
 
 # ---------------------------------------------------------------------------- variants
