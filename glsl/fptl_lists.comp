@@ -18,8 +18,8 @@
 // (scan 1), reserves exactly its spill in the pool, and the tile scans again (scan 2) to
 // write it; the same lights in the same order, so the same positions.  A cell the pool
 // cannot hold is flagged FPTL_POOL_FULL and shades every light.  The flags also go to the
-// cell's record (fptl_cells: coarse, pruned, flags), which the statistics and the next scan
-// window read.  On a driver with a loop
+// cell's record (fptl_cells: coarse, pruned, flags; FPTL_COVERED: some pixel of the cell
+// shades), which the statistics and the next scan window read.  On a driver with a loop
 // limit a dispatch scans the class positions [u_scan.x, u_scan.y) and carries each cell's
 // state over from the previous one (fptl.scan_windows).
 // define: FPTL_PRUNE
@@ -283,5 +283,6 @@ void main() {
     // reads them
     if (me < S)
         fptl_cells[first_cell + me] = FptlCell(s_coarse, s_pruned[me],
-                                               s_flags[me] | (s_coarse > FPTL_BATCH ? FPTL_COARSE_OVER : 0u), 0u);
+                                               s_flags[me] | (s_coarse > FPTL_BATCH ? FPTL_COARSE_OVER : 0u)
+                                               | (s_dmin[me] <= s_dmax[me] ? FPTL_COVERED : 0u), 0u);
 }

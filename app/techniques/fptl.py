@@ -21,7 +21,8 @@ pixel of the tile against each light's true shape, packed as R10G10B10A2 blocks.
                                   length from their 2-bit counts (+ the spill, where the
                                   counts flag one), the chapter's fixed sequence of per-type
                                   loops -> evaluate_light_as
-    counts       (host step)      per-tile coarse / pruned counts -> meta stats, build.data
+    counts       (host step)      per-tile coarse / pruned counts, the bytes shading read
+                                  -> meta stats, build.data
 
 Variants (`fptl_variant`, bit flags like zbin's): 0 fine-pruned per tile (the chapter),
 1 coarse only (what pruning buys: the chapter's 5.4 ms -> 1.4 ms lighting), 2 fine-pruned
@@ -35,7 +36,8 @@ length the sum of the blocks' 2-bit counts; a list's two other states, spilled a
 full, are count patterns no plain list has (an empty block 0 before full blocks:
 glsl/fptl_common.glsl has the format), so no slot and no index value is given up, and only a
 flagged cell reads its spill heads.  The cells' 16-byte records (coarse, pruned, flags) are
-written for the statistics, the maps and the next scan window, never read by shading.
+written for the statistics, the maps and the next scan window, never read by shading.  Stat
+shade_bytes_per_tile: what shading reads per lit tile (list words, spill heads, spill).
 
 Where the lab departs from the chapter, and why (nothing is ever dropped silently):
   * coarse lists past 64: the chapter keeps at most 64 coarse lights in LDS.  Here the
@@ -102,10 +104,11 @@ _CLASS_LUT = np.array([CLASS_OF_TYPE[t] for t in range(len(LIGHT_TYPES))], np.ui
 _LOOP_RANK = np.array([LOOP_ORDER.index(t) for t in range(len(LIGHT_TYPES))], np.uint8)
 
 # Cell flags: the tile's coarse list passed 64 (pruned batch by batch); the cell's list
-# passed 24 (the rest in the spill); the spill pool ran short (the cell shades every light).
-# SPILLED and POOL_FULL are also in the list's words (its state in band: what shading
-# reads), with these values in the wide formats' count word.
-FLAG_COARSE_OVER, FLAG_SPILLED, FLAG_POOL_FULL = 1, 2, 4
+# passed 24 (the rest in the spill); the spill pool ran short (the cell shades every light);
+# some pixel of the cell shades (statistics).  SPILLED and POOL_FULL are also in the list's
+# words (its state in band: what shading reads), with these values in the wide formats'
+# count word.
+FLAG_COARSE_OVER, FLAG_SPILLED, FLAG_POOL_FULL, FLAG_COVERED = 1, 2, 4, 8
 STATE = FLAG_SPILLED | FLAG_POOL_FULL
 # 10-bit blocks' count patterns of the two states (fptl_common.glsl): an empty block 0 before
 # full blocks, which no plain list has (it fills its blocks front to back)
@@ -134,7 +137,8 @@ def structs_glsl() -> str:
     out = [layouts.glsl_struct(n, d) for n, d in STRUCTS.items()]
     out += [f"#define FPTL_TILE {TILE}", f"#define FPTL_CAP {LIST_CAP}u",
             f"#define FPTL_BATCH {COARSE_BATCH}u", f"#define FPTL_COARSE_OVER {FLAG_COARSE_OVER}u",
-            f"#define FPTL_SPILLED {FLAG_SPILLED}u", f"#define FPTL_POOL_FULL {FLAG_POOL_FULL}u"]
+            f"#define FPTL_SPILLED {FLAG_SPILLED}u", f"#define FPTL_POOL_FULL {FLAG_POOL_FULL}u",
+            f"#define FPTL_COVERED {FLAG_COVERED}u"]
     return "\n".join(out) + "\n"
 
 
@@ -317,8 +321,9 @@ class Fptl(Technique):
                                ("fptl_lists", "fptl_spill_heads", "fptl_spill"),
                                longest=n, defines=dict(common, FPTL_TYPE_LOOPS=int(opts.type_loops)),
                                uniforms=grid_u)
-        counts = HostStep("fptl counts", ("fptl_cells", "fptl_counter"),
-                          lambda got: _counts(build, got["fptl_cells"], got["fptl_counter"]),
+        counts = HostStep("fptl counts", ("fptl_cells", "fptl_counter", "fptl_lists", "fptl_spill_heads"),
+                          lambda got: _counts(build, got["fptl_cells"], got["fptl_counter"],
+                                              got["fptl_lists"], got["fptl_spill_heads"]),
                           figures=True)
         return [aabb] + lists + shade + [counts]
 
@@ -449,6 +454,24 @@ def state_bytes(bits: int) -> int:
     return 4 * list_words(bits) if bits == 10 else 4
 
 
+def shade_bytes(words: np.ndarray, heads: np.ndarray, bits: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per cell the bytes fptl_shade.comp reads of the culling structure (the same for every
+    pixel of the cell), from the words and heads it reads: (list words, spill heads and
+    spill).  10 bits: the 32 B of blocks; wide: the count word and the index words the
+    list fills; a spilled cell also every scan window's head (8 B) and its spilled entries
+    (4 B each); a pool-full cell reads its state and then every light (not counted here)."""
+    listed, state = decode_state(words, bits)
+    per = 32 // bits
+    full = (state & FLAG_POOL_FULL) != 0
+    lst = np.full(len(listed), state_bytes(bits), np.int64)
+    if bits != 10:
+        lst += np.where(full, 0, 4 * (-(-listed // per)))
+    spilled = ((state & FLAG_SPILLED) != 0) & ~full
+    h = np.ascontiguousarray(heads).view(np.uint32).reshape(-1, len(listed), 2).astype(np.int64)
+    spill = np.where(spilled, 8 * h.shape[0] + 4 * h[..., 1].sum(0), 0)
+    return lst, spill
+
+
 def _add_runs(prog, lanes, list_id: int, first, count, step: int, shapes, type_loops: bool) -> None:
     """One run of a list per lane (fptl_shade.comp shade_run): its entries, in shape order,
     as one loop per shape compiled (each its own step), or one loop."""
@@ -481,8 +504,9 @@ def read_counts(build, cells: np.ndarray) -> dict[str, np.ndarray]:
             "flags": c["flags"].copy()}
 
 
-def _counts(build, cells: np.ndarray, counter: np.ndarray):
-    """Meta stats from the cells' records (untimed, after the frame)."""
+def _counts(build, cells: np.ndarray, counter: np.ndarray, words: np.ndarray, heads: np.ndarray):
+    """Meta stats from the cells' records and, for the bytes shading reads, from what
+    shading reads: the lists' words and spill heads (untimed, after the frame)."""
     t = read_counts(build, cells)
     build.data["tile_counts"] = t
     pruned, flags, coarse = t["pruned_cells"], t["flags"], t["coarse"]
@@ -499,28 +523,67 @@ def _counts(build, cells: np.ndarray, counter: np.ndarray):
         pruned_overflow_cells=int((pruned > LIST_CAP).sum()),
         pool_full_cells=int(full.sum()),
         spill_used=int(min(int(counter[0]), build.data["spill_capacity"])))
+    # bytes shading reads per tile: every cell some pixel reads (each pixel of a cell reads
+    # the same), summed per tile, over the lit tiles (coarse > 0, as the per-tile counts)
+    g = build.grid
+    lst, spill = shade_bytes(words, heads, build.stats["index_bits"])
+    covered = (np.asarray(cells).view(FPTL_CELL)["flags"] & FLAG_COVERED) != 0
+    per_tile = lambda v: np.where(covered, v, 0).reshape(g.tiles_y, g.tiles_x, g.slices).sum(2)[::-1]
+    lst_t, spill_t = per_tile(lst), per_tile(spill)
+    mean = lambda v: float(v[lit].mean()) if lit.any() else 0.0
+    build.stats.update(shade_bytes_per_tile=mean(lst_t + spill_t), shade_list_bytes_per_tile=mean(lst_t),
+                       shade_spill_bytes_per_tile=mean(spill_t),
+                       shade_bytes_max_tile=int((lst_t + spill_t).max(initial=0)))
     return {}, []
 
 
 # ---- the chapter's figures beside this run's (app/report/notes.py) ----------------------
+
+def _bytes_note(rows) -> list[str]:
+    """The bytes shading reads per lit tile (stat shade_bytes_per_tile, the chapter's
+    variant: per-tile fine lists) per scene and index format, beside the chapter's 32 B."""
+    import json
+    by: dict[tuple, list] = {}
+    for r in rows:
+        st = json.loads(r["stats"]) if r.get("stats") else {}
+        if "shade_bytes_per_tile" not in st or int(float(r.get("fptl_variant") or 0)) != 0:
+            continue
+        by.setdefault((r["scene"], int(st["index_bits"])), []).append(st)
+    if not by:
+        return []
+    parts = []
+    for (scene, bits), sts in by.items():
+        m = lambda k: sum(s[k] for s in sts) / len(sts)
+        parts.append(f"{scene} ({bits}-bit indices, {list_words(bits) * 4} B a tile stored) "
+                     f"{m('shade_bytes_per_tile'):.1f} B ({m('shade_list_bytes_per_tile'):.1f} of list "
+                     f"words, {m('shade_spill_bytes_per_tile'):.1f} of spill heads and spill)")
+    return ["The chapter stores a tile's list in 32 bytes (eight R10G10B10A2 blocks, the count "
+            "in their 2-bit fields: 1 bit a pixel), all that lighting pulls from the tile.  This "
+            "run's shading reads its lists the same way, the length and the spill flag in the "
+            "words themselves (at 10-bit indices exactly the 32 B; past 1,024 visible lights a "
+            "count word and the index words filled), plus, for lists past 24, the spill the "
+            "chapter does not have; bytes shading reads per lit tile, mean over the frames: "
+            + "; ".join(parts) + ".", ""]
+
 
 def _notes(rows) -> tuple[str, str]:
     import json
     text = ["The chapter (1920x1080 interior, AMD GCN): coarse lists cost 0.5 ms and lighting "
             "5.4 ms; fine pruning costs 1.7 ms and lighting drops to 1.4 ms; its heat maps "
             "(figures 2.4-2.6) show pruning lowering the count in almost every tile.", ""]
+    text += _bytes_note(rows)
     study = [r for r in rows if r["study"] == "fptl_variant"]
     if study:
         text += [f"This run's variant study ({study[0]['scene']}, {int(study[0]['lights'])} lights):",
                  "", "| variant | list building ms | shading ms | evaluated/px | coarse/tile | "
-                 "pruned/tile | culling bytes |", "|---|---|---|---|---|---|---|"]
+                 "pruned/tile | shading reads B/tile | culling bytes |", "|---|---|---|---|---|---|---|---|"]
         for r in sorted(study, key=lambda r: int(r["fptl_variant"])):
             st = json.loads(r["stats"]) if r.get("stats") else {}
             build_ms = float(r.get("gpu_cull_ms") or 0)      # light_aabb + fptl_lists
             text.append(f"| {VARIANTS[int(r['fptl_variant'])]} | {build_ms:.3g} | "
                         f"{float(r.get('gpu_shade_ms') or 0):.3g} | {float(r['evaluated_pp']):.3g} | "
                         f"{st.get('coarse_per_tile', 0):.3g} | {st.get('pruned_per_tile', 0):.3g} | "
-                        f"{int(r['bytes_culling']):,} |")
+                        f"{st.get('shade_bytes_per_tile', 0):.3g} | {int(r['bytes_culling']):,} |")
     path = [r for r in rows if r["study"] == "path"]
     for scene in dict.fromkeys(r["scene"] for r in path):
         st = [json.loads(r["stats"]) for r in path if r["scene"] == scene and r.get("stats")]

@@ -12,7 +12,8 @@ test_hard_cases, test_loop_budget).
     in shape-class order, packed as R10G10B10A2 blocks whose 2-bit counts are right;
   * shading reads the lists as stored: the length and the spill / pool-full state are in
     band in the words (every state's encoding decodes back, and agrees with the cells'
-    records, which the shading pass does not bind);
+    records, which the shading pass does not bind); the bytes it reads per tile (stat
+    shade_bytes_per_tile) are the chapter's 32 B, plus the spill where there is one;
   * every cap overflows and stays exact: coarse lists past 64, pruned lists past 24 (the
     spill), a spill pool that runs short (the cell shades every light), more than 1,024
     visible lights (16-bit indices) and the 32-bit format, scan windows on a loop-limited
@@ -104,6 +105,14 @@ def test_list_state_is_in_band_and_decodes_back(bits):
         patterns = {tuple((w >> 30).tolist()) for w in words}
         assert len(patterns) == len(cases)
         assert tuple((words[-2] >> 30).tolist()) == fptl.SPILLED_COUNTS
+    lst, spill = fptl.shade_bytes(words, np.zeros((1, len(cases), 2), np.uint32), bits)
+    if bits == 10:
+        assert (lst == 32).all()                         # the chapter's 32 B, whole
+    else:
+        per = 32 // bits
+        assert lst.tolist() == [4 + (0 if st & fptl.FLAG_POOL_FULL else 4 * -(-k // per))
+                                for k, st in cases]
+    assert spill.tolist() == [8 if st == fptl.FLAG_SPILLED else 0 for _, st in cases]
 
 
 def test_tile_counts_match_a_direct_count(rng):
@@ -194,6 +203,29 @@ def read_lists(r, res):
         assert all(i < n for i in idx)
         out[c] = idx
     return out, cells
+
+
+def expected_shade_bytes(r, res, lists_of):
+    """What shading reads per lit tile (image order) from the decoded lists: the list's
+    words (32 B at 10 bits; wide: the count word and the index words filled), a spilled
+    cell's heads (8 B a scan window) and spill (4 B an entry)."""
+    st, b = res.meta["stats"], res.build
+    bits, g = st["index_bits"], b.grid
+    cells = r.read("fptl_cells").view(fptl.FPTL_CELL)
+    scans = len(b.data["scans"])
+    per_cell = np.zeros(len(cells), np.int64)
+    for c, rec in enumerate(cells):
+        if not rec["flags"] & fptl.FLAG_COVERED:
+            continue
+        if rec["flags"] & fptl.FLAG_POOL_FULL:
+            per_cell[c] = 32 if bits == 10 else 4
+            continue
+        k = len(lists_of[c])
+        per_cell[c] = 32 if bits == 10 else 4 + 4 * -(-min(k, 24) // (32 // bits))
+        if k > 24:
+            per_cell[c] += 8 * scans + 4 * (k - 24)
+    t = per_cell.reshape(g.tiles_y, g.tiles_x, g.slices).sum(2)[::-1]
+    return t[b.data["tile_counts"]["coarse"] > 0]
 
 
 def perfect_tile_sets(r, tiles_x, tiles_y):
@@ -311,6 +343,7 @@ def test_fine_lists_are_exactly_the_lights_of_the_tile_in_class_order(gl, n):
         sets, _ = perfect_tile_sets(r, 5, 3)
         res = render(r)
         lists, cells = read_lists(r, res)
+        shade_bytes = expected_shade_bytes(r, res, lists)
         ref = render_on(r, techniques=["brute"])
     assert_exact({"brute": ref["brute"], "fptl": res}, f"{n} shapes")
     key = class_key(res.build)
@@ -320,6 +353,11 @@ def test_fine_lists_are_exactly_the_lights_of_the_tile_in_class_order(gl, n):
         assert list(key[got]) == sorted(key[got]), f"tile {t}: not in class order"
     st = res.meta["stats"]
     assert st["pruned_entries"] == sum(len(s) for s in sets.values())
+    # shading reads the chapter's 32 B a lit tile, and a spilled tile's spill besides
+    assert st["index_bits"] == 10 and st["shade_list_bytes_per_tile"] == 32.0
+    assert st["shade_bytes_per_tile"] == pytest.approx(shade_bytes.mean())
+    assert (st["shade_spill_bytes_per_tile"] == 0) == (st["pruned_overflow_cells"] == 0)
+    assert (shade_bytes > 32).sum() == st["pruned_overflow_cells"]
     assert st["coarse_entries"] >= st["pruned_entries"]
     assert (cells["coarse"] >= cells["pruned"]).all()
     if n >= 120:
@@ -372,6 +410,7 @@ def test_coarse_past_64_and_pruned_past_24_spill_and_stay_exact(gl):
     with Renderer(make_scene(L, size=(48, 32), camera=CAMERA)) as r:
         res = render(r)
         lists, cells = read_lists(r, res)
+        want = expected_shade_bytes(r, res, lists)
         ref = render_on(r, techniques=["brute"])
     assert_exact({"brute": ref["brute"], "fptl": res}, "crowded tiles")
     st = res.meta["stats"]
@@ -384,6 +423,9 @@ def test_coarse_past_64_and_pruned_past_24_spill_and_stay_exact(gl):
     assert st["spill_used"] == k * (n - 24) <= st["spill_capacity"]
     flags = cells["flags"][lit]
     assert (flags & fptl.FLAG_COARSE_OVER).all() and (flags & fptl.FLAG_SPILLED).all()
+    # a spilled tile reads its 32 B, each scan window's head and its spill, nothing more
+    assert st["shade_bytes_per_tile"] == pytest.approx(want.mean())
+    assert st["shade_bytes_max_tile"] == want.max() == 32 + 8 * len(res.build.data["scans"]) + 4 * (n - 24)
     lit_px = res.contrib_count > 0
     assert (res.evaluated[lit_px] == n).all() and (res.contrib_count == n).mean() > 0.5
     assert all(sorted(v) == list(range(n)) for t, v in lists.items() if lit[t])
@@ -551,6 +593,8 @@ def test_variants_are_exact_and_ordered(gl, rng):
     with Renderer(scene) as r:
         res = {v: render(r, {"fptl_variant": v}) for v in range(4)}
         ref = render_on(r, techniques=["brute"])
+        cells_v = render(r, {"fptl_variant": 2})        # per-cell lists: the bytes a tile's cells read
+        cell_bytes = expected_shade_bytes(r, cells_v, read_lists(r, cells_v)[0])
     for v, x in res.items():
         assert_exact({"brute": ref["brute"], "fptl": x}, fptl.VARIANTS[v])
         assert x.meta["stats"]["variant"] == fptl.VARIANTS[v]
@@ -562,6 +606,8 @@ def test_variants_are_exact_and_ordered(gl, rng):
     per_pixel = np.repeat(np.repeat(t["coarse"], 16, 0), 16, 1)[:48, :80]
     assert np.array_equal(res[1].evaluated[covered], per_pixel[covered])
     assert res[2].meta["stats"]["slices"] == fptl.CELL_SLICES
+    assert cells_v.meta["stats"]["shade_bytes_per_tile"] == pytest.approx(cell_bytes.mean())
+    assert cells_v.meta["stats"]["shade_list_bytes_per_tile"] > res[0].meta["stats"]["shade_list_bytes_per_tile"]
     assert res[2].meta["bytes"]["fptl_lists"] == res[0].meta["bytes"]["fptl_lists"] * fptl.CELL_SLICES
 
 
