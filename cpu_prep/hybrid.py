@@ -70,14 +70,15 @@ def choose_trees(grid: Grid, offsets, entries, depth_lo, depth_hi, max_depth: fl
 
 def plan_and_build(grid: Grid, offsets, entries, depth_lo, depth_hi, max_depth: float,
                    radius_scale: float, lights_per_leaf: int, max_leaves: int,
-                   arena: Arena | None = None):
-    """Listing 2's choice and the cells' trees (a list: a one-leaf tree): (cell_ranges,
-    nodes, leaves per cell, is_tree), as choose_trees() then tree.build_trees() give them."""
+                   arena: Arena | None = None, build: int = treemod.BUILD_BOTTOMUP):
+    """Listing 2's choice and the cells' trees (a list: a one-leaf tree; build: the tree
+    cells' bottom-up or top-down build, cpu_prep.tree): (cell_ranges, nodes, leaves per cell,
+    is_tree), as choose_trees() then tree.build_trees() give them."""
     if parallel():
         is_tree = choose_trees(grid, offsets, entries, depth_lo, depth_hi, max_depth, radius_scale)
         ranges, nodes, leaves = treemod.build_trees(offsets, entries, depth_lo, depth_hi, is_tree,
-                                                    lights_per_leaf, max_leaves, arena)
+                                                    lights_per_leaf, max_leaves, arena, build)
         return ranges, nodes, leaves, is_tree
     lo_s, hi_s = cell_depth_ranges(grid, max_depth)
     return treemod.plan_trees(offsets, entries, depth_lo, depth_hi, lo_s, hi_s, grid.slices,
-                              radius_scale, lights_per_leaf, max_leaves, arena)
+                              radius_scale, lights_per_leaf, max_leaves, arena, build)

@@ -12,6 +12,12 @@ A cell stored as a list is a one-node tree whose root is a leaf (paper 3.4).  Fa
 the 16-bit light count: a cell whose lights would overflow one leaf gets more leaves
 (ceil(n / 65535), rounded to a power of two), so a "list" of 70,000 lights is a two-leaf tree.
 
+`build` BUILD_TOPDOWN (TreeOptions.tree_build 1) builds each tree cell (L > 1 leaves) top-down
+instead (cpu_prep.tree_topdown: a split per node by a surface-area-like cost over depth, at
+most the same L leaves, the same node layout, depth-first directly, not a complete tree);
+a one-leaf cell (a list) is unchanged.  With threads the trees are written at the full trees'
+offsets and moved together afterwards (_compact), so one thread and two give the same bits.
+
 One kernel builds every cell (`_build_range`), in one of two modes:
 
   given   the leaf count of each cell is known (tree: every cell a tree; build_trees());
@@ -38,6 +44,12 @@ from . import layouts, parallel
 from .arena import Arena, empty
 from .layouts import NODE_BITS, NODE_FIRST_LIGHT, NODE_MAX_DEPTH, NODE_MIN_DEPTH, NODE_WORDS, node_bits
 from .limits import LimitError, NODE_MAX_LIGHTS, NODE_MAX_SKIP
+from .tree_topdown import NODE_COST, build_topdown
+
+# The tree build (TreeOptions.tree_build): the paper's bottom-up full trees, or the top-down
+# build with a split chosen per node (cpu_prep.tree_topdown).
+BUILD_BOTTOMUP, BUILD_TOPDOWN = 0, 1
+BUILDS = {BUILD_BOTTOMUP: "bottomup", BUILD_TOPDOWN: "topdown"}
 
 
 def _next_pow2(x: np.ndarray) -> np.ndarray:
@@ -187,14 +199,25 @@ def _emit(L, base, bf_min, bf_max, bf_first, bf_count, tab_order, tab_skip, tab_
 def _build_range(c_begin, c_end, offsets, entries, depth_lo, depth_hi, leaves, plan,
                  is_tree, slice_lo, slice_hi, slices, radius_scale, lights_per_leaf,
                  max_leaves, scratch, tab_order, tab_skip, tab_off, nodes_f, nodes_u,
-                 ranges_u, base):
+                 ranges_u, base, topdown, node_cost, n_max):
     """Cells c_begin .. c_end-1, their trees written one after another from node `base`.
     given mode (plan False): leaves[c] is each cell's leaf count; plan mode: leaves[c] and
-    is_tree[c] are written.  Returns the node count written."""
+    is_tree[c] are written.  topdown: a cell of L > 1 leaves gets the top-down tree of at
+    most L leaves (cpu_prep.tree_topdown; n_max: the most lights of a cell, for its scratch)
+    instead of the full one.  Returns the node count written."""
     bf_min = np.empty(scratch, np.float32)
     bf_max = np.empty(scratch, np.float32)
     bf_first = np.empty(scratch, np.int64)
     bf_count = np.empty(scratch, np.int64)
+    td = scratch + 1 if topdown else 0
+    suf_lo = np.empty(n_max if topdown else 0, np.float32)
+    suf_hi = np.empty(n_max if topdown else 0, np.float32)
+    st_a = np.empty(td, np.int64)
+    st_n = np.empty(td, np.int64)
+    st_b = np.empty(td, np.int64)
+    st_lo = np.empty(td, np.float32)
+    st_hi = np.empty(td, np.float32)
+    size = np.empty(td, np.int64)
     start = base
     s = c_begin % slices            # the cell's slice: cells are tile-major (cpu_prep.grid)
     for c in range(c_begin, c_end):
@@ -216,47 +239,71 @@ def _build_range(c_begin, c_end, offsets, entries, depth_lo, depth_hi, leaves, p
             leaves[c] = L
         else:
             L = leaves[c]
-            if L == 1:
+            if L == 1 or topdown:
                 total, lo, hi = _scan(o, n, entries, depth_lo, depth_hi, False, 0.0, 0.0)
         if L == 1:
             # a list: one leaf over all the cell's lights (its bounds are the scan's)
             b = np.uint64(base)
             nodes_f[b, NODE_MIN_DEPTH], nodes_f[b, NODE_MAX_DEPTH] = lo, hi
             nodes_u[b, NODE_FIRST_LIGHT], nodes_u[b, NODE_BITS] = o, node_bits(1, n, 1)
+            count = 1
+        elif topdown:
+            count = build_topdown(o, n, L, lo, hi, entries, depth_lo, depth_hi, lights_per_leaf,
+                                  node_cost, suf_lo, suf_hi, st_a, st_n, st_b, st_lo, st_hi,
+                                  size, nodes_f, nodes_u, base)
         else:
             # a tree (the lights are read again, from cache): a second pass for its leaves
             _leaves(o, n, L, entries, depth_lo, depth_hi, bf_min, bf_max, bf_first, bf_count)
             _emit(L, base, bf_min, bf_max, bf_first, bf_count, tab_order, tab_skip, tab_off,
                   nodes_f, nodes_u)
-        ranges_u[c, 0], ranges_u[c, 1] = base, 2 * L - 1
-        base += 2 * L - 1
+            count = 2 * L - 1
+        ranges_u[c, 0], ranges_u[c, 1] = base, count
+        base += count
     return base - start
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _build1(offsets, entries, depth_lo, depth_hi, leaves, plan, is_tree, slice_lo, slice_hi,
             slices, radius_scale, lights_per_leaf, max_leaves, scratch, tab_order, tab_skip,
-            tab_off, nodes_f, nodes_u, ranges_u):
+            tab_off, nodes_f, nodes_u, ranges_u, topdown, node_cost, n_max):
     """One thread: every cell in order, trees back to back.  Returns the node count."""
     return _build_range(0, offsets.shape[0] - 1, offsets, entries, depth_lo, depth_hi, leaves,
                         plan, is_tree, slice_lo, slice_hi, slices, radius_scale,
                         lights_per_leaf, max_leaves, scratch, tab_order, tab_skip, tab_off,
-                        nodes_f, nodes_u, ranges_u, 0)
+                        nodes_f, nodes_u, ranges_u, 0, topdown, node_cost, n_max)
 
 
 @numba.njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def _build_par(offsets, entries, depth_lo, depth_hi, leaves, node_start, slice_lo, slice_hi,
-               slices, scratch, tab_order, tab_skip, tab_off, nodes_f, nodes_u, ranges_u,
-               chunks):
+               slices, lights_per_leaf, scratch, tab_order, tab_skip, tab_off, nodes_f,
+               nodes_u, ranges_u, chunks, topdown, node_cost, n_max):
     """Threads: chunks of cells in parallel (trees are independent, paper 4.1), leaf counts
-    given, each chunk from its first cell's node_start."""
+    given, each chunk from its first cell's node_start (the full trees' offsets: a top-down
+    tree may be smaller, _compact closes the gaps)."""
     cells = offsets.shape[0] - 1
     dummy = np.zeros(0, np.bool_)
     for k in numba.prange(chunks):
         c0, c1 = k * cells // chunks, (k + 1) * cells // chunks
         _build_range(c0, c1, offsets, entries, depth_lo, depth_hi, leaves, False, dummy,
-                     slice_lo, slice_hi, slices, 1.0, 1, 1, scratch, tab_order, tab_skip,
-                     tab_off, nodes_f, nodes_u, ranges_u, node_start[c0])
+                     slice_lo, slice_hi, slices, 1.0, lights_per_leaf, 1, scratch, tab_order,
+                     tab_skip, tab_off, nodes_f, nodes_u, ranges_u, node_start[c0], topdown,
+                     node_cost, n_max)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _compact(nodes_u, ranges_u):
+    """The trees moved down to lie back to back, in cell order (an empty cell's range at
+    the next tree's start, as one thread writes it); returns the node count."""
+    w = 0
+    for c in range(ranges_u.shape[0]):
+        s, n = ranges_u[c, 0], ranges_u[c, 1]
+        if s != w:
+            for j in range(n):
+                for k in range(nodes_u.shape[1]):
+                    nodes_u[w + j, k] = nodes_u[s + j, k]
+        ranges_u[c, 0] = w
+        w += n
+    return w
 
 
 def _outputs(cells: int, nodes: int, arena: Arena | None):
@@ -265,48 +312,72 @@ def _outputs(cells: int, nodes: int, arena: Arena | None):
     return raw, ranges
 
 
-def _build_given(offsets, entries, depth_lo, depth_hi, leaves, arena):
-    """Trees of known leaf counts (leaves_per_cell)."""
+def _build_given(offsets, entries, depth_lo, depth_hi, leaves, arena, lights_per_leaf=1,
+                 topdown=False):
+    """Trees of known leaf counts (leaves_per_cell; top-down: at most those)."""
     cells = len(leaves)
     node_counts = np.where(leaves > 0, 2 * leaves - 1, 0)
     total = int(node_counts.sum())
     raw, ranges = _outputs(cells, total, arena)
     max_l = int(max(leaves.max(initial=1), 1))
+    n_max = int(np.diff(offsets).max(initial=0)) if topdown else 0
     tab_order, tab_skip, tab_off = _all_tables(max_l)
     no_slices = np.zeros(1)
+    ranges_u = ranges.view(np.uint32).reshape(cells, 2)
     if parallel():
         node_start = np.zeros(cells + 1, np.int64)
         np.cumsum(node_counts, out=node_start[1:])
         _build_par(offsets, entries, depth_lo, depth_hi, leaves, node_start, no_slices,
-                   no_slices, 1, 2 * max_l - 1, tab_order, tab_skip, tab_off, raw,
-                   raw.view(np.uint32), ranges.view(np.uint32).reshape(cells, 2),
-                   min(cells, 8 * numba.get_num_threads()) or 1)
+                   no_slices, 1, lights_per_leaf, 2 * max_l - 1, tab_order, tab_skip, tab_off,
+                   raw, raw.view(np.uint32), ranges_u,
+                   min(cells, 8 * numba.get_num_threads()) or 1, bool(topdown), NODE_COST, n_max)
+        if topdown:
+            total = _compact(raw.view(np.uint32), ranges_u)
     else:
-        _build1(offsets, entries, depth_lo, depth_hi, leaves, False, np.zeros(0, np.bool_),
-                no_slices, no_slices, 1, 1.0, 1, 1, 2 * max_l - 1, tab_order, tab_skip,
-                tab_off, raw, raw.view(np.uint32), ranges.view(np.uint32).reshape(cells, 2))
-    return ranges, raw.view(layouts.TREE_NODE).reshape(-1)
+        total = _build1(offsets, entries, depth_lo, depth_hi, leaves, False, np.zeros(0, np.bool_),
+                        no_slices, no_slices, 1, 1.0, lights_per_leaf, 1, 2 * max_l - 1,
+                        tab_order, tab_skip, tab_off, raw, raw.view(np.uint32), ranges_u,
+                        bool(topdown), NODE_COST, n_max)
+    return ranges, raw[:total].view(layouts.TREE_NODE).reshape(-1)
+
+
+def _leaves_built(ranges) -> np.ndarray:
+    """Leaves of each cell's tree as built (a tree of c nodes, every inner node with two
+    children, has (c + 1) / 2 leaves)."""
+    return (ranges["offset_count"][:, 1].astype(np.int64) + 1) // 2
 
 
 def build_trees(offsets, entries, depth_lo, depth_hi, is_tree,
-                lights_per_leaf: int, max_leaves: int, arena: Arena | None = None):
+                lights_per_leaf: int, max_leaves: int, arena: Arena | None = None,
+                build: int = BUILD_BOTTOMUP):
     """Trees for every cell of a CSR binning.
 
     offsets/entries: per-cell lists (entries index the depth-sorted light arrays);
-    depth_lo/hi: float32 conservative depth range of each light; is_tree: per-cell bool.
-    Returns (cell_ranges CELL_RANGE[cells], nodes TREE_NODE[], leaves per cell)."""
+    depth_lo/hi: float32 conservative depth range of each light; is_tree: per-cell bool;
+    build: BUILD_BOTTOMUP (full trees) or BUILD_TOPDOWN (cpu_prep.tree_topdown: at most the
+    full tree's leaves).  Returns (cell_ranges CELL_RANGE[cells], nodes TREE_NODE[], leaves
+    per cell as built)."""
+    topdown = _check_build(build)
     counts = np.diff(offsets)
     leaves = leaves_per_cell(counts, is_tree, lights_per_leaf, max_leaves)
-    ranges, nodes = _build_given(offsets, entries, depth_lo, depth_hi, leaves, arena)
-    return ranges, nodes, leaves
+    ranges, nodes = _build_given(offsets, entries, depth_lo, depth_hi, leaves, arena,
+                                 lights_per_leaf, topdown)
+    return ranges, nodes, (_leaves_built(ranges) if topdown else leaves)
+
+
+def _check_build(build: int) -> bool:
+    if build not in BUILDS:
+        raise ValueError(f"tree build must be one of {BUILDS} (got {build!r})")
+    return build == BUILD_TOPDOWN
 
 
 def plan_trees(offsets, entries, depth_lo, depth_hi, slice_lo, slice_hi, slices: int,
                radius_scale: float, lights_per_leaf: int, max_leaves: int,
-               arena: Arena | None = None):
+               arena: Arena | None = None, build: int = BUILD_BOTTOMUP):
     """The hybrid's cells: listing 2's choice (slice_lo/hi: each slice's depth range as
     cpu_prep.hybrid.choose_trees clips it) and the trees, in one pass over the lights on one
-    thread.  Returns (cell_ranges, nodes, leaves per cell, is_tree)."""
+    thread.  Returns (cell_ranges, nodes, leaves per cell as built, is_tree)."""
+    topdown = _check_build(build)
     _check_leaf_args(lights_per_leaf, max_leaves)
     cells = len(offsets) - 1
     counts = np.diff(offsets)
@@ -321,9 +392,12 @@ def plan_trees(offsets, entries, depth_lo, depth_hi, slice_lo, slice_hi, slices:
     total = _build1(offsets, entries, depth_lo, depth_hi, leaves, True, is_tree,
                     slice_lo, slice_hi, slices, float(radius_scale), lights_per_leaf,
                     max_leaves, 2 * w_max - 1, tab_order, tab_skip, tab_off, raw,
-                    raw.view(np.uint32), ranges.view(np.uint32).reshape(cells, 2))
+                    raw.view(np.uint32), ranges.view(np.uint32).reshape(cells, 2),
+                    topdown, NODE_COST, n_max if topdown else 0)
     if cells:
         _check_skip(int(leaves.max()))
+    if topdown:
+        leaves = _leaves_built(ranges)
     return ranges, raw[:total].view(layouts.TREE_NODE).reshape(-1), leaves, is_tree
 
 

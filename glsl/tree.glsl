@@ -1,5 +1,8 @@
 // Light tree traversal, tree paper listing 3: depth-first nodes, stackless, forward only.
 // Node bits (listing 1, cpu_prep.layouts.pack_node_bits): isLeaf:1 | lightCount:16 | skipCount:15.
+// Any tree laid out depth-first (pre-order) with skip count = subtree size walks correctly:
+// the bottom-up build's complete trees and the top-down build's unbalanced ones
+// (cpu_prep.tree_topdown); a hit goes to i + 1, a miss past the subtree, never backwards.
 // define: SHARED_TREE_NODES
 
 layout(std430, binding = B_NODES) readonly buffer Nodes { TreeNode nodes[]; };
