@@ -11,7 +11,9 @@ a list, b) every lane a tree (from shared memory when the group shares one), c) 
 path's wave iterations and node visits against it.  Waves are classified by listing 2's
 choice, not by the stored structure (a chosen list of more than 65,535 lights is stored as a
 small tree of lists).  `scalarize` walks the wave's distinct list cells in path a) (Drobot
-2017's container scalarization).
+2017's container scalarization).  `tree_build` (TreeOptions): the tree cells built
+bottom-up (full trees) or top-down (cpu_prep.tree_topdown; a top-down cell that stays one
+leaf is read as a list by structure, as a list of any cell is).
 """
 from dataclasses import dataclass
 import json
@@ -24,7 +26,7 @@ from ..model import waves
 from ..pipeline.passes import OUT_STATS, WAVE_DIM, WAVE_STATS, HostStep
 from .base import Technique, cell_head, entry_list, prepare_binned
 from .options import ListOptions, ScalarizeOptions, SliceOptions, TreeOptions, WaveOptions, option
-from .tree import SHARED_TREE_NODES, tree_buffers, tree_passes
+from .tree import add_shared_load, live_groups, one_tree_groups, study_notes, tree_buffers, tree_passes
 
 CELL_TREE_BIT = np.uint32(1 << 31)     # shade_hybrid.comp: listing 2 chose a tree
 CASES = {1: "list", 2: "tree", 3: "mixed"}
@@ -49,7 +51,8 @@ class Hybrid(Technique):
         with b.times.stage("build"):      # listing 2's choice and the trees, one pass
             *built, is_tree = hybridmod.plan_and_build(
                 b.grid, offsets, entries, b.lights.depth_lo, b.lights.depth_hi, frame.max_depth,
-                opts.radius_scale, opts.lights_per_leaf, opts.max_leaves, frame.arena)
+                opts.radius_scale, opts.lights_per_leaf, opts.max_leaves, frame.arena,
+                opts.tree_build)
         leaves = tree_buffers(b, offsets, entries, is_tree, opts, frame.arena, built)
         with b.times.stage("pack"):       # the choice, for the wave classification
             b.buffers["ranges"]["offset_count"][:, 1] |= is_tree.astype(np.uint32) * CELL_TREE_BIT
@@ -89,11 +92,14 @@ class Hybrid(Technique):
         tree = count > 1
         group = frame.group[lanes]
         # the group vote (groupReduce: 4 barriers): one tree, read from shared memory?
-        prog.barriers += 4 * prog.groups
-        one = _one_tree_groups(group, tree, cell, count, prog.groups)
+        prog.barriers += 4 * int(live_groups(prog).sum())
+        one = one_tree_groups(group[tree], cell[tree], count[tree], prog.groups, group[~tree])
         shared = one[group]
         prog.barriers += 5 * int(one.sum())          # the base's vote, the load's barrier
-        _add_shared_load(prog, frame, lanes[shared], first[shared], count[shared])
+        gfirst = np.zeros(prog.groups, np.int64)
+        gcount = np.zeros(prog.groups, np.int64)
+        gfirst[group[shared]], gcount[group[shared]] = first[shared], count[shared]
+        add_shared_load(prog, gfirst, gcount, one)
         prog.add_tree(lanes[shared], first[shared], count[shared], nodes, lid, step0=64,
                        shared=True)
         # the other groups: per wave all lists, all trees or mixed (native: a wave vote)
@@ -118,33 +124,6 @@ class Hybrid(Technique):
         prog.add_tree(lanes[trees], first[trees], count[trees], nodes, lid,
                        branch=1)               # in a mixed wave, after its list lanes
         return prog
-
-
-def _one_tree_groups(group, tree, cell, count, groups: int) -> np.ndarray:
-    """Per group, shade_hybrid.comp's one_tree: every shading lane a tree lane, all of one
-    cell, of at most SHARED_TREE_NODES nodes."""
-    has_tree = np.bincount(group[tree], minlength=groups) > 0
-    has_other = np.bincount(group[~tree], minlength=groups) > 0
-    lo = np.full(groups, np.iinfo(np.int64).max)
-    hi = np.full(groups, -1)
-    np.minimum.at(lo, group[tree], cell[tree])
-    np.maximum.at(hi, group[tree], cell[tree])
-    big = np.zeros(groups, np.int64)
-    np.maximum.at(big, group[tree], count[tree])
-    return has_tree & ~has_other & (lo == hi) & (big <= SHARED_TREE_NODES)
-
-
-def _add_shared_load(prog, frame, lanes, first, count) -> None:
-    """load_shared_tree (tree.glsl): invocation l of the group loads nodes l, l + 64, ..."""
-    if not len(lanes):
-        return
-    x, y = frame.pixel_xy
-    local = (y[lanes] % 8) * 8 + x[lanes] % 8
-    its = -(-np.maximum(count - local, 0) // 64)
-    k = np.repeat(np.arange(len(lanes)), its)
-    it = np.arange(len(k)) - np.repeat(np.cumsum(its) - its, its)
-    node = first[k] + local[k] + 64 * it
-    prog.add(lanes[k], step=1 + it, head=("load", "nodes", node * 16, 16, False))
 
 
 def _case_counters(build, waves, pixels):
@@ -206,4 +185,7 @@ def _notes(rows) -> tuple[str, str]:
         text.append(f"\n{a.get('waves_shared_tree', 0):.0f} waves read their one tree from shared "
                     f"memory.  The GPU time of the two is in the option study above "
                     f"(`specialised`).")
+    builds = study_notes(rows)
+    if builds:
+        text += ["", "The tree cells' build (`tree_build`):", "", builds]
     return "wave paths (tree paper 3.4)", "\n".join(text)
