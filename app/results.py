@@ -54,7 +54,7 @@ import numpy as np
 from .model.cost import GPUS
 from .model.waves import WIDTHS
 from .techniques import REGISTRY
-from .techniques.options import OptionSpec, all_specs
+from .techniques.options import CPU_PREFIX, OptionSpec, all_specs
 
 CPU_STAGES = ("cull", "sort", "bin", "build", "pack")
 UPLOAD = "upload"
@@ -63,7 +63,6 @@ FRAME_PASS = "gbuffer"         # the frame's own pass (app.pipeline.gbuffer), no
 GPU_PARTS = ("gbuffer", "cull", "shade", "lighting")
 FIXED_STUDIES = ("path", "cutoff", "cpu")
 PAPER_PREFIX = "paper_"        # paper_<name>: the papers' settings, modelled (app.bench.validation)
-CPU_PREFIX = "cpu_"            # cpu_<option>: an option study's CPU-only series
 
 _HEAD = ["study", "scene", "lights", "visible", "width", "height", "frame", "frames",
          "technique", "role"]

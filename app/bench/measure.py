@@ -141,8 +141,11 @@ def fill_floor_positions(rows: list[dict], reference: str, floor: str) -> None:
 
 
 def model_cells(figures: dict) -> dict:
-    """The modelled GPU columns and the per-wave figures of a frame (app.model)."""
+    """The modelled GPU columns and the per-wave figures of a frame (app.model); none for a
+    technique without a wave program (figures None)."""
     from ..model import cost, predict
+    if figures is None:
+        return {}
     r = {"model_version": cost.MODEL_VERSION}
     for key, m in predict.modelled(figures).items():
         r[f"model_{key}_cull_ms"], r[f"model_{key}_shade_ms"] = m["cull"], m["shade"]

@@ -121,8 +121,7 @@ class Sweep:
         renderer still holds its frame)."""
         res = self.render(renderer, job, True)
         self.keep_maps(job, res, renderer)
-        figures = predict.frame_figures(renderer, REGISTRY[job.technique], res, job.opts,
-                                        unbounded=job.cutoff < 0, budget=REPLAY_BUDGET)
+        model = self.model_cells(renderer, job, res)
         types = tuple(np.unique(self.lights_for(job)["type"]).tolist())   # shader features
         key = (self.serial, job.technique, job.opts, job.cutoff < 0, types)
         samples = measure.samples_of(res.meta) if key in self.warm else []
@@ -133,8 +132,14 @@ class Sweep:
         want = self.p.heavy_repeat if heavy else \
             self.p.repeat if job.study in ("path", "cutoff") else self.p.study_repeat
         row = self.row(job, res, renderer)
-        row.update(measure.model_cells(figures))
+        row.update(model)
         return row, samples, want
+
+    def model_cells(self, renderer, job: Job, res) -> dict:
+        """The modelled GPU columns of a frame the renderer still holds (app.model)."""
+        return measure.model_cells(predict.modelled_or_none(
+            renderer, REGISTRY[job.technique], res, job.opts, unbounded=job.cutoff < 0,
+            budget=REPLAY_BUDGET))
 
     def measure_group(self, renderer, group: list[Job], first: int, total: int) -> None:
         """Rows of a group of configurations compared with each other: each one's read-back

@@ -22,10 +22,21 @@ def frame_figures(renderer, technique, result, opts=None, unbounded: bool = Fals
     shading pass over every sample-th 8x8 group only and scales (waves.sampled); `budget`
     chooses that sample from the frame's own counters: about `budget` lane iterations (the
     lights and nodes its pixels visited) a width."""
-    if budget and result.evaluated is not None:
-        work = int(result.evaluated.sum(dtype=np.int64) + result.nodes.sum(dtype=np.int64))
+    if budget and getattr(result, "evaluated", None) is not None:
+        work = int(result.evaluated.sum(dtype=np.int64))
+        if getattr(result, "nodes", None) is not None:
+            work += int(result.nodes.sum(dtype=np.int64))
         sample = max(sample, -(-work // budget))
     return _figures(renderer, technique, result, opts, unbounded, widths, sample)[0]
+
+
+def modelled_or_none(renderer, technique, result, opts=None, **kw):
+    """frame_figures(), or None for a technique that gives no wave program (Technique's
+    default: a throw-away technique of the tests, say): its rows have no modelled columns."""
+    try:
+        return frame_figures(renderer, technique, result, opts, **kw)
+    except NotImplementedError:
+        return None
 
 
 def modelled_frame(renderer, technique, result, opts=None, sample: int = 1):

@@ -119,7 +119,9 @@ class Renderer:
         if buf is None or buf.size < nbytes:
             if buf is not None:
                 buf.release()
-            buf = self.ctx.buffer(reserve=max(nbytes, 1 << (nbytes - 1).bit_length()) if nbytes > 4096 else nbytes)
+            # a power of two, 4 KiB at least: sizes that drift by a few bytes from frame to
+            # frame (a light count's arrays) allocate nothing new
+            buf = self.ctx.buffer(reserve=max(4096, 1 << (nbytes - 1).bit_length()))
             self.buffers[name] = buf
         return buf
 

@@ -20,6 +20,10 @@ from cpu_prep import limits
 from ..errors import UserError
 
 
+# results.csv's study of an option's values run as the CPU stage alone: cpu_<option>
+# (app.results; here so that techniques' notes read it without importing the results)
+CPU_PREFIX = "cpu_"
+
 @dataclass(frozen=True)
 class OptionSpec:
     name: str                    # field name (dump meta, CSV column)

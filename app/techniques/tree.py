@@ -21,7 +21,7 @@ from ..model import waves
 from ..pipeline.passes import WAVE_DIM
 from .base import Technique, cell_head, cell_ranges, entry_list, grid_uniforms, prepare_binned, shading_passes
 from .clustered import list_buffers, list_reads
-from .options import ListOptions, TileOptions, TreeOptions, option
+from .options import CPU_PREFIX, ListOptions, TileOptions, TreeOptions, option
 
 SHARED_TREE_NODES = 128   # shared-memory copy of one tree: 128 x 16 B = 2 KiB
 
@@ -194,7 +194,6 @@ def study_notes(rows) -> str:
     per value the lights evaluated and tree nodes visited per pixel, the CPU build stage (at
     the study's resolution, and at the CPU-only series' where it ran), the GPU lighting
     measured here and modelled per GPU."""
-    from ..results import CPU_PREFIX
     text = []
     for name, labels in STUDY_VALUES.items():
         study = sorted((r for r in rows if r["study"] == name), key=lambda r: float(r[name]))

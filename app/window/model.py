@@ -25,13 +25,15 @@ class FrameModel:
         renderer, technique, opts, result = rerender()
         w, h = renderer.size
         sample = max(1, round(w * h / REPLAY_PIXELS))
-        self.ms = predict.modelled(predict.frame_figures(renderer, technique, result, opts,
-                                                         sample=sample))
+        figures = predict.modelled_or_none(renderer, technique, result, opts, sample=sample)
+        self.ms = predict.modelled(figures) if figures is not None else None
         self.key = key
         return True
 
     def line(self, key) -> str:
         """The HUD's line: modelled lighting ms (culling + shading) per GPU."""
+        if self.ms is None:
+            return "modelled GPU ms: this technique gives no wave program (app.model)"
         if not self.ms:
             return f"modelled GPU ms (v{cost.MODEL_VERSION}): once the view rests {SETTLE_S:g} s"
         parts = " ".join(f"{g.key} {self.ms[g.key]['cull'] + self.ms[g.key]['shade']:.2g}"

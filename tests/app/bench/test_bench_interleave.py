@@ -78,6 +78,9 @@ class FirstRenders(Sweep):
     def keep_maps(self, job, res, renderer=None):
         pass
 
+    def model_cells(self, renderer, job, res):
+        return {}
+
     def row(self, job, res, renderer):
         return {}
 

@@ -114,7 +114,7 @@ def test_technique_notes_and_stats_column(sweep):
         if hasattr(t, "report_notes"):
             assert f"## {name}: " in text
     if "zbin" in REGISTRY:
-        assert "| 1,036,800 B |" in text and "+ 32,384 B" in text
+        assert "| 1,036,800 B (its buffer's bytes) |" in text and "+ 32,384 B (its buffer's bytes)" in text
     # each technique's maps of its own structure, when any technique has them
     if any(type(t).maps is not type(REGISTRY[with_role("reference").name]).maps
            for t in REGISTRY.values()):

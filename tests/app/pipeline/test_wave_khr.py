@@ -62,11 +62,12 @@ def khr_text(source: Source, defines: dict) -> str:
 def native_programs(gl) -> dict:
     """The program keys of native renders: every technique that takes native_wave, and
     raster's compaction variants (tile and cluster rasterizers) whose fragment stages use it."""
-    runs = [(name, {"native_wave": True}) for name in REGISTRY if takes(name, "native_wave")]
+    runs = [(name, {"native_wave": True}) for name in REGISTRY if takes(name, "native_wave")
+            and "native_wave" not in REGISTRY[name].Options().ignored()]
     runs += [(name, {"native_wave": True, "scalarize": True}) for name in REGISTRY
              if takes(name, "native_wave", "scalarize")]
     runs += [("raster", {"raster_variant": 2, "native_wave": True}),
-             ("raster", {"raster_variant": 3, "cluster": True, "native_wave": True}),
+             ("raster", {"raster_variant": 3, "cluster": True}),
              ("zbin", {"zbin_variant": 3, "native_wave": True})]
     if not glmod.limits().native_wave:
         pytest.fail("no native wave path on this driver: no native render to take programs from")
