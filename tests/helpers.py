@@ -109,10 +109,21 @@ def make_scene(lights, meshes=None, size=(96, 64), camera=None, max_depth=150.0,
 
 
 def options(name: str, **values):
-    """The technique's Options from those of `values` it declares (tests set one option
-    for every technique that has it; the CLI instead rejects an option a technique lacks)."""
+    """The technique's Options from those of `values` it declares and its mode reads (tests
+    set one option for every technique that has it; the CLI instead rejects an option a
+    technique lacks, or one that the mode its other options select ignores)."""
+    from app.errors import UserError
     t = REGISTRY[name]
-    return t.Options.make({k: v for k, v in values.items() if k in t.Options.names()})
+    mine = {k: v for k, v in values.items() if k in t.Options.names()}
+    default = t.Options().ignored()
+
+    def selects_a_mode(k) -> bool:        # alone, it changes what the technique ignores
+        try:
+            return t.Options.make({k: mine[k]}).ignored() != default
+        except UserError:                 # ignored in the default mode: selects nothing
+            return False
+    mode = t.Options.make({k: v for k, v in mine.items() if selects_a_mode(k)})
+    return t.Options.make({k: v for k, v in mine.items() if k not in mode.ignored()})
 
 
 def takes(name: str, *option_names: str) -> bool:

@@ -48,7 +48,12 @@ class Clustered(Technique):
 
     @dataclass(frozen=True)
     class Options(SliceOptions, ListOptions, WaveOptions, ScalarizeOptions):
-        pass
+        def ignored(self) -> dict[str, str]:
+            """Only the scalarized walk uses wave operations (options.py's rule)."""
+            out = dict(super().ignored())
+            if not self.scalarize:
+                out["native_wave"] = "without --scalarize (the per-lane loop has no wave operation)"
+            return out
 
     def build(self, frame, opts):
         b, offsets, entries = prepare_binned(frame, opts, opts.slices)

@@ -525,16 +525,14 @@ class Raster(Technique):
         def ignored(self) -> dict[str, str]:
             """What the mode does not read (options.py's rule): cluster mode shades with its
             own loop (none of zbin's shading options) and has no depth test, stencil or
-            tiles of bit_tile; tile mode has no clusters; zbin's loop without z-bins
-            (zbin_variant 0, 2) reads neither their count nor their mask."""
+            tiles of bit_tile; tile mode has no clusters, and its zbin loop ignores what
+            zbin.ShadingOptions.ignored says (the z-bins' count and mask without z-bins, the
+            wave ops in the base tile; compaction's wave ops follow raster_variant)."""
             if self.cluster:
                 mode = f"in cluster mode (--cluster {self.cluster})"
                 return dict.fromkeys(CLUSTER_IGNORES, mode)
-            out = dict(super().ignored())
+            out = dict(super().ignored())          # zbin's shading loop's (ShadingOptions)
             out.update(dict.fromkeys(("cluster_tile", "cluster_slices"), "in tile mode (--cluster 0)"))
-            if not variant_flags(self.zbin_variant)[0]:
-                out.update(dict.fromkeys(("zbins", "printed_mask"),
-                                         f"without z-bins (--zbin-variant {self.zbin_variant})"))
             return out
 
     # ---- CPU stage ---------------------------------------------------------------------

@@ -115,6 +115,18 @@ class ShadingOptions(WaveOptions):
                                        "(the first's head too) once the range is 32 or wider "
                                        "(more evaluations, still exact)", study=(False, True))
 
+    def ignored(self) -> dict[str, str]:
+        """What shade_zbin.comp's variant does not read (options.py's rule): without z-bins
+        (variants 0, 2) neither their count nor their mask; the base tile (0) no wave op."""
+        masked, scalarized = variant_flags(self.zbin_variant)
+        out = dict(super().ignored())
+        mode = f"without z-bins (--zbin-variant {self.zbin_variant})"
+        if not masked:
+            out.update(zbins=mode, printed_mask=mode)
+        if not masked and not scalarized:
+            out["native_wave"] = "in the base tile (--zbin-variant 0: no wave operation)"
+        return out
+
 
 DEPTH_GROUP = 64              # zbin_tile_depth.comp: one 8x8 group a tile
 
