@@ -17,6 +17,9 @@ def describe(value) -> str:
     return f"{value:g}" if isinstance(value, float) else str(value)
 
 
+_UNSET = object()          # set(): the option had no panel change before
+
+
 class WindowOptions:
     """{option name: value} of the given flags, and each technique's Options (the given
     flags it declares, then the panel's changes)."""
@@ -45,8 +48,19 @@ class WindowOptions:
             from ..errors import UserError
             raise UserError(f"{technique.name} has no option {flag(name)}")
         value = spec.check(value, technique.name)
-        self.changed.setdefault(technique.name, {})[name] = value
+        mine = self.changed.setdefault(technique.name, {})
+        before = mine.get(name, _UNSET)
+        mine[name] = value
         self._made.pop(technique.name, None)
+        try:                 # the combination too: an option the new mode ignores is refused
+            self.for_technique(technique)
+        except Exception:
+            if before is _UNSET:
+                del mine[name]
+            else:
+                mine[name] = before
+            self._made.pop(technique.name, None)
+            raise
         return value
 
     def reset(self, technique) -> None:

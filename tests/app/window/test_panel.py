@@ -212,3 +212,15 @@ def test_one_heat_definition_and_exposure():
     # ambient is display only and lifts unlit geometry off black
     dark = images.display(np.zeros((1, 1, 3), np.float32), np.full((1, 1, 3), 0.5, np.float32), 8.0, 0.02)
     assert 20 < int(dark.max()) < 60
+
+
+def test_a_panel_change_the_mode_refuses_is_rolled_back():
+    """raster: stencil on, then cluster mode (which ignores the stencil) is refused in one
+    line and the panel keeps the last accepted options (options.py's rule)."""
+    raster = REGISTRY["raster"]
+    w = WindowOptions({})
+    w.set(raster, "stencil", True)
+    with pytest.raises(UserError, match="ignored in cluster mode"):
+        w.set(raster, "cluster", 1)
+    opts, _ = w.for_technique(raster)
+    assert opts.stencil and opts.cluster == 0
