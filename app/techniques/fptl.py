@@ -317,10 +317,14 @@ class Fptl(Technique):
                  for k, (lo, hi) in enumerate(scans)]
         # a pixel meets at most every visible light (its list, or every light when flagged);
         # shading reads the lists' words (their state in band), never the cells' records
+        # per 2.5D cell, lanes of one vector walk different lists, in one loop per shape and
+        # run: their parts add up in the driver's loop budget (base.windows' steps)
+        _, per_cell = variant_flags(opts.fptl_variant)
+        steps = len(LOOP_ORDER) * (1 + len(scans)) if per_cell else 1
         shade = shading_passes(build, "fptl_shade.comp",
                                ("fptl_lists", "fptl_spill_heads", "fptl_spill"),
                                longest=n, defines=dict(common, FPTL_TYPE_LOOPS=int(opts.type_loops)),
-                               uniforms=grid_u)
+                               uniforms=grid_u, steps=steps)
         counts = HostStep("fptl counts", ("fptl_cells", "fptl_counter", "fptl_lists", "fptl_spill_heads"),
                           lambda got: _counts(build, got["fptl_cells"], got["fptl_counter"],
                                               got["fptl_lists"], got["fptl_spill_heads"]),
