@@ -4,7 +4,7 @@ GPUs, from their public specifications alone.  Version MODEL_VERSION.
 Nothing here is fitted to any paper's results: the GPU constants are the vendors' published
 figures (the sources are beside each GPU below), the instruction counts are counted from
 this lab's own GLSL (INSTRUCTIONS, with the counting rule), and the equations are the
-three throughput limits every GPU has.  A pass of figures F on GPU g (wave width W = g.wave,
+throughput limits every GPU has.  A pass of figures F on GPU g (wave width W = g.wave,
 U units (SMs / CUs) at f Hz):
 
     ALU      T_alu  = I x W / (U x lanes x f)
@@ -41,7 +41,7 @@ What it ignores, and which way that errs:
     address (atomics count as vector memory instructions), barriers (counted, not timed);
   * instruction issue details: dual issue, fused multiply-add pairs, the compiler's own
     schedule; a kernel launch's fixed cost (a few microseconds);
-  * the three limits overlap perfectly (max, not sum): a lower bound on time.
+  * the limits overlap perfectly (max, not sum): a lower bound on time.
 So read its milliseconds as a ranking and a ratio between techniques on one GPU, with an
 absolute scale to be checked against a measured GPU (scripts/gpu_check.sh), never as a
 measurement.
