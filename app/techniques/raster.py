@@ -12,6 +12,10 @@ is shaded by zbin's loop (glsl/shade_zbin.comp, any zbin_variant) over those bit
       box      the light's own box (12 triangles)
     per light (RasterProxy, CPU): margin M, the cone's apex shift and cap angle, circumscribed
       radius, the light's depth span (cpu_prep's conservative range), which faces to draw
+    A known limit: the slides' production proxies are "tightly cut to level geometry (~300
+    tris)", triangulated from each stationary light's conservative shadow map.  This lab
+    simulates no shadows (a light lights its whole volume), so a proxy cut by occluders
+    would drop pixels that light reaches: the proxies stay the light's own shape.
 
     passes: [stats twin, untimed] fill -> mark (per proxy mesh and side) -> shade
       fill   the scene's depth into the technique's own 32-bit depth target, from the
