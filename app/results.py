@@ -34,9 +34,11 @@ One row is one measured configuration (a rendered frame, or a CPU-stage-only ser
 Studies (column `study`):
     path        every technique, every scene, light count and camera-path frame
     paper_<name> the papers' own settings (1920x1080), modelled only (app.bench.validation):
-                paper_fig7, paper_zbin_table, paper_zbin_hangar, paper_fptl
+                paper_fig7, paper_zbin_table, paper_zbin_hangar, paper_fptl, paper_scenes
     <option>    one per technique option that declares study values (OptionSpec.study): its
                 values, over the techniques that declare it, on the study scene (frame 0)
+    <option>@<scene>  the same in a scene of its own (OptionSpec.also_study), read by the
+                technique's notes (raster_variant@contention)
     cutoff      the light cutoff against an unbounded reference, every technique
     cpu         the CPU stage alone (technique.build + upload) at the CPU series' resolution
     cpu_<option> the CPU stage alone over an option study's values at the CPU series'

@@ -28,8 +28,9 @@ class Job:
     def describe(self) -> str:
         if self.study == "cutoff":
             extra = "unbounded" if self.cutoff < 0 else f"t=1/{self.cutoff}"
-        elif self.study in self.opts.as_dict():
-            extra = f"{self.study}={getattr(self.opts, self.study)}"
+        elif self.study.split("@")[0] in self.opts.as_dict():
+            name = self.study.split("@")[0]
+            extra = f"{name}={getattr(self.opts, name)}"
         else:
             extra = ""
         return f"{self.study} {self.scene} {self.lights} lights f{self.frame} {self.technique} {extra}".strip()
@@ -69,4 +70,12 @@ def plan(p: Preset, light_counts: Callable[[str, tuple], tuple[int, ...]]) -> li
             jobs.append(Job("cutoff", scene, n, 0, ref, default[ref], cutoff=-1))
             for c in p.cutoffs:
                 jobs += [Job("cutoff", scene, n, 0, t, default[t], cutoff=c) for t in names]
+    # studies that also run in a scene of their own (OptionSpec.also_study), rendered last
+    for study, (spec, techs) in (option_studies().items() if p.option_studies and p.also_studies
+                                 else ()):
+        for scene in spec.also_study:
+            n = light_counts(scene, (p.study_lights,))[0]
+            for v in spec.study:
+                jobs += [Job(f"{study}@{scene}", scene, n, 0, t, default[t].with_(**{study: v}))
+                         for t in techs]
     return jobs

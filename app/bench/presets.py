@@ -36,6 +36,7 @@ class Preset:
     seed: int = 0
     cpu_threads: int = 1          # numba threads of the CPU stage (0: numba's default)
     option_studies: bool = True   # the options' declared studies (app.results.option_studies)
+    also_studies: bool = True     # ... and their second scenes (OptionSpec.also_study)
     # the papers' settings, modelled only (app.bench.validation); paper_size None: none
     paper_size: tuple[int, int] | None = (1920, 1080)
     paper_lights: tuple[int, ...] = (8192, 16384, 32768, 65536)
@@ -91,7 +92,8 @@ def preset_from_args(args) -> Preset:
         if not scenes:
             raise UserError("--scenes names no scene")
         ch.update(scenes=scenes, study_scene=scenes[0], heat_scene=scenes[-1],
-                  cpu_scene=scenes[0], cutoff_scenes=scenes[:1], paper_size=None)
+                  cpu_scene=scenes[0], cutoff_scenes=scenes[:1], paper_size=None,
+                  also_studies=False)
     if args.lights:
         lights = int_list(args.lights, "--lights")
         ch.update(lights=lights, study_lights=max(lights), cutoff_lights=min(lights))

@@ -35,6 +35,8 @@ class OptionSpec:
     study: tuple = ()            # values a benchmark study sweeps (empty: not studied)
     power_of_two: bool = False
     study_scene: str | None = None   # the builtin scene the study is about (else the preset's)
+    also_study: tuple = ()       # builtin scenes the study runs in as well, as study
+                                 # "<option>@<scene>" (the technique's notes read them)
 
     @property
     def flag(self) -> str:
@@ -72,14 +74,17 @@ def _given(spec: OptionSpec, value) -> str:
 _declared = [0]     # declaration order: options list in the order they are written
 
 
-def option(default, help: str, *, lo=None, hi=None, study=(), power_of_two=False, study_scene=None):
+def option(default, help: str, *, lo=None, hi=None, study=(), power_of_two=False, study_scene=None,
+           also_study=()):
     """A dataclass field that declares a technique option.  `study_scene`: a builtin scene
     whose content the option is about (e.g. mixed light shapes), where the benchmark runs
-    its study when the run has that scene (else in the preset's study scene)."""
+    its study when the run has that scene (else in the preset's study scene).
+    `also_study`: builtin scenes where the study runs a second time, as its own study
+    "<option>@<scene>" (the slides' contention case beside the arena)."""
     _declared[0] += 1
     return field(default=default, metadata={"option": dict(
         help=help, lo=lo, hi=hi, study=tuple(study), power_of_two=power_of_two,
-        study_scene=study_scene), "order": _declared[0]})
+        study_scene=study_scene, also_study=tuple(also_study)), "order": _declared[0]})
 
 
 @dataclass(frozen=True)

@@ -508,7 +508,7 @@ class Raster(Technique):
     class Options(ShadingOptions):          # zbin's shading loop's options (not its tile_depth)
         raster_variant: int = option(0, "the slides' tile rasterizer table: 0 atomic, 1 + 4xMSAA "
                                         "at half resolution, 2 + wave compaction, 3 both",
-                                     lo=0, hi=3, study=(0, 1, 2, 3))
+                                     lo=0, hi=3, study=(0, 1, 2, 3), also_study=("contention",))
         stencil: bool = option(False, "tile rasterizer: two-pass stencil test (front faces, then "
                                       "back faces; pixel-perfect) for proxies the eye is outside of",
                                study=(False, True))
@@ -913,16 +913,22 @@ def contention_figures(technique, size=SLIDES_SIZE) -> dict[int, dict]:
     return out
 
 
+def resolution(r) -> str:
+    return f"{int(r['width'])}x{int(r['height'])}"
+
+
 def _share(a, b) -> str:
     return f"{a / b:.0%}" if b else "-"
 
 
-def _variant_table(technique, study) -> list[str]:
+def _variant_table(technique, study, measured=()) -> list[str]:
     """The slides' tile rasterizer table beside the contention scene's counters (rendered
-    here) and the variant study's rows."""
+    here at the slides' resolution), the variant study's rows, and the contention scene's
+    own study rows (`measured`: the benchmark's "raster_variant@contention")."""
     import json
     from ..pipeline import gl
     by = {int(r["raster_variant"]): r for r in study}
+    there = {int(r["raster_variant"]): r for r in measured}
     r0 = study[0]
     try:
         con = contention_figures(technique)
@@ -946,8 +952,10 @@ def _variant_table(technique, study) -> list[str]:
                  f"the depth fill measured here, median: on a software rasterizer MSAA is "
                  f"per-sample work and atomics are cheap, so only the atomic counts carry over):",
                  "", f"| variant | slides | {CONTENTION_SCENE}: atomics | of atomic | modelled PS4 "
-                 f"| {r0['scene']}: measured | of atomic | atomics | of atomic |",
-                 "|---|---|---|---|---|---|---|---|---|"]
+                 + (f"| {CONTENTION_SCENE}: measured here, {resolution(measured[0])} | of atomic "
+                    if there else "")
+                 + f"| {r0['scene']}: measured | of atomic | atomics | of atomic |",
+                 "|---|---|---|---|---|" + ("---|---|" if there else "") + "---|---|---|---|"]
     else:
         text += [f"The slides' tile rasterizer table (\"3 x full screen lights - 240x135 - (PS4)\") "
                  f"beside this run's variant study ({r0['scene']}, {int(r0['lights'])} lights; "
@@ -963,6 +971,12 @@ def _variant_table(technique, study) -> list[str]:
             c = con[v]
             cells += [f"{c['atomics']:,}", _share(c["atomics"], con[0]["atomics"]),
                       f"{c['model_ms']:.3g} ms"]
+            if there:
+                m = there.get(v)
+                cells += ([f"{float(m['gpu_cull_ms']):.3g} ms ({float(m['gpu_cull_min_ms']):.3g}-"
+                           f"{float(m['gpu_cull_max_ms']):.3g})",
+                           _share(float(m["gpu_cull_ms"]), float(there[0]["gpu_cull_ms"]))]
+                          if m is not None and 0 in there else ["-", "-"])
         if r is None:
             cells += ["-"] * 4
         else:
@@ -1030,7 +1044,8 @@ def _notes(technique, rows) -> tuple[str, str]:
     text = []
     study = [r for r in rows if r.get("study") == "raster_variant"]
     if study:
-        text += _variant_table(technique, study)
+        text += _variant_table(technique, study, [r for r in rows if r.get("study") ==
+                                                  f"raster_variant@{CONTENTION_SCENE}"])
     text += _cluster_text([r for r in rows if r.get("study") == "cluster"])
     path = [r for r in rows if r.get("study") == "path"]
     st = [json.loads(r["stats"]) for r in path if r.get("stats")]

@@ -45,7 +45,21 @@ def test_a_study_runs_in_its_own_scene_when_the_run_has_it():
     assert spec.study_scene == "corridor" and "corridor" in QUICK.scenes
     scenes = {j.scene for j in plan(QUICK, counts) if j.study == "type_loops"}
     assert scenes == {"corridor"}
-    others = {j.scene for j in plan(QUICK, counts) if j.study not in ("path", "cutoff", "type_loops")}
+    others = {j.scene for j in plan(QUICK, counts)
+              if j.study not in ("path", "cutoff", "type_loops") and "@" not in j.study}
     assert others == {QUICK.study_scene}
     no_corridor = replace(QUICK, scenes=("arena", "city"))
     assert {j.scene for j in plan(no_corridor, counts) if j.study == "type_loops"} == {"arena"}
+
+
+def test_a_study_also_runs_in_a_second_scene():
+    """raster_variant runs in the study scene and again in the contention scene (the slides'
+    case), as study raster_variant@contention; a run narrowed with --scenes skips it."""
+    from dataclasses import replace
+    counts = lambda scene, c: tuple(c)
+    spec = option_studies()["raster_variant"][0]
+    assert spec.also_study == ("contention",)
+    jobs = [j for j in plan(QUICK, counts) if j.study == "raster_variant@contention"]
+    assert {j.scene for j in jobs} == {"contention"} and {j.technique for j in jobs} == {"raster"}
+    assert sorted(j.opts.raster_variant for j in jobs) == list(spec.study)
+    assert not [j for j in plan(replace(QUICK, also_studies=False), counts) if "@" in j.study]
