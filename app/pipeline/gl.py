@@ -5,8 +5,7 @@ Timing: GL timer queries on a real GPU; on llvmpipe they do not time compute dis
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-import ctypes
+from dataclasses import dataclass, field
 import re
 import time
 
@@ -15,6 +14,7 @@ import moderngl
 from cpu_prep.limits import SOFTWARE_LOOP_BUDGET
 
 from ..errors import UserError
+from . import rawgl
 
 _CTX: moderngl.Context | None = None
 
@@ -62,6 +62,16 @@ class Limits:
     native_ballot: bool        # the ARB path's extensions (WAVE_NATIVE = WAVE_ARB compiles)
     native_wave: str = ""      # the selected path: "khr", "arb" or "" (the emulation only)
     subgroup_size: int = 0     # GL_SUBGROUP_SIZE_KHR; 0 without KHR (ARB tells shaders only)
+    # samples -> the driver's sample positions, queried on first use (sample_positions)
+    _positions: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def sample_positions(self, samples: int) -> tuple[tuple[float, float], ...]:
+        """The driver's positions (within the pixel, 0..1) of the samples of a
+        `samples`-sample target, queried once per count on the process's context (MSAA
+        culling places its dilation by them)."""
+        if samples not in self._positions:
+            self._positions[samples] = rawgl.sample_positions(context(), samples)
+        return self._positions[samples]
 
     @property
     def wave_define(self) -> int:
@@ -137,36 +147,8 @@ def limits() -> Limits:
     return _LIMITS
 
 
-_GET_INTEGER = None
-
-
-def gl_integers(*names: int) -> tuple[int, ...]:
-    """glGetIntegerv of the current context for names moderngl's ctx.info lacks; 0 for a
-    name the driver refuses (its GL error is taken, so it is not left for later calls; an
-    error left by earlier calls is taken first, so it is not read as this one's)."""
-    global _GET_INTEGER
-    if _GET_INTEGER is None:
-        for lib in ("libOpenGL.so.0", "libGL.so.1"):     # dispatch to the current context
-            try:
-                gl = ctypes.CDLL(lib)
-                break
-            except OSError:
-                continue
-        else:
-            return (0,) * len(names)
-        gl.glGetIntegerv.argtypes = [ctypes.c_uint, ctypes.POINTER(ctypes.c_int)]
-        gl.glGetIntegerv.restype = None
-        gl.glGetError.restype = ctypes.c_uint
-        _GET_INTEGER = gl
-    out = []
-    for name in names:
-        for _ in range(16):          # GL keeps one flag per kind of error
-            if not _GET_INTEGER.glGetError():
-                break
-        v = ctypes.c_int(0)
-        _GET_INTEGER.glGetIntegerv(name, ctypes.byref(v))
-        out.append(0 if _GET_INTEGER.glGetError() else v.value)
-    return tuple(out)
+# glGetIntegerv for the names ctx.info lacks (the raw GL module's; tests and callers use this name)
+gl_integers = rawgl.get_integers
 
 
 class PassTimer:

@@ -24,6 +24,7 @@ import numpy as np
 from cpu_prep import frame as cpuframe, grid as gridmod, layouts
 from cpu_prep.arena import Arena
 from cpu_prep.camera import FrameCamera
+from . import gl
 
 # The frame's outputs, written by every technique's shading pass and read back by capture,
 # the benchmark and the window: per pixel (GL row order) and per 8x8 group.
@@ -46,6 +47,13 @@ class FrameInput:
     arena: Arena | None = None
     loop_budget: int | None = None   # the driver's loop limit per invocation (None: none)
     loop_lanes: int = 1              # ... shared by this many lanes in lockstep (gl.Limits)
+    context_limits: gl.Limits | None = None   # the renderer's; None: the process's, on use
+
+    @property
+    def limits(self) -> gl.Limits:
+        """The GL limits the frame renders under (e.g. sample_positions for MSAA culling);
+        a CPU-only frame reads them, and so makes the context, only if it asks."""
+        return self.context_limits or gl.limits()
 
     @property
     def size(self) -> tuple[int, int]:

@@ -19,7 +19,6 @@ untimed one wrote.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-import ctypes
 import time
 
 import moderngl
@@ -28,7 +27,7 @@ import numpy as np
 from cpu_prep.arena import Arena
 from cpu_prep.camera import frame_camera
 from cpu_prep.limits import WINDOW_ALL, LimitError
-from . import features as feat, gl
+from . import features as feat, gl, rawgl
 from ..errors import UserError
 from .gbuffer import GBuffer, TEXTURE_UNITS
 from .passes import (FRAME_OUTPUTS, OUT_CELL, OUT_STATS, Buffer, Build, FrameInput, HostStep, Pass,
@@ -87,7 +86,7 @@ class Renderer:
         self._vbos: dict = {}    # id(vertex array) -> (array, vbo)
         self._vaos: dict = {}
         self._blank = None       # colour target of passes that draw to no target
-        self._targets: dict = {}  # Target.name -> _OwnTarget (techniques' depth/stencil targets)
+        self._targets: dict = {}  # Target.name -> ((Target, size), rawgl.DepthTarget)
         self._frame = _Frame()
 
     @property
@@ -165,7 +164,7 @@ class Renderer:
         cam = camera or self.camera(frame, frames)
         lights = self.scene.lights if lights is None else lights
         return FrameInput(lights, cam, self.scene.max_depth or cam.far, self.arena,
-                          self.limits.loop_budget, self.limits.loop_lanes)
+                          self.limits.loop_budget, self.limits.loop_lanes, self.limits)
 
     def render(self, technique, frame: int = 0, opts=None, frames: int = 64,
                lights: np.ndarray | None = None, readback: bool = True, camera=None,
@@ -366,16 +365,17 @@ class Renderer:
             self._vaos[key] = self.ctx.vertex_array(prog, content, skip_errors=True)
         return self._vaos[key]
 
-    def _own_target(self, t: Target) -> "_OwnTarget":
+    def _own_target(self, t: Target) -> rawgl.DepthTarget:
         """The technique's Target at this frame's size (made or remade on demand)."""
         w, h = self.size
-        size = (-(-w // t.scale), -(-h // t.scale))
-        own = self._targets.get(t.name)
-        if own is None or own.spec != (t, size):
-            if own is not None:
-                own.release()
-            own = self._targets[t.name] = _OwnTarget(self.ctx, t, size)
-        return own
+        spec = (t, (-(-w // t.scale), -(-h // t.scale)))
+        held = self._targets.get(t.name)
+        if held is None or held[0] != spec:
+            if held is not None:
+                held[1].release()
+            held = self._targets[t.name] = (spec, rawgl.DepthTarget(
+                self.ctx, t.name, spec[1], t.samples, t.stencil))
+        return held[1]
 
     def _depth_test(self, test) -> None:
         if test:
@@ -395,7 +395,7 @@ class Renderer:
         ctx = self.ctx
         fbo = self._target(d.target)
         fbo.use()
-        own = self._targets[d.target.name] if isinstance(d.target, Target) else None
+        own = self._targets[d.target.name][1] if isinstance(d.target, Target) else None
         ctx.viewport = d.viewport or (0, 0, *(own.size if own else fbo.size))
         if d.clear:
             if own is not None:
@@ -420,11 +420,11 @@ class Renderer:
 
     def _draw_stencil(self, prog, d, count: int) -> None:
         """Draw.stencil: for each instance, one draw per step, the stencil test on."""
-        gl = _raw_gl()
+        raw = rawgl.lib()
         vao = self._vertex_array(prog, d)
         has_instance, has_step = "u_instance" in prog, "u_step" in prog
-        self.ctx.enable_direct(_GL_STENCIL_TEST)
-        gl.glStencilMask(0xFF)
+        self.ctx.enable_direct(rawgl.STENCIL_TEST)
+        raw.glStencilMask(0xFF)
         try:
             for i in range(d.instances):
                 if has_instance:
@@ -435,13 +435,13 @@ class Renderer:
                     self._cull(step.cull)
                     self._depth_test(step.depth_test)
                     ref = step.ref or (i % 255 + 1)
-                    gl.glStencilFunc(_STENCIL_FUNCS[step.func], ref, 0xFF)
-                    gl.glStencilOp(*(_STENCIL_OPS[o] for o in step.ops))
+                    raw.glStencilFunc(rawgl.STENCIL_FUNCS[step.func], ref, 0xFF)
+                    raw.glStencilOp(*(rawgl.STENCIL_OPS[o] for o in step.ops))
                     vao.render(MODES[d.mode], vertices=count, instances=1)
         finally:
-            gl.glStencilFunc(_STENCIL_FUNCS["always"], 0, 0xFF)
-            gl.glStencilOp(*(_STENCIL_OPS["keep"],) * 3)
-            self.ctx.disable_direct(_GL_STENCIL_TEST)
+            raw.glStencilFunc(rawgl.STENCIL_FUNCS["always"], 0, 0xFF)
+            raw.glStencilOp(*(rawgl.STENCIL_OPS["keep"],) * 3)
+            self.ctx.disable_direct(rawgl.STENCIL_TEST)
 
     # ---- outputs -------------------------------------------------------------------
 
@@ -479,123 +479,16 @@ class Renderer:
         if self._blank is not None:
             self._blank.release()
             self._blank = None
-        for t in self._targets.values():
+        for _, t in self._targets.values():
             t.release()
         self._targets.clear()
         self.programs.release()
         self.gbuffer.release()
 
 
-# ---- what moderngl 5 does not wrap: depth/stencil targets, stencil state ------------------
-
-_GL_STENCIL_TEST = 0x0B90
-_STENCIL_FUNCS = {"always": 0x0207, "equal": 0x0202, "notequal": 0x0205}
-_STENCIL_OPS = {"keep": 0x1E00, "zero": 0, "replace": 0x1E01}
-_RAW_GL = None
-
-
-def _raw_gl():
-    """The GL entry points moderngl 5 lacks, from the vendor-neutral GL library (which
-    dispatches to whichever context is current: the headless EGL one or a window's)."""
-    global _RAW_GL
-    if _RAW_GL is None:
-        for name in ("libOpenGL.so.0", "libGL.so.1"):
-            try:
-                lib = ctypes.CDLL(name)
-                break
-            except OSError:
-                continue
-        else:
-            raise UserError("stencil and own depth targets need libOpenGL.so.0 or libGL.so.1")
-        u, i, p = ctypes.c_uint, ctypes.c_int, ctypes.POINTER(ctypes.c_uint)
-        for fn, args in {"glStencilFunc": (u, i, u), "glStencilOp": (u, u, u), "glStencilMask": (u,),
-                         "glClearStencil": (i,), "glClearDepth": (ctypes.c_double,),
-                         "glDepthMask": (ctypes.c_ubyte,), "glClear": (u,),
-                         "glGenRenderbuffers": (i, p), "glDeleteRenderbuffers": (i, p),
-                         "glBindRenderbuffer": (u, u),
-                         "glRenderbufferStorageMultisample": (u, i, u, i, i),
-                         "glGenFramebuffers": (i, p), "glDeleteFramebuffers": (i, p),
-                         "glBindFramebuffer": (u, u), "glFramebufferRenderbuffer": (u, u, u, u),
-                         "glCheckFramebufferStatus": (u,),
-                         "glGetMultisamplefv": (u, u, ctypes.POINTER(ctypes.c_float))}.items():
-            getattr(lib, fn).argtypes = list(args)
-        lib.glCheckFramebufferStatus.restype = u
-        _RAW_GL = lib
-    return _RAW_GL
-
-
-class _OwnTarget:
-    """A Target: a float depth (+ 8-bit stencil) renderbuffer, `samples` per pixel, in its
-    own framebuffer (wrapped for moderngl's use() and depth_mask)."""
-    _GL_RB, _GL_FB = 0x8D41, 0x8D40
-
-    def __init__(self, ctx, t: Target, size: tuple[int, int]):
-        gl = _raw_gl()
-        self.spec, self.size, self.target = (t, size), size, t
-        self.rb, self.fb = ctypes.c_uint(), ctypes.c_uint()
-        gl.glGenRenderbuffers(1, ctypes.byref(self.rb))
-        gl.glBindRenderbuffer(self._GL_RB, self.rb.value)
-        fmt = 0x8CAD if t.stencil else 0x8CAC          # DEPTH32F_STENCIL8 | DEPTH_COMPONENT32F
-        gl.glRenderbufferStorageMultisample(self._GL_RB, int(t.samples), fmt, *size)
-        gl.glBindRenderbuffer(self._GL_RB, 0)
-        gl.glGenFramebuffers(1, ctypes.byref(self.fb))
-        gl.glBindFramebuffer(self._GL_FB, self.fb.value)
-        attach = 0x821A if t.stencil else 0x8D00       # DEPTH_STENCIL_ATTACHMENT | DEPTH_ATTACHMENT
-        gl.glFramebufferRenderbuffer(self._GL_FB, attach, self._GL_RB, self.rb.value)
-        status = gl.glCheckFramebufferStatus(self._GL_FB)
-        gl.glBindFramebuffer(self._GL_FB, 0)
-        if status != 0x8CD5:
-            self.release()
-            raise UserError(f"target '{t.name}' ({size[0]}x{size[1]}, {t.samples} samples, "
-                            f"stencil {t.stencil}) is not supported here (status {status:#x})")
-        self.fbo = ctx.detect_framebuffer(self.fb.value)
-
-    def clear(self) -> None:
-        """Depth 1 and stencil 0 (bound by the caller)."""
-        gl = _raw_gl()
-        gl.glDepthMask(1)
-        gl.glStencilMask(0xFF)
-        gl.glClearDepth(1.0)
-        gl.glClearStencil(0)
-        gl.glClear(0x100 | (0x400 if self.target.stencil else 0))
-
-    def sample_positions(self) -> list[tuple[float, float]]:
-        """The driver's sample positions (within the pixel, 0..1) of this target."""
-        gl = _raw_gl()
-        self.fbo.use()
-        out = []
-        for k in range(max(int(self.target.samples), 1)):
-            v = (ctypes.c_float * 2)()
-            gl.glGetMultisamplefv(0x8E50, k, v)       # GL_SAMPLE_POSITION
-            out.append((float(v[0]), float(v[1])))
-        return out
-
-    def release(self) -> None:
-        gl = _raw_gl()
-        if getattr(self, "fbo", None) is not None:
-            self.fbo.release()                       # deletes the framebuffer too
-            self.fbo, self.fb = None, ctypes.c_uint()
-        if self.fb.value:
-            gl.glDeleteFramebuffers(1, ctypes.byref(self.fb))
-            self.fb = ctypes.c_uint()
-        if self.rb.value:
-            gl.glDeleteRenderbuffers(1, ctypes.byref(self.rb))
-            self.rb = ctypes.c_uint()
-
-
-_SAMPLE_POSITIONS: dict = {}
-
-
 def sample_positions(samples: int) -> list[tuple[float, float]]:
-    """The driver's positions (within the pixel, 0..1) of the samples of a `samples`-sample
-    target (queried once per count on the process's context)."""
-    if samples not in _SAMPLE_POSITIONS:
-        t = _OwnTarget(gl.context(), Target("sample-probe", samples=samples), (1, 1))
-        try:
-            _SAMPLE_POSITIONS[samples] = t.sample_positions()
-        finally:
-            t.release()
-    return _SAMPLE_POSITIONS[samples]
+    """Kept for callers not yet on `frame.limits.sample_positions(samples)` (gl.Limits)."""
+    return list(gl.limits().sample_positions(samples))
 
 
 __all__ = ["Renderer", "FrameResult", "Buffer", "TEXTURE_UNITS", "sample_positions"]

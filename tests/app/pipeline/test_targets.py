@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.pipeline import features
+from app.pipeline import features, gl as glmod
 from app.pipeline.passes import Buffer, Draw, Pass, StencilStep, Target
 from app.pipeline.renderer import Renderer, sample_positions
 from scenes.model import make_lights
@@ -100,6 +100,14 @@ def test_stencil_sequence_per_instance(renderer):
 
 
 def test_sample_positions_one_per_quadrant(gl):
-    pos = sample_positions(4)
+    pos = glmod.limits().sample_positions(4)
     assert len(pos) == 4 and all(0.0 <= a < 1.0 and 0.0 <= b < 1.0 for a, b in pos)
     assert len({(int(a * 2), int(b * 2)) for a, b in pos}) == 4
+    assert sample_positions(4) == list(pos)          # the renderer's old name, until raster moves
+
+
+def test_frame_input_carries_the_renderers_limits(gl):
+    scene = make_scene(make_lights(0), size=(8, 8))
+    with Renderer(scene) as r:
+        fin = r.frame_input(0, 1)
+    assert fin.limits is r.limits and fin.limits.sample_positions(4) == r.limits.sample_positions(4)
