@@ -82,7 +82,7 @@ from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT, LIGH
 from ..model import waves
 from ..pipeline.passes import Buffer, HostStep, Pass
 from .base import Technique, add_all_lights, prepare, shading_passes
-from .options import TechniqueOptions, option
+from .options import TechniqueOptions, choice, option
 
 TILE = 16                    # the chapter's tile: 64 invocations x 2x2 pixels
 LIST_CAP = 24                # pruned lights in a tile's 8 R10G10B10A2 blocks
@@ -92,6 +92,7 @@ INDEX16_MAX = 1 << 16
 SPILL_MAX_ENTRIES = 8 << 20  # spill pool cap (32 MiB); past it cells shade every light
 CELL_SLICES = limits.DEFAULT_SLICES
 
+# fptl_variant's names (bit 0 coarse, bit 1 per cell: variant_flags)
 VARIANTS = ("fine per tile", "coarse per tile", "fine per cell", "coarse per cell")
 
 # Shape classes (chapter 2.4: sphere/capsule one execution path, cone/wedge one, box one),
@@ -252,9 +253,9 @@ class Fptl(Technique):
 
     @dataclass(frozen=True)
     class Options(TechniqueOptions):
-        fptl_variant: int = option(0, "0 fine-pruned lists per 16x16 tile (the chapter), 1 coarse "
-                                      "AABB lists only, 2 fine-pruned per 2.5D cell (16 depth "
-                                      "slices), 3 coarse per cell", lo=0, hi=3, study=(0, 1, 2, 3))
+        fptl_variant: int = choice("fine per tile", VARIANTS, "the lists: fine-pruned or coarse "
+                                   "(AABBs only), per 16x16 tile (the chapter) or per 2.5D cell "
+                                   "(16 depth slices)", study=True)
         type_loops: bool = option(True, "fptl shading: the chapter's fixed sequence of per-type "
                                         "loops, each compiled for one light shape; off: one loop "
                                         "whose light code branches on the type", study=(True, False),
@@ -278,7 +279,7 @@ class Fptl(Technique):
         bits = index_bits(n)
         classes = np.bincount(_CLASS_LUT[b.lights.type.astype(np.intp)], minlength=3)
         b.data.update(spill_capacity=capacity, scans=scan_windows(frame, n))
-        b.stats.update(variant=VARIANTS[opts.fptl_variant], tile=TILE, slices=g.slices,
+        b.stats.update(variant=opts.choice_name("fptl_variant"), tile=TILE, slices=g.slices,
                        tiles=g.tiles_x * g.tiles_y, cells=g.cells, index_bits=bits,
                        list_bytes_per_cell=list_words(bits) * 4, spill_capacity=capacity,
                        class_sphere_capsule=int(classes[0]), class_cone=int(classes[1]),

@@ -9,13 +9,18 @@ declarations, so an option is written in one place only.
 An option a technique does not declare is an error for that technique, never ignored; so is
 an option its current mode does not read (Options.ignored(): e.g. raster's stencil in cluster
 mode), set to other than its default.
+
+A variant is a choice(): its names, written once, make its help ("0 fine per tile, 1 ..."),
+its range, its study values and the name its stats give (Options.choice_name); its value is
+the name's index, an int, so the dump's meta, results.csv and the variants' bit tests read
+the number they always have.
 """
 from __future__ import annotations
 
 from dataclasses import MISSING, dataclass, field, fields, replace
 import math
 
-from cpu_prep import limits
+from cpu_prep import limits, tree as treemod
 
 from ..errors import UserError
 
@@ -37,14 +42,22 @@ class OptionSpec:
     study_scene: str | None = None   # the builtin scene the study is about (else the preset's)
     also_study: tuple = ()       # builtin scenes the study runs in as well, as study
                                  # "<option>@<scene>" (the technique's notes read them)
+    choices: tuple[str, ...] = ()    # a choice(): value k is choices[k] (kind int, lo 0)
 
     @property
     def flag(self) -> str:
         return "--" + self.name.replace("_", "-")
 
+    def label(self, value) -> str:
+        """A choice's name for `value` (else the value as the command line writes it)."""
+        return self.choices[int(value)] if self.choices else f"{value:g}"
+
     def check(self, value, where: str = "") -> object:
-        """The value converted to the option's type, or a one-line UserError."""
+        """The value converted to the option's type, or a one-line UserError.  A choice also
+        takes its name ("coarse per tile")."""
         pre = f"{where}: " if where else ""
+        if self.choices:
+            return self._check_choice(value, pre)
         if self.kind is bool:
             if not isinstance(value, (bool, int)) or value not in (0, 1):
                 raise UserError(f"{pre}{self.flag} must be true or false (got {value!r})")
@@ -62,6 +75,26 @@ class OptionSpec:
         if self.power_of_two and (v < 1 or int(v) & (int(v) - 1)):
             raise UserError(f"{pre}{self.flag} must be a power of two (got {v})")
         return v
+
+    def _check_choice(self, value, pre: str) -> int:
+        """A choice's index from its name or its number ("2", 2), else a one-line UserError
+        listing every value and name."""
+        if isinstance(value, str) and value in self.choices:
+            return self.choices.index(value)
+        try:
+            v = int(value)
+        except (TypeError, ValueError):
+            v = -1
+        if isinstance(value, bool) or isinstance(value, float) and v != value \
+                or not 0 <= v < len(self.choices):
+            raise UserError(f"{pre}{self.flag} must be one of {choice_list(self.choices)} "
+                            f"(got {value!r})")
+        return v
+
+
+def choice_list(names) -> str:
+    """'0 fine per tile, 1 coarse per tile, ...': a choice's values and names."""
+    return ", ".join(f"{k} {n}" for k, n in enumerate(names))
 
 
 def _given(spec: OptionSpec, value) -> str:
@@ -81,10 +114,28 @@ def option(default, help: str, *, lo=None, hi=None, study=(), power_of_two=False
     its study when the run has that scene (else in the preset's study scene).
     `also_study`: builtin scenes where the study runs a second time, as its own study
     "<option>@<scene>" (the slides' contention case beside the arena)."""
+    return _option_field(default, help=help, lo=lo, hi=hi, study=tuple(study),
+                         power_of_two=power_of_two, study_scene=study_scene,
+                         also_study=tuple(also_study))
+
+
+def _option_field(default, **spec):
+    """The dataclass field of an option: its OptionSpec's fields but name, kind, default."""
     _declared[0] += 1
-    return field(default=default, metadata={"option": dict(
-        help=help, lo=lo, hi=hi, study=tuple(study), power_of_two=power_of_two,
-        study_scene=study_scene, also_study=tuple(also_study)), "order": _declared[0]})
+    return field(default=default, metadata={"option": spec, "order": _declared[0]})
+
+
+def choice(default: str, names: tuple[str, ...], help: str, *, study: bool = False,
+           study_scene=None, also_study=()):
+    """A dataclass field that declares an option whose value is one of `names` (stored as
+    its index): the help lists them after `help`, the range is theirs, a study (study=True)
+    sweeps every one, and stats name a value by Options.choice_name.  `default`: a name."""
+    names = tuple(names)
+    if len(set(names)) != len(names) or default not in names:
+        raise ValueError(f"choice names {names} repeat or lack the default {default!r}")
+    return _option_field(names.index(default), help=f"{help}: {choice_list(names)}", lo=0,
+                         hi=len(names) - 1, study=tuple(range(len(names))) if study else (),
+                         study_scene=study_scene, also_study=tuple(also_study), choices=names)
 
 
 @dataclass(frozen=True)
@@ -152,6 +203,14 @@ class TechniqueOptions:
     def as_dict(self) -> dict:
         return {s.name: getattr(self, s.name) for s in self.specs()}
 
+    @classmethod
+    def spec(cls, name: str) -> OptionSpec:
+        return {s.name: s for s in cls.specs()}[name]
+
+    def choice_name(self, name: str) -> str:
+        """The name of a choice option's value ("coarse per tile"): what stats and notes say."""
+        return self.spec(name).label(getattr(self, name))
+
 
 # ---- option groups shared by several techniques (each option declared here once) ----
 
@@ -185,11 +244,11 @@ class TreeOptions(TechniqueOptions):
                              lo=1, hi=65536, power_of_two=True)
     sort_buckets: int = option(0, "0: exact depth sort; >0: the testbed's approximate bucket "
                                   "sort with this many buckets (512)", lo=0, hi=32768)
-    # a choice as an int (options are int/float/bool): cpu_prep.tree.BUILD_BOTTOMUP / _TOPDOWN
-    tree_build: int = option(0, "tree build: 0 bottomup (the paper's full trees, O(n)), "
-                                "1 topdown (a split per node minimising the expected work per "
-                                "pixel, O(n log n); cpu_prep.tree_topdown)",
-                             lo=0, hi=1, study=(0, 1))
+    # value k is cpu_prep.tree.BUILDS[k] (BUILD_BOTTOMUP, BUILD_TOPDOWN)
+    tree_build: int = choice("bottomup", tuple(treemod.BUILDS.values()),
+                             "tree build (bottomup: the paper's full trees, O(n); topdown: a "
+                             "split per node minimising the expected work per pixel, O(n log n), "
+                             "cpu_prep.tree_topdown)", study=True)
 
 
 @dataclass(frozen=True)
@@ -217,5 +276,5 @@ def all_specs(option_classes) -> dict[str, OptionSpec]:
     return out
 
 
-__all__ = ["option", "OptionSpec", "TechniqueOptions", "TileOptions", "SliceOptions",
+__all__ = ["option", "choice", "choice_list", "OptionSpec", "TechniqueOptions", "TileOptions", "SliceOptions",
            "ListOptions", "TreeOptions", "WaveOptions", "ScalarizeOptions", "all_specs", "replace"]
