@@ -442,6 +442,119 @@ def build_contention(lights: int | None = None, seed: int = 0, distribution: str
     return _finish("contention", cams, meshes, np.concatenate([big, small]))
 
 
+# --------------------------------------------------------------------------------- stress
+STRESS_RADIUS = 50.0              # Bevy's many_lights: RADIUS
+STRESS_FREQUENCY = 15             # geodesic sphere: 20 * 15^2 = 4,500 triangles (Bevy's
+                                  # icosphere of 9 subdivisions would be 5.2 million)
+STRESS_LIGHTS = 100_000           # Bevy's N_LIGHTS
+STRESS_RANGE = 0.3                # Bevy's LIGHT_RADIUS, at STRESS_LIGHTS lights and more
+STRESS_MAX_RANGE = STRESS_RADIUS / 4
+STRESS_OFFSET = 0.05              # lights sit this far off the mesh, alternately in and out
+FIBONACCI_EPSILON = 0.36          # Bevy's offset of the lattice (best mean nearest-neighbour distance)
+STRESS_CUBE = 5.0                 # Bevy's reference cube at the top of the sphere, half out of it
+
+
+def stress_range(n: int) -> float:
+    """Every light's range: Bevy's 0.3 m from 100,000 lights up (each point of the sphere is
+    then in reach of n r^2 / (4 R^2) lights: 0.9 at 100,000, 9 at 1,000,000); below that
+    count the range grows as 1 / sqrt(n), keeping 0.9 lights a point (capped at R / 4), so a
+    small draw lights as much of the sphere."""
+    if n >= STRESS_LIGHTS:
+        return STRESS_RANGE
+    return min(STRESS_RANGE * float(np.sqrt(STRESS_LIGHTS / max(n, 1))), STRESS_MAX_RANGE)
+
+
+def fibonacci_sphere(n: int) -> np.ndarray:
+    """(n, 3) float64 unit vectors: Bevy's Fibonacci spiral (golden-ratio azimuth, offset
+    polar steps), in float64 as there."""
+    i = np.arange(n, dtype=np.float64)
+    theta = 2.0 * np.pi * i / (0.5 * (1.0 + np.sqrt(5.0)))
+    phi = np.arccos(1.0 - 2.0 * (i + FIBONACCI_EPSILON) / (n - 1.0 + 2.0 * FIBONACCI_EPSILON))
+    return np.column_stack([np.cos(theta) * np.sin(phi), np.sin(theta) * np.sin(phi), np.cos(phi)])
+
+
+def geodesic_sphere(radius: float, frequency: int) -> Mesh:
+    """A class I geodesic sphere: each icosahedron face cut into frequency^2 triangles, the
+    points pushed out to `radius`; shared vertices merged (watertight), faces wound outwards."""
+    import trimesh
+    ico = trimesh.creation.icosahedron()
+    f = int(frequency)
+    i, j = np.nonzero(np.add.outer(np.arange(f + 1), np.arange(f + 1)) <= f)
+    grid = {(a, b): k for k, (a, b) in enumerate(zip(i.tolist(), j.tolist()))}
+    tris = [(grid[a, b], grid[a + 1, b], grid[a, b + 1]) for a, b in grid if a + b < f]
+    tris += [(grid[a + 1, b], grid[a + 1, b + 1], grid[a, b + 1]) for a, b in grid if a + b < f - 1]
+    tris = np.array(tris)
+    A, B, C = (ico.vertices[ico.faces[:, k]] for k in range(3))          # (20, 3) each
+    pts = (A[:, None] + (B - A)[:, None] * (i / f)[None, :, None]
+           + (C - A)[:, None] * (j / f)[None, :, None])                  # (20, P, 3)
+    pts = pts / np.linalg.norm(pts, axis=2, keepdims=True) * radius
+    faces = (tris[None] + len(i) * np.arange(20)[:, None, None]).reshape(-1, 3)
+    verts, inverse = np.unique(np.round(pts.reshape(-1, 3), 6), axis=0, return_inverse=True)
+    return Mesh(verts.astype(np.float32), inverse.reshape(-1)[faces].astype(np.int32), (1.0, 1.0, 1.0))
+
+
+def _random_rotation(rng) -> np.ndarray:
+    """A uniformly random 3x3 rotation (a normalised Gaussian quaternion)."""
+    w, x, y, z = (q := rng.normal(size=4)) / np.linalg.norm(q)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def _hue_colors(n: int, rng) -> np.ndarray:
+    """Bevy's colours: a random hue at full saturation and lightness 0.5, (n, 3) in [0, 1]."""
+    h = rng.uniform(0.0, 6.0, n)             # hue in sixths of the circle
+    return np.clip(np.column_stack([np.abs(h - 3.0) - 1.0, 2.0 - np.abs(h - 2.0),
+                                    2.0 - np.abs(h - 4.0)]), 0.0, 1.0)
+
+
+def inscribed_radius(mesh: Mesh) -> float:
+    """The distance from the origin to the nearest plane of a face of `mesh`."""
+    t = mesh.vertices.astype(np.float64)[mesh.faces]
+    n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    return float((np.abs(np.einsum("ij,ij->i", t[:, 0], n)) / np.linalg.norm(n, axis=1)).min())
+
+
+def build_stress(lights: int | None = None, seed: int = 0, distribution: str | None = None) -> Scene:
+    """Bevy's `many_lights` stress test: point lights of small range on a sphere of radius
+    50 m, lighting that sphere's mesh (a geodesic sphere, two-sided like every surface here),
+    seen from inside (the first four cameras) and from outside (the last three); the path
+    crosses the wall between them.  Light 2k sits STRESS_OFFSET inside the mesh (it lights
+    the inner face), light 2k+1 as far outside (the outer face).  `uniform` (default): Bevy's
+    Fibonacci lattice, turned by a random rotation of the seed, inside the faces' planes or
+    outside the vertices; `geometry`: area-weighted random points of the mesh's triangles,
+    pushed along the face normal.  Every light's range is `stress_range(n)` (0.3 m, Bevy's,
+    from 100,000 lights up), over twice its distance to the mesh (at most 0.12 m), so every
+    light lights it.  `lights=N`, default 100,000 (up to MAX_LIGHTS)."""
+    n, rng, dist = _check_args("stress", lights, seed, distribution, STRESS_LIGHTS, "uniform")
+    sphere = geodesic_sphere(STRESS_RADIUS, STRESS_FREQUENCY)
+    c = STRESS_CUBE / 2
+    cube = box_mesh((-c, STRESS_RADIUS - c, -c), (c, STRESS_RADIUS + c, c), (1.0, 0.75, 0.8))
+    side = np.where(np.arange(n) % 2 == 0, -1.0, 1.0)              # in, out, in, out, ...
+    if dist == "uniform":
+        shell = np.where(side < 0, inscribed_radius(sphere) - STRESS_OFFSET,
+                         STRESS_RADIUS + STRESS_OFFSET)
+        pos = fibonacci_sphere(n) @ _random_rotation(rng).T * shell[:, None]
+    else:
+        p, nrm = sample_on_geometry(n, [sphere], rng, offset=0.0)
+        nrm *= np.sign(np.einsum("ij,ij->i", p, nrm))[:, None]    # outwards
+        pos = p + (side * STRESS_OFFSET)[:, None] * nrm
+    ls = make_lights(n)
+    ls["position"] = pos
+    ls["radius"] = stress_range(n)
+    ls["color"] = _hue_colors(n, rng)
+    r = STRESS_RADIUS
+    cams = _cams([
+        ((0, 0, 0), (0, 0, -r)),                       # inside, at the centre: the far wall
+        ((0, 0, 0), (5, r - 2, 1)),                    # inside, up at the cube
+        ((0, -0.8 * r, 0.4 * r), (0, -0.8 * r, -r)),   # inside, near the wall, grazing along it
+        ((0, 0.1 * r, -0.6 * r), (0, 0, -r)),          # inside, 20 m from the wall
+        ((0, 0.6 * r, 2.8 * r), (0, 0, 0)),            # outside, the whole sphere
+        ((1.4 * r, 0.2 * r, 0.2 * r), (0, 0, 0)),      # outside, 20 m above the surface
+        ((1.2 * r, 0.9 * r, 1.2 * r), (0, r, 0)),      # outside, at the cube
+    ], near=0.1, far=1000.0)
+    return _finish("stress", cams, [sphere, cube], ls)
+
 BUILTIN_SCENES = {
     "city": build_city,
     "arena": build_arena,
@@ -449,4 +562,5 @@ BUILTIN_SCENES = {
     "gallery": build_gallery,
     "corridor": build_corridor,
     "contention": build_contention,
+    "stress": build_stress,
 }
