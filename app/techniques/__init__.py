@@ -1,38 +1,27 @@
 """The one registry of techniques: capture, the window, the benchmark, the report and the
-tests all iterate REGISTRY; a technique added here appears everywhere."""
+tests all iterate REGISTRY.  Every module of this package is imported here, in name order,
+and a technique's class registers itself at its place (`class X(Technique, register_at=N)`,
+app.techniques.base): adding a technique is adding its module, no edit here."""
+from importlib import import_module
+import pkgutil
+
 from ..errors import UserError
-from .base import ROLES, Technique
-from .brute import Brute
-from .clustered import Clustered
-from .fptl import Fptl
-from .hybrid import Hybrid
-from .perfect import Perfect
-from .raster import Raster
-from .tiled import Tiled
-from .tree import Tree
-from .zbin import ZBin
+from .base import REGISTRY, ROLES, Technique, register, unregister
 
-__all__ = ["REGISTRY", "get", "register", "unregister", "with_role", "Technique"]
-
-REGISTRY: dict[str, Technique] = {}
+__all__ = ["REGISTRY", "discover", "get", "register", "unregister", "with_role", "Technique"]
 
 
-def register(technique: Technique) -> Technique:
-    """Add a technique (its name unique, its role known); returns it."""
-    if not technique.name or technique.name in REGISTRY:
-        raise ValueError(f"technique name {technique.name!r} is empty or taken")
-    if technique.role not in ROLES:
-        raise ValueError(f"technique {technique.name}: role {technique.role!r} not in {ROLES}")
-    REGISTRY[technique.name] = technique
-    return technique
+def discover(package: str) -> list[str]:
+    """Import every module of `package`, in name order (their techniques register
+    themselves; the registry orders them by place); returns the modules' names."""
+    pkg = import_module(package)
+    names = sorted(m.name for m in pkgutil.iter_modules(pkg.__path__))
+    for name in names:
+        import_module(f"{package}.{name}")
+    return names
 
 
-def unregister(name: str) -> None:
-    REGISTRY.pop(name, None)
-
-
-for _t in (Brute(), Tiled(), Clustered(), Tree(), Hybrid(), ZBin(), Fptl(), Raster(), Perfect()):
-    register(_t)
+discover(__name__)
 
 
 def get(name: str) -> Technique:
@@ -46,4 +35,5 @@ def with_role(role: str) -> Technique:
     found = [t for t in REGISTRY.values() if t.role == role]
     if len(found) != 1:
         raise LookupError(f"{len(found)} techniques have role {role!r}")
+    assert role in ROLES, role
     return found[0]

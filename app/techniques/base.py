@@ -7,18 +7,27 @@
     Options       its own frozen dataclass of declared options (app.techniques.options)
     views         the window's views it has (app.window.views): every technique has shaded,
                   heat, diff and split; one with that structure adds tiles, slices, classes
-    glsl          shader texts of its own by file name, beside glsl/ (usually empty: its
-                  shaders are files in glsl/)
+    glsl          shader texts of its own by file name, beside glsl/: its structs and
+                  constants generated from Python (fptl_structs.glsl); usually empty
+    evaluates_per_wave  per-pixel `evaluated` depends on the wave width (scalarized loops)
     maps()        optional per-tile or per-pixel maps of its own structure for a rendered
                   frame (capture --maps, the report's technique maps)
-    report_notes()  optional: its paper's figures beside a benchmark run's (app.report.notes)
+    report_notes()  its paper's figures beside a benchmark run's (app.report.notes); none
+                  by default
     build()       the CPU stage: numpy in, GPU-layout arrays out, timed by step
     passes()      its GPU passes in order, the shading pass last (app.pipeline.passes)
     wave_program()  its shading pass as the wave replay's segments, over the frame's own
                   buffers (app.model.waves): per-wave figures for the GPU cost model
 
-A technique is one module and one line in the registry (app/techniques/__init__.py); the
-renderer, capture, window, benchmark and report need no edit for it.
+A technique is one module under app/techniques/ and nothing else: its class registers one
+instance, at its place in the registry, when its module is imported,
+
+    class Tiled(Technique, register_at=20): ...
+
+and the package imports every module it holds (app/techniques/__init__.py), so the
+renderer, capture, window, benchmark, report and registry need no edit for it.  The
+registry's order (register_at: brute 10 ... perfect 90) is the order reports and tests
+list the techniques in.
 """
 from __future__ import annotations
 
@@ -31,14 +40,50 @@ from .options import TechniqueOptions
 
 ROLES = ("technique", "reference", "floor")
 
+# The one registry: capture, the window, the benchmark, the report and the tests iterate it.
+REGISTRY: dict[str, "Technique"] = {}
+_PLACES: dict[str, float] = {}      # name -> register_at (techniques registered by hand: last)
+
+
+def register(technique: "Technique", at: float = float("inf")) -> "Technique":
+    """Add a technique (its name unique, its role known) at its place `at` in the
+    registry's order (ties and unplaced ones in registration order); returns it."""
+    if not technique.name or technique.name in REGISTRY:
+        raise ValueError(f"technique name {technique.name!r} is empty or taken")
+    if technique.role not in ROLES:
+        raise ValueError(f"technique {technique.name}: role {technique.role!r} not in {ROLES}")
+    REGISTRY[technique.name] = technique
+    _PLACES[technique.name] = at
+    ordered = sorted(REGISTRY.items(), key=lambda kv: _PLACES[kv[0]])     # stable
+    REGISTRY.clear()
+    REGISTRY.update(ordered)
+    return technique
+
+
+def unregister(name: str) -> None:
+    REGISTRY.pop(name, None)
+    _PLACES.pop(name, None)
+
 
 class Technique:
     name: str = ""
     summary: str = ""
     role: str = "technique"
     Options: type[TechniqueOptions] = TechniqueOptions
+    # shader texts of its own by file name, e.g. its structs generated from their dtypes
     glsl: dict[str, str] = {}
     views: tuple[str, ...] = ("shaded", "heat", "diff", "split")
+    # A scalarized loop evaluates the union of its wave's lights: per-pixel `evaluated`
+    # then depends on the wave width (native subgroup or emulated 64-lane group); counts,
+    # hashes and images never do (tests compare `evaluated` across widths only without it).
+    evaluates_per_wave: bool = False
+
+    def __init_subclass__(cls, register_at: float | None = None, **kw) -> None:
+        """`class X(Technique, register_at=N)`: one instance of X joins the registry at
+        place N when its module is imported (a subclass without it, e.g. a test's, does not)."""
+        super().__init_subclass__(**kw)
+        if register_at is not None:
+            register(cls(), register_at)
 
     def resolve_options(self, opts=None) -> TechniqueOptions:
         """This technique's Options from None (defaults), a dict {name: value} (checked,
@@ -71,6 +116,12 @@ class Technique:
         """{timed pass name: app.model.waves.Figures} of the GPU passes before the shading
         pass (none: a structure the CPU built)."""
         return {}
+
+    def report_notes(self, rows) -> tuple[str, str]:
+        """(title, markdown) of its paper's figures beside a benchmark run's, from this
+        technique's results rows (its meta stats in the `stats` column, JSON); empty text:
+        no section (app.report.notes)."""
+        return "", ""
 
 
 # ---- steps and passes several techniques share ------------------------------------------
@@ -176,8 +227,3 @@ def entry_list(prog, entries, duplicated: bool = False, entry_buf: str = "entrie
     if duplicated:
         return prog.add_list(entries, slot=k, light_buf="dup_lights")
     return prog.add_list(entries, entry_off=4 * k, entry_buf=entry_buf)
-
-
-def cell_ranges(build) -> np.ndarray:
-    """(cells, 2) int64 (first, count) of a CPU-built CELL_RANGE buffer."""
-    return build.buffers["ranges"]["offset_count"].astype(np.int64)

@@ -8,7 +8,7 @@ from ..model import waves
 from .base import Technique, add_all_lights, prepare, shading_passes
 
 
-class Brute(Technique):
+class Brute(Technique, register_at=10):
     name = "brute"
     summary = "every visible light at every pixel (reference)"
     role = "reference"

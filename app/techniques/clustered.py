@@ -14,34 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cpu_prep import frame as cpuframe, layouts
-
 from ..model import waves
-from .base import (Technique, add_cell_lists, cell_head, cell_ranges, entry_list, grid_uniforms,
-                   prepare_binned, shading_passes)
+from .base import Technique, add_cell_lists, cell_head, entry_list, grid_uniforms, prepare_binned, shading_passes
+from .blocks import cell_ranges, list_buffers, list_reads
 from .options import ListOptions, ScalarizeOptions, SliceOptions, WaveOptions
 
 
-def list_buffers(b, offsets, entries, duplicated: bool) -> None:
-    """ranges + entries (+ duplicated light copies) of a CSR binning."""
-    ranges = np.zeros(len(offsets) - 1, layouts.CELL_RANGE)
-    ranges["offset_count"][:, 0] = offsets[:-1]
-    ranges["offset_count"][:, 1] = np.diff(offsets)
-    b.buffers["ranges"] = ranges
-    b.buffers["entries"] = entries
-    if duplicated:
-        b.buffers["dup_lights"] = b.lights.gpu[entries]
-        cpuframe.check_buffer("duplicated light lists", b.buffers["dup_lights"].nbytes)
-    b.stats["list_entries"] = len(entries)
-    b.data["longest_list"] = int(np.diff(offsets).max(initial=0))
-
-
-def list_reads(duplicated: bool) -> tuple[str, ...]:
-    """The buffers a shading pass over CSR lists reads (lists.glsl)."""
-    return ("ranges", "entries") + (("dup_lights",) if duplicated else ())
-
-
-class Clustered(Technique):
+class Clustered(Technique, register_at=30):
     name = "clustered"
     summary = "2.5D grid of index lists (Persson 2013)"
     views = Technique.views + ("tiles", "slices")

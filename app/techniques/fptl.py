@@ -245,7 +245,7 @@ def scan_windows(frame, n: int) -> list[tuple[int, int]]:
     return [(lo, min(lo + size, n)) for lo in range(0, n, size)]
 
 
-class Fptl(Technique):
+class Fptl(Technique, register_at=70):
     name = "fptl"
     summary = "16x16 tiles, GPU screen-AABB coarse lists fine-pruned per pixel (Mikkelsen)"
     views = Technique.views + ("tiles", "slices", "maps")

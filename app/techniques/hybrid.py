@@ -26,13 +26,13 @@ from ..model import waves
 from ..pipeline.passes import OUT_STATS, WAVE_DIM, WAVE_STATS, HostStep
 from .base import Technique, cell_head, entry_list, prepare_binned
 from .options import ListOptions, ScalarizeOptions, SliceOptions, TreeOptions, WaveOptions, option
-from .tree import add_shared_load, live_groups, one_tree_groups, study_notes, tree_buffers, tree_passes
+from .blocks import add_shared_load, live_groups, one_tree_groups, study_notes, tree_buffers, tree_passes
 
 CELL_TREE_BIT = np.uint32(1 << 31)     # shade_hybrid.comp: listing 2 chose a tree
 CASES = {1: "list", 2: "tree", 3: "mixed"}
 
 
-class Hybrid(Technique):
+class Hybrid(Technique, register_at=50):
     name = "hybrid"
     summary = "2.5D grid, each cell a list or a tree (listing 2 heuristic)"
     views = Technique.views + ("tiles", "slices", "classes")

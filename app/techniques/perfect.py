@@ -48,7 +48,7 @@ def bands(counts: np.ndarray, max_band_bytes: int) -> list[tuple[int, int, int]]
     return out
 
 
-class Perfect(Technique):
+class Perfect(Technique, register_at=90):
     name = "perfect"
     summary = "exact per-pixel light lists built untimed (the shading floor)"
     role = "floor"

@@ -497,7 +497,7 @@ def proxy_vertices(light, proxy) -> np.ndarray:
     return p + mesh[:, 0:1] * e[0] * right + mesh[:, 1:2] * e[1] * upp + mesh[:, 2:3] * e[2] * f
 
 
-class Raster(Technique):
+class Raster(Technique, register_at=80):
     name = "raster"
     summary = "light proxy meshes rasterized into tile bit arrays with atomics (Drobot 2017)"
     evaluates_per_wave = True          # the zbin loop's scalarized variants (zbin.py)

@@ -27,7 +27,7 @@ def pool_entries(b) -> int:
     return max(1, min(b.grid.cells * max(len(b.lights.gpu), 1), POOL_MAX_ENTRIES))
 
 
-class Tiled(Technique):
+class Tiled(Technique, register_at=20):
     name = "tiled"
     summary = "2D tiles, min/max depth and light lists on the GPU (Andersson, Harada)"
     views = Technique.views + ("tiles",)

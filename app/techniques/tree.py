@@ -15,47 +15,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cpu_prep import frame as cpuframe, limits, tree as treemod
-
 from ..model import waves
 from ..pipeline.passes import WAVE_DIM
-from .base import Technique, cell_head, cell_ranges, entry_list, grid_uniforms, prepare_binned, shading_passes
-from .clustered import list_buffers, list_reads
-from .options import CPU_PREFIX, ListOptions, TileOptions, TreeOptions, option
+from .base import Technique, cell_head, entry_list, prepare_binned
+from .blocks import (SHARED_TREE_NODES, add_shared_load, cell_ranges, live_groups, live_pixels,
+                     one_tree_groups, study_notes, tree_buffers, tree_passes)
+from .options import ListOptions, TileOptions, TreeOptions, option
 
-SHARED_TREE_NODES = 128   # shared-memory copy of one tree: 128 x 16 B = 2 KiB
-
-
-def tree_buffers(b, offsets, entries, is_tree, opts, arena=None, built=None):
-    """built: (ranges, nodes, leaves) already made (the hybrid's cpu_prep.hybrid.plan_and_build)."""
-    if built is None:
-        with b.times.stage("build"):
-            built = treemod.build_trees(
-                offsets, entries, b.lights.depth_lo, b.lights.depth_hi, is_tree,
-                opts.lights_per_leaf, opts.max_leaves, arena, opts.tree_build)
-    ranges, nodes, leaves = built
-    with b.times.stage("pack"):
-        list_buffers(b, offsets, entries, opts.duplicated)
-        b.buffers["ranges"] = ranges
-        b.buffers["nodes"] = nodes
-        cpuframe.check_buffer("tree nodes", nodes.nbytes)
-    b.stats.update(nodes=len(nodes), trees=int((leaves > 1).sum()),
-                   lists=int((leaves == 1).sum()))
-    return leaves
-
-
-def tree_passes(build, opts, shader: str, native_wave: bool = False, defines=None):
-    """The shading pass of a technique whose cells hold trees (tree.glsl); a pixel meets at
-    most its cell's lights (the leaves split the cell's list), in as many inner loops as it
-    hits leaves (windows' `steps`)."""
-    return shading_passes(build, shader, list_reads(opts.duplicated) + ("nodes",),
-                          build.data["longest_list"], steps=limits.NODE_MAX_SKIP + 1,
-                          defines=dict(defines or {}, LIGHTS_DUPLICATED=int(opts.duplicated),
-                                       SHARED_TREE_NODES=SHARED_TREE_NODES),
-                          uniforms=grid_uniforms(build.grid), native_wave=native_wave)
-
-
-class Tree(Technique):
+class Tree(Technique, register_at=40):
     name = "tree"
     summary = "a light tree per 2D tile (O'Donnell & Chajdas 2017)"
     views = Technique.views + ("tiles", "classes")
@@ -133,87 +100,3 @@ def group_tiles(frame, grid) -> np.ndarray:
     gx = -(-frame.size[0] // WAVE_DIM)
     g = np.arange(gx * -(-frame.size[1] // WAVE_DIM), dtype=np.int64)
     return (g // gx * WAVE_DIM // grid.tile) * grid.tiles_x + g % gx * WAVE_DIM // grid.tile
-
-
-def live_groups(prog) -> np.ndarray:
-    """Per group, whether the replay walks it (a sampled replay leaves groups out)."""
-    fr = prog.frame
-    if fr.live is None:
-        return np.ones(prog.groups, bool)
-    out = np.zeros(prog.groups, bool)
-    out[fr.group[fr.live]] = True
-    return out
-
-
-def live_pixels(frame) -> np.ndarray:
-    """Every pixel of the image the replay walks, shading or not."""
-    return np.arange(len(frame.cell)) if frame.live is None else np.nonzero(frame.live)[0]
-
-
-def one_tree_groups(group, cell, count, groups: int, others=None) -> np.ndarray:
-    """Per group, whether its lanes (group, cell, node count) all read one tree of 1 ..
-    SHARED_TREE_NODES nodes and no lane of `others` (groups of shading lanes outside the
-    set) is in it: the group vote of shade_tree.comp / shade_hybrid.comp's one_tree."""
-    has = np.bincount(group, minlength=groups) > 0
-    lo = np.full(groups, np.iinfo(np.int64).max)
-    hi = np.full(groups, -1)
-    np.minimum.at(lo, group, cell)
-    np.maximum.at(hi, group, cell)
-    big = np.zeros(groups, np.int64)
-    np.maximum.at(big, group, count)
-    ok = has & (lo == hi) & (big >= 1) & (big <= SHARED_TREE_NODES)
-    if others is not None:
-        ok &= np.bincount(others, minlength=groups) == 0
-    return ok
-
-
-def add_shared_load(prog, first, count, groups) -> None:
-    """load_shared_tree (tree.glsl) in the groups `groups` (bool per group) of the tree at
-    first[g], count[g] nodes: invocation l loads nodes l, l + 64, ..., every invocation of
-    the group, shading or not (those past the image's edge are no pixel here: left out)."""
-    fr = prog.frame
-    px = live_pixels(fr)
-    g = fr.group[px]
-    px, g = px[groups[g]], g[groups[g]]
-    if not len(px):
-        return
-    x, y = fr.pixel_xy
-    local = (y[px] % WAVE_DIM) * WAVE_DIM + x[px] % WAVE_DIM
-    its = -(-np.maximum(count[g] - local, 0) // 64)
-    k = np.repeat(np.arange(len(px)), its)
-    it = np.arange(len(k)) - np.repeat(np.cumsum(its) - its, its)
-    node = first[g[k]] + local[k] + 64 * it
-    prog.add(px[k], step=1 + it, head=("load", "nodes", node * 16, 16, False))
-
-
-STUDY_VALUES = {"tree_build": treemod.BUILDS, "shared_tree": {0: "off", 1: "on"}}
-
-
-def study_notes(rows) -> str:
-    """The tree_build and shared_tree studies among one technique's results rows, as markdown:
-    per value the lights evaluated and tree nodes visited per pixel, the CPU build stage (at
-    the study's resolution, and at the CPU-only series' where it ran), the GPU lighting
-    measured here and modelled per GPU."""
-    text = []
-    for name, labels in STUDY_VALUES.items():
-        study = sorted((r for r in rows if r["study"] == name), key=lambda r: float(r[name]))
-        if not study:
-            continue
-        cpu = {float(r[name]): r for r in rows if r["study"] == CPU_PREFIX + name}
-        models = [k for k in study[0] if k.startswith("model_") and k.endswith("_lighting_ms")]
-        r0 = study[0]
-        text += [f"`{name}` ({r0['scene']}, {int(r0['lights'])} lights, frame {int(r0['frame'])}, "
-                 f"{int(r0['width'])}x{int(r0['height'])}):", "",
-                 "| value | lights evaluated / px | nodes visited / px | CPU build ms | CPU build ms, "
-                 "CPU series | GPU lighting ms here | " + " | ".join(
-                     f"modelled {k[len('model_'):-len('_lighting_ms')]} ms" for k in models) + " |",
-                 "|---|---|---|---|---|---|" + "---|" * len(models)]
-        for r in study:
-            v = float(r[name])
-            c = cpu.get(v)
-            fmt = lambda x: f"{float(x):.3g}" if x == x else "-"
-            text.append(f"| {labels.get(int(v), v)} | {fmt(r['evaluated_pp'])} | {fmt(r['nodes_pp'])} | "
-                        f"{fmt(r['cpu_build_ms'])} | {fmt(c['cpu_build_ms']) if c else '-'} | "
-                        f"{fmt(r['gpu_lighting_ms'])} | " + " | ".join(fmt(r[k]) for k in models) + " |")
-        text.append("")
-    return "\n".join(text).strip()

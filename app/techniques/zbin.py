@@ -131,7 +131,7 @@ class ShadingOptions(WaveOptions):
 DEPTH_GROUP = 64              # zbin_tile_depth.comp: one 8x8 group a tile
 
 
-class ZBin(Technique):
+class ZBin(Technique, register_at=60):
     name = "zbin"
     summary = "flat bit arrays per tile + Z-bin LUT, scalarized loop (Drobot 2017)"
     # Scalarized variants evaluate the union of the wave's lights: per-pixel `evaluated`
