@@ -56,18 +56,20 @@ def bits_bytes(width: int, height: int, tile: int, lights: int) -> int:
     return tx * ty * words_for(lights) * 4
 
 
-def choose_tile(width: int, height: int, lights: int, min_tile: int, budget_bytes: int) -> int:
-    """The bit arrays' tile: `min_tile` (Drobot: 8 px), doubled until tiles x words x 4 bytes
-    fit `budget_bytes` (Unity URP Forward+ doubles its tile size against a word budget), or
-    until one tile covers the screen.  Refuses (LimitError) bit arrays past the storage-block
+def choose_tile(width: int, height: int, lights: int, min_tile: int, budget_bytes: int,
+                slices: int = 1) -> int:
+    """The bit arrays' tile: `min_tile` (Drobot: 8 px), doubled until tiles x slices x words
+    x 4 bytes fit `budget_bytes` (Unity URP Forward+ doubles its tile size against a word
+    budget), or until one tile covers the screen; `slices`: depth slices a tile (raster's
+    cluster rasterizer), else 1.  Refuses (LimitError) bit arrays past the storage-block
     limit, which one screen-sized tile only reaches past a billion lights."""
     tile = int(min_tile)
     budget = min(int(budget_bytes), MAX_STORAGE_BYTES)
-    while bits_bytes(width, height, tile, lights) > budget and tile < max(width, height):
+    need = lambda t: bits_bytes(width, height, t, lights) * slices
+    while need(tile) > budget and tile < max(width, height):
         tile *= 2
-    need = bits_bytes(width, height, tile, lights)
-    if need > MAX_STORAGE_BYTES:
-        raise LimitError(f"zbin: bit arrays of {lights} lights need {need / 2**20:.0f} MiB even in "
+    if need(tile) > MAX_STORAGE_BYTES:
+        raise LimitError(f"bit arrays of {lights} lights need {need(tile) / 2**20:.0f} MiB even in "
                          f"one screen-sized tile, over the {MAX_STORAGE_BYTES >> 20} MiB storage-block limit")
     return tile
 

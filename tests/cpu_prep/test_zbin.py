@@ -45,6 +45,18 @@ def test_budget_doubles_the_tile_like_urp():
     assert zb.bits_bytes(1920, 1080, zb.choose_tile(1920, 1080, 1 << 22, 8, 1 << 40), 1 << 22) <= MAX_STORAGE_BYTES
 
 
+def test_slices_multiply_the_bit_arrays():
+    """raster's cluster rasterizer: tiles x slices x words fit the budget (16 slices of 32 px
+    tiles at 1080p, 4,096 lights: 60 x 34 x 16 x 128 x 4 B = 15.9 MiB)."""
+    mib = 1 << 20
+    assert zb.choose_tile(1920, 1080, 4096, 32, 32 * mib, slices=16) == 32
+    assert zb.choose_tile(1920, 1080, 4096, 32, 15 * mib, slices=16) == 64
+    for slices in (1, 3, 16, 64):
+        t = zb.choose_tile(1920, 1080, 65_536, 8, 32 * mib, slices)
+        assert zb.bits_bytes(1920, 1080, t, 65_536) * slices <= 32 * mib or t >= 1920
+        assert t == 8 or zb.bits_bytes(1920, 1080, t // 2, 65_536) * slices > 32 * mib
+
+
 def test_no_budget_can_make_a_buffer_past_the_storage_limit():
     with pytest.raises(LimitError, match="storage-block"):
         zb.choose_tile(4, 4, (MAX_STORAGE_BYTES * 8) + 64, 4, 1 << 40)
