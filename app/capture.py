@@ -32,7 +32,18 @@ import numpy as np
 
 from . import cli
 
-IMAGE_SUFFIXES = (".png",)
+# The output flags, each with the file it must be (None: a folder): never a silently renamed file.
+OUTPUTS = (
+    ("--out", ".png", "tone-mapped PNG"),
+    ("--dump", ".npz", "npz dump of the contract"),
+    ("--heatmap", ".png", "lights-evaluated heat map PNG (per pixel, the window's heat view, "
+                          "with its colour bar)"),
+    ("--classify", ".png", "list/tree/mixed classification PNG (techniques with the classes view)"),
+    ("--maps", None, "heat maps of the technique's own structure (e.g. fptl's coarse and pruned "
+                     "lists per tile, zbin's bit arrays), one PNG each"),
+    ("--check", None, "compare with the reference technique; on a difference write images to "
+                      "DIR, name the first differing pixel, exit 1"),
+)
 
 
 def build_parser():
@@ -41,16 +52,8 @@ def build_parser():
     p.add_argument("--technique", default="brute", help="technique id (see --list)")
     p.add_argument("--frame", type=int, default=0, help="camera path frame (of --frames)")
     p.add_argument("--frames", type=int, default=64, help="length of the camera path loop")
-    p.add_argument("--out", help="tone-mapped PNG")
-    p.add_argument("--dump", help="npz dump of the contract")
-    p.add_argument("--heatmap", help="lights-evaluated heat map PNG (per pixel, the window's heat "
-                   "view, with its colour bar)")
-    p.add_argument("--classify", help="list/tree/mixed classification PNG (techniques with the "
-                   "classes view)")
-    p.add_argument("--maps", metavar="DIR", help="heat maps of the technique's own structure "
-                   "(e.g. fptl's coarse and pruned lists per tile, zbin's bit arrays), one PNG each")
-    p.add_argument("--check", metavar="DIR", help="compare with the reference technique; on a "
-                   "difference write images to DIR, name the first differing pixel, exit 1")
+    for flag, suffix, text in OUTPUTS:
+        p.add_argument(flag, metavar="DIR" if suffix is None else None, help=text)
     p.add_argument("--list", action="store_true", help="print builtin scenes and techniques")
     from .window.launch import add_display_args
     add_display_args(p)
@@ -80,8 +83,6 @@ def main(argv=None) -> None:
             raise cli.UserError(f"--classify: {technique.name} has no classes view (it takes one "
                                 f"path per wave); techniques with it: "
                                 f"{', '.join(with_view(REGISTRY, 'classes'))}")
-    if not (args.heat_max >= 0):
-        raise cli.UserError(f"--heat-max must be >= 0 (got {args.heat_max})")
     opts = cli.options_for(technique, args)
     scene = cli.load_scene_args(args)
     from .pipeline.renderer import Renderer
@@ -141,21 +142,19 @@ def save_maps(technique, result, renderer, out) -> None:
     if not maps:
         print(f"{technique.name} has no maps of its own (--maps)", file=sys.stderr)
     h, w = result.depth.shape
-    top = max([float(np.max(v)) for v, _ in maps.values() if np.size(v)] + [1.0])
+    top = images.maps_top(maps)
     for name, (values, label) in maps.items():
-        v = np.asarray(values)
-        ky, kx = -(-h // v.shape[0]), -(-w // v.shape[1])
-        full = np.repeat(np.repeat(v, ky, 0), kx, 1)[:h, :w]
-        images.save_heatmap(full, images.ensure_parent(Path(out) / f"{technique.name}-{name}.png"),
+        images.save_heatmap(images.cells_to_pixels(values, (w, h)),
+                            images.ensure_parent(Path(out) / f"{technique.name}-{name}.png"),
                             vmax=top, label=label)
 
 
 def check_suffixes(args) -> None:
     """Output files are what their flag says: never a silently renamed file."""
-    for flag, path, ok in (("--out", args.out, IMAGE_SUFFIXES), ("--heatmap", args.heatmap, IMAGE_SUFFIXES),
-                           ("--classify", args.classify, IMAGE_SUFFIXES), ("--dump", args.dump, (".npz",))):
-        if path and Path(path).suffix.lower() not in ok:
-            raise cli.UserError(f"{flag} {path}: the file must end in {' or '.join(ok)}")
+    for flag, suffix, _ in OUTPUTS:
+        path = getattr(args, flag[2:])
+        if path and suffix is not None and Path(path).suffix.lower() != suffix:
+            raise cli.UserError(f"{flag} {path}: the file must end in {suffix}")
 
 
 def check_against_reference(renderer, technique, opts, result, args) -> None:

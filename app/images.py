@@ -127,12 +127,31 @@ def heat_t(values, vmax: float) -> np.ndarray:
     return np.clip(np.log2(1.0 + v) / np.float32(math.log2(1.0 + max(float(vmax), 1.0))), 0.0, 1.0)
 
 
+def heat_top(largest: float, fixed: float | None = None) -> float:
+    """The top of the scale, the one rule of capture, the window and the report: `fixed`
+    when given (> 0), else the largest count shown, at least 1."""
+    return float(fixed) if fixed else float(max(largest, 1))
+
+
 def heat_max(values, covered, fixed: float | None = None) -> float:
-    """The top of the scale: `fixed` when given (> 0), else the largest count (at least 1)."""
-    if fixed:
-        return float(fixed)
+    """The top of the scale of a per-pixel count (heat_top of its largest covered value)."""
     v = np.asarray(values)[covered] if covered is not None else np.asarray(values)
-    return float(max(int(v.max(initial=0)), 1))
+    return heat_top(int(v.max(initial=0)), fixed)
+
+
+def maps_top(maps) -> float:
+    """One scale over all of a technique's maps ({name: (values, label)} or {name: values}),
+    so that they compare (fptl's coarse lists against its pruned ones)."""
+    arrays = [m[0] if isinstance(m, tuple) else m for m in maps.values()]
+    return heat_top(max([float(np.max(v)) for v in arrays if np.size(v)] + [0.0]))
+
+
+def cells_to_pixels(values, size: tuple[int, int]) -> np.ndarray:
+    """A per-cell map (rows, cols) over the (w, h) pixels its cells cover, row 0 = top."""
+    w, h = size
+    v = np.asarray(values)
+    ky, kx = -(-h // v.shape[0]), -(-w // v.shape[1])
+    return np.repeat(np.repeat(v, ky, 0), kx, 1)[:h, :w]
 
 
 def heat_rgb(values, covered, vmax: float) -> np.ndarray:
@@ -164,10 +183,18 @@ def fmt_tick(v: float) -> str:
     return f"{v:.0f}" if v >= 10 or float(v).is_integer() else f"{v:.2g}"
 
 
-def heat_cmap():
-    """The turbo ramp as a matplotlib colormap (the report's figures)."""
+def heat_cmap(zero_grey: bool = False):
+    """The turbo ramp as a matplotlib colormap (the report's figures); zero_grey: masked
+    values (a zero count, np.ma.masked_less_equal) grey as the window shows them."""
     from matplotlib.colors import ListedColormap
-    return ListedColormap(turbo(np.linspace(0.0, 1.0, 256)), name="lab_turbo")
+    cmap = ListedColormap(turbo(np.linspace(0.0, 1.0, 256)), name="lab_turbo")
+    return cmap.with_extremes(bad=(HEAT_ZERO,) * 3) if zero_grey else cmap
+
+
+def heat_bar_ticks(bar, vmax: float) -> None:
+    """A matplotlib colour bar's ticks and labels, as the window's and capture's bars."""
+    ticks = heat_ticks(vmax)
+    bar.set_ticks(ticks, labels=[fmt_tick(v) for v in ticks])
 
 
 def heat_norm(vmax: float):

@@ -15,7 +15,7 @@ from .common import DPI, plt, save, sel, times
 
 
 def fig_heat(maps, out, info, roles) -> tuple[str | None, list[str]]:
-    from ..images import HEAT_ZERO, fmt_tick, heat_cmap, heat_norm, heat_ticks
+    from ..images import heat_bar_ticks, heat_cmap, heat_norm, heat_top
     keys = [k for k in maps if k.startswith("evaluated/")]
     if not keys:
         return None, []
@@ -23,8 +23,8 @@ def fig_heat(maps, out, info, roles) -> tuple[str | None, list[str]]:
     if "exact" in maps and f"evaluated/{roles.floor}" not in maps:
         panels.append(("exact (lights affecting)", maps["exact"]))
     vals = np.concatenate([m.ravel() for _, m in panels])
-    vmax = max(float(vals.max()), 1.0)
-    cmap = heat_cmap().with_extremes(bad=(HEAT_ZERO,) * 3)
+    vmax = heat_top(float(vals.max()))
+    cmap = heat_cmap(zero_grey=True)
     cols = min(3, len(panels))
     rws = math.ceil(len(panels) / cols)
     h, w = panels[0][1].shape
@@ -38,8 +38,7 @@ def fig_heat(maps, out, info, roles) -> tuple[str | None, list[str]]:
         im = ax.imshow(shown, cmap=cmap, norm=heat_norm(vmax), interpolation="nearest")
         ax.set_title(f"{t}: {m.mean():.3g}/px", fontsize=8)
     bar = fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.8)
-    ticks = heat_ticks(vmax)
-    bar.set_ticks(ticks, labels=[fmt_tick(v) for v in ticks])
+    heat_bar_ticks(bar, vmax)
     bar.set_label("lights / pixel, log2(1 + n)", fontsize=8)
     scene = info.get("config", {}).get("heat_scene", "")
     b = int(maps.get("block", 16))
@@ -98,20 +97,18 @@ def fig_own_maps(maps, out, info) -> tuple[str | None, list[str]]:
     """Each technique's maps of its own structure (Technique.maps: fptl's coarse and pruned
     lists per tile, the chapter's figures 2.4-2.6; zbin's bit arrays and z-bin ranges; the
     rasterized bits), on one heat scale per technique."""
-    from ..images import HEAT_ZERO, fmt_tick, heat_cmap, heat_norm, heat_ticks
+    from ..images import heat_bar_ticks, heat_cmap, heat_norm, maps_top
     keys = sorted(k for k in maps if k.startswith("own/"))
     if not keys:
         return None, []
-    cmap = heat_cmap().with_extremes(bad=(HEAT_ZERO,) * 3)
+    cmap = heat_cmap(zero_grey=True)
     cols = min(3, len(keys))
     rws = math.ceil(len(keys) / cols)
     fig, axes = plt().subplots(rws, cols, squeeze=False, dpi=DPI, figsize=(cols * 3.6 + 0.4, rws * 2.6 + 0.6))
     for ax in axes.ravel():
         ax.axis("off")
-    tops = {}
-    for k in keys:
-        t = k.split("/")[1]
-        tops[t] = max(tops.get(t, 1.0), float(np.max(maps[k])) if np.size(maps[k]) else 1.0)
+    techniques = {k.split("/")[1] for k in keys}
+    tops = {t: maps_top({k: maps[k] for k in keys if k.split("/")[1] == t}) for t in techniques}
     text = []
     for ax, k in zip(axes.ravel(), keys):
         _, t, name = k.split("/", 2)
@@ -121,9 +118,7 @@ def fig_own_maps(maps, out, info) -> tuple[str | None, list[str]]:
                        interpolation="nearest")
         lit = m[m > 0]
         ax.set_title(f"{t}: {label}", fontsize=8)
-        bar = fig.colorbar(im, ax=ax, shrink=0.8)
-        ticks = heat_ticks(tops[t])
-        bar.set_ticks(ticks, labels=[fmt_tick(v) for v in ticks])
+        heat_bar_ticks(fig.colorbar(im, ax=ax, shrink=0.8), tops[t])
         text.append(f"{t}, {label}: {lit.mean():.3g} where non-zero, at most {m.max():.0f}"
                     if lit.size else f"{t}, {label}: all zero")
     scene = info.get("config", {}).get("heat_scene", "")
