@@ -41,7 +41,7 @@ from .gltf import GLTF_SUFFIXES, load_gltf
 from .model import (LIGHT_BOX, LIGHT_CAPSULE, LIGHT_DTYPE, LIGHT_SPOT, LIGHT_TYPES as TYPE_NAMES,
                     Camera, Mesh, Scene, make_lights)
 
-__all__ = ["load_scene", "scene_from_dict", "SceneError", "MAX_LIGHTS"]
+__all__ = ["load_scene", "scene_from_dict", "check_camera", "SceneError", "MAX_LIGHTS"]
 
 NPZ_ARRAYS = ("type", "position", "radius", "color", "intensity", "direction",
               "cos_inner", "cos_outer")
@@ -100,30 +100,40 @@ def _resolution(ctx: FieldChecker, v) -> tuple[int, int]:
     return out[0], out[1]
 
 
-def _camera(ctx: FieldChecker, v) -> Camera:
-    c = ctx.obj(v, "camera")
-    ctx.keys(c, "camera", CAMERA_KEYS)
-    # The camera is stored as float64 (scenes.model.Camera): checked as float64.
-    pos = ctx.vec3(ctx.req(c, "position", "camera.position"), "camera.position", f32=False)
-    tgt = ctx.vec3(ctx.req(c, "target", "camera.target"), "camera.target", f32=False)
-    up = ctx.direction(c.get("up", [0.0, 1.0, 0.0]), "camera.up", f32=False)
-    fov = ctx.num(c.get("fov_y_deg", 60.0), "camera.fov_y_deg", 0.0, 180.0, False, False, f32=False)
-    near = ctx.num(c.get("near", 0.1), "camera.near", lo=0.0, lo_incl=False, f32=False)
-    far = ctx.num(c.get("far", 1000.0), "camera.far", lo=0.0, lo_incl=False, f32=False)
+CAMERA_DEFAULTS = {"up": [0.0, 1.0, 0.0], "fov_y_deg": 60.0, "near": 0.1, "far": 1000.0}
+
+
+def check_camera(ctx: FieldChecker, c: dict, field: str = "camera",
+                 defaults: dict = CAMERA_DEFAULTS) -> Camera:
+    """The one camera check: a scene file's camera, and each key of a camera path
+    (app.window.campath, which gives no defaults: every field is required there).  The
+    camera is stored as float64 (scenes.model.Camera): checked as float64."""
+    ctx.keys(c, field, CAMERA_KEYS)
+    get = lambda k: c.get(k, defaults[k]) if k in defaults else ctx.req(c, k, f"{field}.{k}")
+    pos = ctx.vec3(get("position"), f"{field}.position", f32=False)
+    tgt = ctx.vec3(get("target"), f"{field}.target", f32=False)
+    up = ctx.direction(get("up"), f"{field}.up", f32=False)
+    fov = ctx.num(get("fov_y_deg"), f"{field}.fov_y_deg", 0.0, 180.0, False, False, f32=False)
+    near = ctx.num(get("near"), f"{field}.near", lo=0.0, lo_incl=False, f32=False)
+    far = ctx.num(get("far"), f"{field}.far", lo=0.0, lo_incl=False, f32=False)
     if not far > near:
-        ctx.fail("camera.far", f"must be > camera.near (got far {show(c.get('far'))}, "
-                               f"near {show(c.get('near'))})")
+        ctx.fail(f"{field}.far", f"must be > {field}.near (got far {show(c.get('far'))}, "
+                                 f"near {show(c.get('near'))})")
     if far / near > MAX_FAR_NEAR:
-        ctx.fail("camera.far", f"far/near must be <= {MAX_FAR_NEAR:g} (got {far / near:g})")
+        ctx.fail(f"{field}.far", f"far/near must be <= {MAX_FAR_NEAR:g} (got {far / near:g})")
     view = np.subtract(tgt, pos)
     if not np.abs(view).max() > 0:
-        ctx.fail("camera.target", f"must differ from camera.position (got {show(list(tgt))})")
+        ctx.fail(f"{field}.target", f"must differ from {field}.position (got {show(list(tgt))})")
     view = view / np.abs(view).max()
     view /= np.linalg.norm(view)
     if np.linalg.norm(np.cross(view, up)) < 1e-6:
-        ctx.fail("camera.up", f"must not be parallel to the view direction (got {show(c.get('up'))})")
-    up_raw = tuple(float(x) for x in c.get("up", [0.0, 1.0, 0.0]))
+        ctx.fail(f"{field}.up", f"must not be parallel to the view direction (got {show(c.get('up'))})")
+    up_raw = tuple(float(x) for x in get("up"))
     return Camera(pos, tgt, up_raw, fov, near, far)
+
+
+def _camera(ctx: FieldChecker, v) -> Camera:
+    return check_camera(ctx, ctx.obj(v, "camera"))
 
 
 def _material(ctx: FieldChecker, g: dict, field: str) -> dict:

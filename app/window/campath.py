@@ -27,11 +27,12 @@ import json
 import math
 from pathlib import Path
 
+from scenes.errors import FieldChecker, one_line
+
 from ..errors import UserError
 
 FORMAT = "many-light-lab camera path"
 VERSION = 1
-CAMERA_FIELDS = ("position", "target", "up", "fov_y_deg", "near", "far")
 
 
 @dataclass
@@ -71,28 +72,14 @@ class CameraPath:
         return path
 
 
-def _vec3(v, where: str) -> tuple[float, float, float]:
-    if not (isinstance(v, (list, tuple)) and len(v) == 3):
-        raise UserError(f"{where}: must be a list of 3 numbers (got {v!r})")
-    out = []
-    for x in v:
-        if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
-            raise UserError(f"{where}: must be a list of 3 finite numbers (got {v!r})")
-        out.append(float(x))
-    return tuple(out)
+class _PathChecker(FieldChecker):
+    """The scene loader's field checker, failing as the window's errors do (UserError)."""
+
+    def fail(self, field: str, msg: str):
+        raise UserError(f"{self.source}: {field}: {one_line(msg)}")
 
 
-def _number(v, where: str, lo: float = -math.inf, hi: float = math.inf, open_lo=False) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise UserError(f"{where}: must be a finite number (got {v!r})")
-    if (v <= lo if open_lo else v < lo) or v > hi:
-        raise UserError(f"{where}: must be in {'(' if open_lo else '['}{lo:g}, {hi:g}] (got {v!r})")
-    return float(v)
-
-
-def from_dict(d, source: str = "camera path") -> CameraPath:
-    """A CameraPath from the file's JSON object, every field checked."""
-    from scenes.model import Camera
+def _check_header(d, source: str) -> None:
     if not isinstance(d, dict):
         raise UserError(f"{source}: must be a JSON object with 'keys'")
     if d.get("format", FORMAT) != FORMAT:
@@ -106,40 +93,29 @@ def from_dict(d, source: str = "camera path") -> CameraPath:
     keys = d.get("keys")
     if not isinstance(keys, list) or not keys:
         raise UserError(f"{source}: keys: must be a non-empty list of camera keys")
-    path = CameraPath(scene=str(d.get("scene") or ""))
     size = d.get("size")
-    if size is not None:
-        if not (isinstance(size, list) and len(size) == 2 and all(isinstance(v, int) and v > 0 for v in size)):
-            raise UserError(f"{source}: size: must be [width, height] in pixels (got {size!r})")
-        path.size = tuple(size)
+    if size is not None and not (isinstance(size, list) and len(size) == 2
+                                 and all(isinstance(v, int) and v > 0 for v in size)):
+        raise UserError(f"{source}: size: must be [width, height] in pixels (got {size!r})")
+
+
+def from_dict(d, source: str = "camera path") -> CameraPath:
+    """A CameraPath from the file's JSON object, every field checked; each key's camera by
+    the scene loader's own camera check (scenes.loader.check_camera), every field required."""
+    from scenes.loader import check_camera
+    _check_header(d, source)
+    path = CameraPath(scene=str(d.get("scene") or ""),
+                      size=tuple(d["size"]) if d.get("size") is not None else None)
+    ctx = _PathChecker(source)
     last_t = -math.inf
-    for i, k in enumerate(keys):
-        where = f"{source}: keys[{i}]"
-        if not isinstance(k, dict):
-            raise UserError(f"{where}: must be an object")
-        missing = [f for f in CAMERA_FIELDS if f not in k]
-        if missing:
-            raise UserError(f"{where}: missing '{missing[0]}'")
-        extra = sorted(set(k) - set(CAMERA_FIELDS) - {"t"})
-        if extra:
-            raise UserError(f"{where}: unknown field '{extra[0]}' (known: t, {', '.join(CAMERA_FIELDS)})")
-        pos = _vec3(k["position"], f"{where}.position")
-        tgt = _vec3(k["target"], f"{where}.target")
-        up = _vec3(k["up"], f"{where}.up")
-        fov = _number(k["fov_y_deg"], f"{where}.fov_y_deg", 0.0, 179.0, open_lo=True)
-        near = _number(k["near"], f"{where}.near", 0.0, math.inf, open_lo=True)
-        far = _number(k["far"], f"{where}.far", near, math.inf, open_lo=True)
-        if math.dist(pos, tgt) <= 1e-9:
-            raise UserError(f"{where}: target equals position (no view direction)")
-        f = [b - a for a, b in zip(pos, tgt)]
-        cross = (f[1] * up[2] - f[2] * up[1], f[2] * up[0] - f[0] * up[2], f[0] * up[1] - f[1] * up[0])
-        if math.hypot(*cross) <= 1e-9 * math.hypot(*f) * max(math.hypot(*up), 1e-30):
-            raise UserError(f"{where}: up is zero or parallel to the view direction")
-        t = _number(k.get("t", float(i)), f"{where}.t", 0.0)
+    for i, k in enumerate(d["keys"]):
+        where = f"keys[{i}]"
+        k = ctx.obj(k, where)
+        t = ctx.num(k.get("t", float(i)), f"{where}.t", lo=0.0, f32=False)
         if t < last_t:
-            raise UserError(f"{where}.t: keys must be in time order ({t:g} after {last_t:g})")
+            ctx.fail(f"{where}.t", f"keys must be in time order ({t:g} after {last_t:g})")
         last_t = t
-        path.add(Camera(pos, tgt, up, fov, near, far), t)
+        path.add(check_camera(ctx, {f: v for f, v in k.items() if f != "t"}, where, defaults={}), t)
     return path
 
 
