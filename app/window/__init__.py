@@ -19,12 +19,9 @@ overlay on the shaded image), the split view's second technique, inspect, camera
 buttons, and the timers: per GPU pass and CPU stage the rolling median and minimum and a
 history graph.  A change applies on the next frame.
 
-Keys: 1..9 technique (REGISTRY order), V next view of the technique, O heat overlay, I
-inspect the cursor (its light's bounding sphere, its tile and the tile's light list), W/A/S/D
-fly (Q/E down/up, Shift faster, wheel: speed), drag to look, P play/stop the camera path (the
---replay file, else the scene's), C record a camera path / stop and save, R reset the camera,
-+ / - (or ] / [) double / halve the light count, K or F12 screenshot, H hide the UI, F1 hide
-the panel, Esc quit.
+Keys: one table, app.window.keys.KEYS, which gives the key names, the HUD's help line, the
+panel's key list and the dispatch (1-9 the first nine techniques, T the next one, every one
+past the ninth too; the panel's technique list has them all).
 
 Views (views.py): shaded, heat, tiles, slices, classes, diff (pixels whose light set differs
 from the reference's), split (two techniques side by side); a technique offers the ones its
@@ -38,13 +35,15 @@ per frame and a summary line; --keys replays one step per frame from the first f
 --screenshot writes the last frame (at --frames N, or on Esc).  `--window headless` renders
 to an EGL framebuffer with no display (backend egl by default).
 
-    keys.py     key names, --keys steps              camera.py   the fly camera
-    views.py    the views, which a technique has     options.py  options per technique
-    panel.py    the panel's state and controls       ui.py       the imgui HUD, panel, colour bar
-    passes.py   the window's passes, the stashes     probe.py    start-up probe, frame costs
-    inspect.py  what is under the cursor             timers.py   timer history
-    campath.py  camera path files                    hud.py      HUD text
-    app.py      the WindowConfig                     launch.py   flags, window, main
+    app.py      the WindowConfig: wires the parts     launch.py   flags, window, main
+    keys.py     the key table, --keys steps           compose.py  the frame composer
+    figures.py  figures, the UI's model (UIModel)     recorder.py camera path played / recorded
+    hud.py      HUD and panel text                    ui.py       imgui HUD, panel, colour bar
+    panel.py    the panel's state and controls        options.py  options per technique, display
+    views.py    the views, which a technique has      passes.py   the window's passes, stashes
+    camera.py   the fly camera                        campath.py  camera path files
+    inspect.py  what is under the cursor              lightsets.py the light draws
+    probe.py    start-up probe, frame costs           timers.py   timer history
 """
 from .camera import FlyCamera
 from .keys import KEY_NAMES, key_names, parse_keys

@@ -1,12 +1,14 @@
-"""The HUD's text (from the frame's figures; no GL) and the window title.  app.window.ui
-draws it in an imgui overlay at the top left."""
+"""The HUD's text (from the frame's figures; no GL), the panel's text sections and the
+window title.  app.window.ui draws them (the HUD in an imgui overlay at the top left)."""
 from __future__ import annotations
 
 import math
 
-from .keys import KEYS
+from .keys import help_line
+from .probe import SLOW_MS
+from .views import view_note
 
-HELP = "  ".join(f"{k} {word}" for k, word, _ in KEYS if k != "Esc")
+HELP = help_line()
 
 
 def exposure_text(exposure: float, auto: bool, ambient: float) -> str:
@@ -52,3 +54,60 @@ def title(f: dict) -> str:
     return (f"many-light lab: {f['technique']} | {f['view']} | {f['visible_lights']}/"
             f"{f['lights']} lights | {f['evaluated_per_pixel']:.2f} eval/px | "
             f"CPU {sum(f['cpu_ms'].values()):.1f} ms | GPU {sum(f['gpu_ms'].values()):.1f} ms")
+
+
+def slow_warning(technique: str, predicted_ms) -> str:
+    if predicted_ms is None or predicted_ms <= SLOW_MS:
+        return ""
+    return f"slow: {technique} takes about {predicted_ms / 1000:.1f} s a frame here"
+
+
+def window_hud(f: dict, state, *, message: str, warning: str, predicted_ms, status: list[str],
+               playing: bool, software: bool, map_shown, overlay, reference: str,
+               inspection) -> list[str]:
+    """The window's HUD: hud_lines of the figures `f`, the view's note, the split's line,
+    the inspection; a warning line starts with '!' (the UI colours it)."""
+    s = state
+    warning = warning or slow_warning(s.technique, predicted_ms)
+    warning = "!" + warning if warning else ""
+    if not f:
+        return [l for l in (warning, message) if l] or ["starting ..."]
+    map_name, map_label, map_top = map_shown
+    note = view_note(f["view"], s.technique, overlay, f["heat_max"], heat_of=f["heat_of"],
+                     overlay_mode=f["heat_overlay"], reference=reference, differ=f["differ"],
+                     split=s.split_with, split_view=s.split_view, map_name=map_name,
+                     map_label=map_label, map_top=map_top)
+    names = list(s.registry)
+    lines = hud_lines(f, position=f"{names.index(s.technique) + 1}/{len(names)}", role=s.tech.role,
+                      software=software, playing=playing, options=s.options.hud_line(s.tech),
+                      note=note, message=message,
+                      exposure=exposure_text(f["exposure"], s.exposure_auto, s.ambient),
+                      status="   ".join(status), warning=warning)
+    if s.panel:
+        lines = [l for l in lines if l != HELP]     # the panel lists the keys
+    if s.inspect:
+        lines += (["inspect: " + l for l in inspection.lines(most=10)] if inspection
+                  else ["inspect: move the cursor over the image"])
+    if f.get("split"):
+        sp = f["split"]
+        lines.insert(2, f"right: {sp['technique']}   evaluated/px {sp['evaluated_per_pixel']:.2f}   "
+                        f"GPU {sum(sp['gpu_ms'].values()):.1f} ms   CPU {sum(sp['cpu_ms'].values()):.1f} ms")
+    return lines
+
+
+def technique_lines(state, started: str, predicted_ms) -> list[str]:
+    """The panel's technique section: its summary, how the start chose it, its frame cost."""
+    out = [f"{state.technique}: {state.tech.summary}"]
+    if started:
+        out.append(started)
+    if predicted_ms is not None:
+        out.append(f"about {predicted_ms:.0f} ms a frame here" + ("  (slow)" if predicted_ms > SLOW_MS else ""))
+    return out
+
+
+def inspect_lines(state, inspection) -> list[str]:
+    if not state.inspect:
+        return ["off (I): the light and the tile under the cursor"]
+    if inspection is None:
+        return ["move the cursor over the image"]
+    return inspection.lines()

@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import time
 
 from .. import cli, images
 from ..errors import UserError
 from .keys import parse_keys
+from .options import DISPLAY, DISPLAY_FLAGS
 from .views import VIEWS, views_of, with_view
 
 DESCRIPTION = ("Live window: the capture pipeline, every frame, with a panel of every option "
@@ -38,28 +38,6 @@ def _bool(text: str) -> bool:
     raise argparse.ArgumentTypeError(f"expected true or false, got '{text}'")
 
 
-def _exposure(text: str):
-    if text == "auto":
-        return text
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected 'auto' or a positive number, got '{text}'") from None
-    if not (v > 0 and math.isfinite(v)):
-        raise argparse.ArgumentTypeError(f"expected 'auto' or a positive number, got {text}")
-    return v
-
-
-def _ambient(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number in 0..1, got '{text}'") from None
-    if not (0.0 <= v <= 1.0):
-        raise argparse.ArgumentTypeError(f"expected a number in 0..1, got {text}")
-    return v
-
-
 def _point(text: str) -> str:
     try:
         x, y = (int(v) for v in text.lower().split("x"))
@@ -71,16 +49,19 @@ def _point(text: str) -> str:
 
 
 def add_display_args(p) -> None:
-    """--exposure, --ambient, --heat-max: the display's, shared with capture."""
-    p.add_argument("--exposure", type=_exposure, default="auto",
-                   help=f"'auto' (the {images.EXPOSURE_PERCENTILE * 100:.0f}%% luminance of the lit pixels "
-                        f"maps to {images.EXPOSURE_TARGET:g}) or a factor on the radiance")
-    p.add_argument("--ambient", type=_ambient, default=images.AMBIENT,
-                   help=f"display only: ambient x albedo added after the exposure, so geometry "
-                        f"shows with few lights (default {images.AMBIENT:g}; 0: none)")
-    p.add_argument("--heat-max", type=float, default=0.0,
-                   help="heat map: count at the top of the scale (0: the frame's largest); fix it "
-                        "so two runs compare")
+    """--exposure, --ambient, --heat-max: the display's options (options.DISPLAY, which the
+    panel reads too), shared with capture."""
+    d = DISPLAY
+    lo_hi = lambda s: f"{s.lo:g}..{s.hi:g}"
+    exposure = cli._option_type(d["exposure"])
+    p.add_argument("--exposure", type=lambda t: t if t == "auto" else exposure(t), default="auto",
+                   help=f"'auto' (the {images.EXPOSURE_PERCENTILE * 100:.0f}%% luminance of the lit "
+                        f"pixels maps to {images.EXPOSURE_TARGET:g}) or a factor on the radiance, "
+                        f"{lo_hi(d['exposure'])}")
+    for name in (n for n in DISPLAY_FLAGS if n != "exposure"):
+        s = d[name]
+        p.add_argument(s.flag, type=cli._option_type(s), default=s.default,
+                       help=f"{s.help}; {lo_hi(s)}, default {s.default:g}".replace("%", "%%"))
 
 
 def build_parser():
@@ -188,8 +169,6 @@ def start_candidates(args, given: dict) -> tuple[str | None, list[str]]:
 def main(argv=None) -> None:
     args = build_parser().parse_args(argv)
     from scenes import BUILTIN_SCENES
-    if not (args.heat_max >= 0 and math.isfinite(args.heat_max)):
-        raise UserError(f"--heat-max must be >= 0 (got {args.heat_max})")
     given = cli.given_options(args)
     technique, candidates = start_candidates(args, given)
     scene = cli.load_scene_args(args)
@@ -222,6 +201,6 @@ def main(argv=None) -> None:
             sequence.append([i] + state)
     print(json.dumps({"exit": "ok", "window": name, "frames": app.frame,
                       "wall_s": round(time.perf_counter() - t0, 2), "sequence": sequence,
-                      "size": list(app.renderer.size), "screenshots": app.shots, "screenshot_hud": app.shot_huds,
-                      "paths": app.saved_paths, "started": app.started,
+                      "size": list(app.renderer.size), "screenshots": app.shots.paths, "screenshot_hud": app.shots.huds,
+                      "paths": app.recorder.saved, "started": app.started,
                       "renderer": app.renderer.limits.renderer}), flush=True)

@@ -79,3 +79,30 @@ class WindowOptions:
         if ignored:
             text += f"   (not taken by {technique.name}: {shown([k for k in self.given if k in ignored], self.given)})"
         return text
+
+
+# ---- the display's own options: one declaration for the panel and the command line --------
+
+def _display_specs():
+    from .. import images
+    from ..techniques.options import OptionSpec
+    return {s.name: s for s in (
+        # a factor on the radiance (the panel's slider shows it as EV, log2 of it); the
+        # range is the one automatic exposure keeps to
+        OptionSpec("exposure", float, 1.0, "a factor on the radiance ('auto' on the command "
+                   "line: the lit pixels' luminance percentile maps to a target)",
+                   lo=images.EXPOSURE_RANGE[0], hi=images.EXPOSURE_RANGE[1]),
+        OptionSpec("ambient", float, images.AMBIENT,
+                   "display only: ambient x albedo added after the exposure, so geometry shows "
+                   "with few lights (0: none)", lo=0.0, hi=1.0),
+        OptionSpec("heat_max", float, 0.0, "top of the heat scale; 0: the frame's largest count "
+                   "(fix it so two runs compare)", lo=0.0, hi=1e7),
+        OptionSpec("split_at", float, 0.0, "where the split is, a fraction of the width (0: the "
+                   "middle of what the panel leaves visible)", lo=0.0, hi=0.95),
+    )}
+
+
+# {name: OptionSpec}: the display's options, read by the panel (app.window.panel) and, for
+# exposure, ambient and heat_max, the command lines of the window and capture (launch.py)
+DISPLAY = _display_specs()
+DISPLAY_FLAGS = ("exposure", "ambient", "heat_max")      # the ones the command lines take

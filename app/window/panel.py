@@ -19,13 +19,12 @@ from typing import Callable
 
 from .. import images
 from ..errors import UserError
-from .options import WindowOptions, flag
+from .options import DISPLAY, DISPLAY_FLAGS, WindowOptions, flag
 from .views import HEAT_OF, SPLIT_VIEWS, views_of
 
-EV_RANGE = (-20.0, 20.0)
-AMBIENT_RANGE = (0.0, 1.0)
-HEAT_MAX_RANGE = (0.0, 1e7)
 DISTRIBUTIONS = ("uniform", "geometry")
+# the exposure slider is in EV: log2 of the exposure factor's declared range
+EV_RANGE = tuple(math.log2(v) for v in (DISPLAY["exposure"].lo, DISPLAY["exposure"].hi))
 
 
 @dataclass
@@ -93,6 +92,24 @@ class LabState:
         self.view = vs[(vs.index(self.view) + 1) % len(vs)] if self.view in vs else vs[0]
         self.changed()
 
+    def choose_number(self, k: int) -> None:
+        """The k-th technique in registry order (keys 1-9)."""
+        names = list(self.registry)
+        if not 1 <= k <= len(names):
+            raise UserError(f"no technique {k}: {len(names)} registered (T: the next one; the panel lists all)")
+        self.set_technique(names[k - 1])
+
+    def next_technique(self) -> None:
+        """The next technique in registry order, every one (past the ninth too), then the first."""
+        names = list(self.registry)
+        self.set_technique(names[(names.index(self.technique) + 1) % len(names)])
+
+    def double_lights(self) -> None:
+        self.set_lights(min(max(1, self.lights * 2), self.max_lights if self.builtin else self.file_lights))
+
+    def halve_lights(self) -> None:
+        self.set_lights(self.lights // 2)
+
     def default_split(self) -> str:
         """The technique the split view compares with: the first other one that is neither
         the reference nor the floor, else any other."""
@@ -128,6 +145,17 @@ class Control:
     log: bool = False           # a slider on a log scale (light counts, ranges over decades)
     power_of_two: bool = False
     set: Callable | None = None
+
+
+def spec_control(spec, label: str, value, section: str, set, help: str | None = None) -> Control:
+    """The control of a declared option (app.techniques.options.OptionSpec): its kind,
+    range and help as declared; a slider on a log scale where the range spans decades."""
+    kind = {bool: "bool", int: "int", float: "float"}[spec.kind]
+    lo, hi = spec.lo, spec.hi
+    return Control(spec.name, label, kind, value, lo=lo, hi=hi, section=section, set=set,
+                   help=help if help is not None else f"{flag(spec.name)}: {spec.help}",
+                   power_of_two=spec.power_of_two,
+                   log=kind != "bool" and lo is not None and hi is not None and lo > 0 and hi / lo >= 1e3)
 
 
 def _int(v, what: str) -> int:
@@ -193,13 +221,8 @@ class Panel:
                        help="the views this technique has", section="technique", set=s.set_view)]
         opts, _ = s.options.for_technique(tech)
         for spec in tech.Options.specs():
-            kind = {bool: "bool", int: "int", float: "float"}[spec.kind]
-            lo, hi = spec.lo, spec.hi
-            out.append(Control(spec.name, spec.name.replace("_", " "), kind, getattr(opts, spec.name),
-                               lo=lo, hi=hi, help=f"{flag(spec.name)}: {spec.help}",
-                               section="options", power_of_two=spec.power_of_two,
-                               log=kind != "bool" and lo is not None and hi is not None and lo > 0 and hi / lo >= 1e3,
-                               set=lambda v, n=spec.name: self._set_option(n, v)))
+            out.append(spec_control(spec, spec.name.replace("_", " "), getattr(opts, spec.name), "options",
+                                    lambda v, n=spec.name: self._set_option(n, v)))
         out.append(Control("defaults", "defaults", "button", help="this technique's declared defaults "
                            "(and the command line's flags)", section="options", set=self._defaults))
         if s.builtin:
@@ -222,17 +245,11 @@ class Panel:
                         set=lambda v: self._setattr("exposure_auto", _bool(v, "auto exposure"))),
                 Control("exposure_ev", "exposure EV", "float",
                         math.log2(s.exposure_now) if s.exposure_auto and s.exposure_now > 0 else s.exposure_ev,
-                        lo=EV_RANGE[0], hi=EV_RANGE[1],
-                        section="display", help="exposure = 2^EV; moving it turns auto exposure off",
-                        set=self._set_ev),
-                Control("ambient", "ambient", "float", s.ambient, lo=AMBIENT_RANGE[0], hi=AMBIENT_RANGE[1],
-                        section="display", help="display only: ambient x albedo added after the "
-                                                "exposure, so geometry shows with few lights",
-                        set=lambda v: self._setattr("ambient", _float(v, "ambient", *AMBIENT_RANGE))),
-                Control("heat_max", "heat max", "float", s.heat_max, lo=HEAT_MAX_RANGE[0], hi=HEAT_MAX_RANGE[1],
-                        section="display", help="top of the heat scale; 0: the frame's largest count "
-                                                "(fix it to compare two runs)",
-                        set=lambda v: self._setattr("heat_max", _float(v, "heat max", *HEAT_MAX_RANGE))),
+                        lo=EV_RANGE[0], hi=EV_RANGE[1], section="display", set=self._set_ev,
+                        help=f"--exposure 2^EV: {DISPLAY['exposure'].help}; moving it turns auto "
+                             f"exposure off"),
+                self._display("ambient", "ambient"),
+                self._display("heat_max", "heat max"),
                 Control("heat_of", "heat of", "choice", s.heat_of, choices=HEAT_OF, section="display",
                         help="lights evaluated per pixel, or exact lights (contrib_count)",
                         set=lambda v: self._setattr("heat_of", _choice(v, "heat of", HEAT_OF))),
@@ -246,16 +263,20 @@ class Panel:
                 Control("split_view", "split shows", "choice", s.split_view, choices=SPLIT_VIEWS,
                         section="compare", help="both halves as shaded images or heat maps",
                         set=lambda v: self._setattr("split_view", _choice(v, "split shows", SPLIT_VIEWS))),
-                Control("split_at", "split at", "float", s.split_at, lo=0.0, hi=0.95, section="compare",
-                        help="where the split is, a fraction of the width (0: the middle of what "
-                             "the panel leaves visible)",
-                        set=lambda v: self._setattr("split_at", _float(v, "split at", 0.0, 0.95))),
+                self._display("split_at", "split at", "compare"),
                 Control("inspect", "inspect cursor", "bool", s.inspect, section="inspect",
                         help="the light and the tile under the cursor, with its light list",
                         set=lambda v: self._setattr("inspect", _bool(v, "inspect")))]
         for key, (label, callback) in self.actions.items():
             out.append(Control(key, label, "button", section="camera", set=lambda v, c=callback: c()))
         return out
+
+    def _display(self, name: str, label: str, section: str = "display") -> Control:
+        """A display option's control (options.DISPLAY: the command line's declaration)."""
+        spec = DISPLAY[name]
+        return spec_control(spec, label, getattr(self.state, name), section,
+                            lambda v: self._setattr(name, spec.check(v)),
+                            help=None if name in DISPLAY_FLAGS else spec.help)
 
     def control(self, key: str) -> Control:
         for c in self.controls():

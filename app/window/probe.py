@@ -164,6 +164,25 @@ class FrameCosts:
 
     def __init__(self):
         self.known: dict[str, tuple[float, int, int]] = {}
+        self.announced: set = set()
+
+    def slow(self, renderer, plan, lights_key, lights, cam) -> list[str]:
+        """Of the (technique, opts) a frame renders, the ones predicted over SLOW_MS at the
+        renderer's size, each said once per light draw and size."""
+        size = renderer.size
+        out = []
+        for t, opts in plan:
+            k = (t.name, lights_key, size)
+            if k in self.announced:
+                continue
+            self.announced.add(k)
+            try:
+                ms = self.estimate(renderer, t, opts, lights, cam)
+            except UserError:
+                continue
+            if ms > SLOW_MS:
+                out.append(f"{t.name} needs about {ms / 1000:.1f} s a frame at {size[0]}x{size[1]}")
+        return out
 
     def record(self, name: str, ms: float, pixels: int, lights: int) -> None:
         self.known[name] = (float(ms), int(pixels), int(lights))
@@ -193,3 +212,35 @@ class FrameCosts:
             renderer.resize(full)
         self.record(technique.name, ms, small[0] * small[1], len(lights))
         return self.predict(technique.name, w * h, len(lights))
+
+
+def choose_start(args, renderer, candidates, options, lights_of, camera, costs: FrameCosts):
+    """(the starting technique, a line saying why): the only candidate, the one the last
+    probe chose for the same scene (and file), lights, size, renderer, techniques and code
+    version, or the fastest of the candidates now (fastest()); the times measured go into
+    `costs`.  lights_of(): the scene's lights as the window draws them."""
+    if len(candidates) == 1:
+        return candidates[0], f"{candidates[0]}: the only technique that takes the given options"
+    from ..techniques import REGISTRY
+    n = len(lights_of())
+    key = start_key(args, n, renderer.size, renderer.limits.renderer, candidates, options.given)
+    got = None if args.reprobe else remembered(key)
+    if got and got.get("technique") in candidates:
+        name, times, size = got["technique"], got.get("times", {}), tuple(got.get("size", renderer.size))
+        how = f"at the last probe, {got.get('when', '?')}; --reprobe measures again"
+    else:
+        t0 = time.perf_counter()
+        name, times, size, skipped = fastest(renderer, [REGISTRY[c] for c in candidates],
+                                             lambda t: options.for_technique(t)[0], lights_of(), camera)
+        if name is None:
+            raise UserError("no technique can render this scene here (every one refused the probe frame)")
+        how = f"probe at {size[0]}x{size[1]}, {time.perf_counter() - t0:.1f} s"
+        if skipped:
+            how += f"; not probed for time: {', '.join(skipped)}"
+        else:
+            remember(key, {"technique": name, "times": times, "size": list(size),
+                           "when": time.strftime("%Y-%m-%d %H:%M")})
+    for k, ms in times.items():
+        costs.record(k, ms, size[0] * size[1], n)
+    ranked = ", ".join(f"{k} {v:.0f} ms" for k, v in sorted(times.items(), key=lambda kv: kv[1]))
+    return name, f"started on {name}, the fastest exact technique here ({ranked}; {how})"

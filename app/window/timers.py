@@ -40,3 +40,10 @@ class Timers:
 
     def history(self, name: str) -> list[float]:
         return list(self.series.get(name, ()))
+
+    def rows(self) -> list[tuple]:
+        """The panel's rows: (series, median, min, frames, history to graph or None); the
+        GPU passes, the CPU total and the whole frame are graphed."""
+        graphed = lambda n: n.startswith("gpu") or n in ("cpu total", "frame (wall)")
+        return [(name, med, lo, n, self.history(name) if graphed(name) else None)
+                for name, (med, lo, n) in self.summary().items()]

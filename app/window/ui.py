@@ -11,6 +11,9 @@ A widget that changes does not change the state at once: it queues (key, value) 
 Panel.apply at the start of the next frame (the frame on screen has rendered already), the
 same path scripted runs take (--keys "tile=32"; "click:NAME" feeds imgui a mouse click at the
 widget's place).  Works the same headless (EGL) and in a desktop window.
+
+The UI reads one app.window.figures.UIModel a frame (the window builds it) and never the
+window itself: what it shows is what the model holds.
 """
 from __future__ import annotations
 
@@ -20,7 +23,6 @@ import numpy as np
 
 from .. import images
 from ..errors import UserError
-from .keys import HELP as KEY_HELP
 from .panel import Control
 
 # moderngl-window 3.1's integration reads the font atlas with get_tex_data_as_rgba32, which
@@ -92,9 +94,9 @@ class LabUI:
             io.add_mouse_button_event(0, ev[0] == "down")
 
     # ---- one frame of UI ---------------------------------------------------------------------
-    def frame(self, app, target, viewport, for_shot: bool = False) -> None:
-        """Build the UI of `app`'s current frame and draw it into `target`.  for_shot: the
-        screenshot's copy (no messages, no input, nothing queued)."""
+    def frame(self, model, target, viewport, for_shot: bool = False) -> None:
+        """Build the UI of `model` (figures.UIModel) and draw it into `target`.  for_shot:
+        the screenshot's copy (no input, nothing queued)."""
         imgui = self.imgui
         io = imgui.get_io()
         w, h = viewport
@@ -103,32 +105,33 @@ class LabUI:
         ww, wh = max(ww, 1), max(wh, 1)
         io.display_size = (ww, wh)
         io.display_framebuffer_scale = (w / ww, h / wh)
-        io.delta_time = max(float(getattr(app, "frame_dt", 1 / 60)), 1e-3)
+        io.delta_time = max(float(model.frame_dt), 1e-3)
         if not for_shot:
             self._feed_inputs()
             self.rects = {}                        # the widgets on screen this frame
         imgui.new_frame()
         self.for_shot = for_shot
-        if app.state.hud:
-            self._hud(app, for_shot)
-            if app.state.panel:
-                self._panel(app, ww, wh)
-            self._colorbar(app, ww, wh)
+        if model.hud:
+            self._hud(model)
+            if model.panel:
+                self._panel(model, ww, wh)
+            self._colorbar(model, ww, wh)
         imgui.render()
         if not for_shot:
             self.want_mouse = bool(io.want_capture_mouse)
             self.want_keyboard = bool(io.want_text_input)
         target.use()
-        app.ctx.viewport = (0, 0, w, h)
+        ctx = self.wnd.ctx
+        ctx.viewport = (0, 0, w, h)
         self.renderer.render(imgui.get_draw_data())
-        app.ctx.scissor = None
+        ctx.scissor = None
 
     def take_queued(self) -> list[tuple[str, object]]:
         q, self.queued = self.queued, []
         return q
 
     # ---- pieces ---------------------------------------------------------------------------------
-    def _hud(self, app, for_shot: bool) -> None:
+    def _hud(self, model) -> None:
         imgui = self.imgui
         imgui.set_next_window_pos((0, 0))
         imgui.set_next_window_bg_alpha(0.6)
@@ -136,7 +139,7 @@ class LabUI:
                  imgui.WindowFlags_.no_inputs | imgui.WindowFlags_.no_saved_settings |
                  imgui.WindowFlags_.no_focus_on_appearing | imgui.WindowFlags_.no_nav)
         imgui.begin("hud", None, flags)
-        for line in app.hud_lines(with_message=not for_shot):
+        for line in model.hud_lines:
             if line.startswith("!"):
                 imgui.text_colored(imgui.ImVec4(1.0, 0.75, 0.2, 1.0), line[1:])
             else:
@@ -147,7 +150,7 @@ class LabUI:
     def panel_width(w: int) -> int:
         return min(PANEL_WIDTH, max(int(w * 0.45), 120))
 
-    def _panel(self, app, w: int, h: int) -> None:
+    def _panel(self, model, w: int, h: int) -> None:
         imgui = self.imgui
         pw = self.panel_width(w)
         imgui.set_next_window_pos((w - pw, 0))
@@ -157,30 +160,28 @@ class LabUI:
                  imgui.WindowFlags_.no_saved_settings | imgui.WindowFlags_.no_collapse)
         imgui.begin("lab", None, flags)
         imgui.push_item_width(-110)
-        controls = app.panel.controls()
         for section, title, open_ in SECTIONS:
-            mine = [c for c in controls if c.section == section]
-            extra = {"camera": app.camera_lines, "inspect": app.inspect_lines}.get(section)
-            if not mine and extra is None:
+            mine = [c for c in model.controls if c.section == section]
+            lines = model.section_lines.get(section, [])
+            if not mine and not lines:
                 continue
             imgui.set_next_item_open(open_, imgui.Cond_.once)
             if not imgui.collapsing_header(title):
                 continue
-            if section == "technique":
-                for line in app.technique_lines():
-                    imgui.text_wrapped(line)
+            first = lines if section == "technique" else []      # the technique's text leads
+            for line in first:
+                imgui.text_wrapped(line)
             for c in mine:
                 self._widget(c)
-            if extra is not None:
-                for line in extra():
-                    imgui.text_wrapped(line)
+            for line in ([] if first else lines):
+                imgui.text_wrapped(line)
         imgui.set_next_item_open(True, imgui.Cond_.once)
         if imgui.collapsing_header("Timers"):
-            self._timers(app)
+            self._timers(model.timers)
         imgui.set_next_item_open(False, imgui.Cond_.once)
         if imgui.collapsing_header("Keys"):
-            for k, what in KEY_HELP:
-                imgui.text(f"{k:8} {what}")
+            for k, what in model.keys:
+                imgui.text_wrapped(f"{k:12} {what}")
         imgui.pop_item_width()
         imgui.end()
 
@@ -221,23 +222,22 @@ class LabUI:
         if changed and not self.for_shot:
             self.queued.append((c.key, value))
 
-    def _timers(self, app) -> None:
+    def _timers(self, timers) -> None:
         imgui = self.imgui
-        summary = app.timers.summary()
-        if not summary:
+        if not timers:
             imgui.text_wrapped("(history starts on the second frame of a configuration)")
             return
         imgui.text("median / min over the last frames, ms")
-        for name, (med, lo, n) in summary.items():
+        for name, med, lo, n, history in timers:
             imgui.text(f"{name:18} {med:8.2f} {lo:8.2f}  ({n})")
-            if name.startswith("gpu") or name in ("cpu total", "frame (wall)"):
-                values = np.asarray(app.timers.history(name), np.float32)
+            if history is not None:
+                values = np.asarray(history, np.float32)
                 if len(values) > 1:
                     imgui.plot_lines(f"##{name}", values, 0, None, 0.0, float(values.max()) * 1.1,
                                      imgui.ImVec2(*HISTORY_SIZE))
 
-    def _colorbar(self, app, w: int, h: int) -> None:
-        scale = app.heat_scale()
+    def _colorbar(self, model, w: int, h: int) -> None:
+        scale = model.heat_scale
         if scale is None:
             return
         vmax, label = scale

@@ -1,6 +1,7 @@
 """The window's parts that need no GL: the panel's model (controls read from the techniques'
 declarations, the one `apply` path), camera path files, timers, frame-cost predictions, the
-HUD's text and app.images' one definition of what a person sees."""
+HUD's text and app.images' one definition of what a person sees (camera path files:
+test_campath.py)."""
 from __future__ import annotations
 
 import json
@@ -12,7 +13,6 @@ import pytest
 from app import images
 from app.errors import UserError
 from app.techniques import REGISTRY
-from app.window import campath
 from app.window.hud import exposure_text, hud_lines
 from app.window.options import WindowOptions
 from app.window.panel import LabState, Panel, panel_keys
@@ -109,34 +109,6 @@ def test_every_panel_key_is_scriptable():
             assert c.key in keys
 
 
-def test_camera_path_round_trip_and_bad_files(tmp_path):
-    from scenes.model import Camera
-    path = campath.CameraPath(scene="city", size=(320, 180))
-    for k in range(3):
-        path.add(Camera((0.0, 5.0, 30.0 - k), (0.0, 5.0, -1.0), (0.0, 1.0, 0.0), 60.0, 0.5, 3000.0), k / 30)
-    f = path.save(tmp_path / "p.json")
-    back = campath.load(f)
-    assert len(back) == 3 and back.keys == path.keys and back.scene == "city" and back.size == (320, 180)
-    assert back.camera(4) == path.keys[1]                          # loops
-    good = json.loads(f.read_text())
-    cases = [({"keys": []}, "keys: must be a non-empty"),
-             ({**good, "keyz": 1}, "unknown field 'keyz'"),
-             ({**good, "version": 9}, "version"),
-             ({**good, "keys": [{**good["keys"][0], "fov_y_deg": float("nan")}]}, "fov_y_deg"),
-             ({**good, "keys": [{**good["keys"][0], "near": 0}]}, "near"),
-             ({**good, "keys": [{**good["keys"][0], "target": good["keys"][0]["position"]}]}, "target equals"),
-             ({**good, "keys": [{k: v for k, v in good["keys"][0].items() if k != "up"}]}, "missing 'up'"),
-             ({**good, "keys": good["keys"][::-1]}, "time order")]
-    for data, words in cases:
-        (tmp_path / "bad.json").write_text(json.dumps(data))
-        with pytest.raises(UserError, match=words) as e:
-            campath.load(tmp_path / "bad.json")
-        assert "\n" not in str(e.value)
-    (tmp_path / "bad.json").write_text("{nope")
-    with pytest.raises(UserError, match="not JSON"):
-        campath.load(tmp_path / "bad.json")
-
-
 def test_timers_rolling_median_min_and_history():
     t = Timers()
     t.add("a", {"shade": 99.0}, {"cull": 1.0}, 120.0)           # first frame: compiles, not kept
@@ -224,3 +196,47 @@ def test_a_panel_change_the_mode_refuses_is_rolled_back():
         w.set(raster, "cluster", 1)
     opts, _ = w.for_technique(raster)
     assert opts.stencil and opts.cluster == 0
+
+
+def test_technique_chooser_reaches_past_the_ninth():
+    """Keys 1-9 choose the first nine; T (next_technique) walks every one, the tenth and
+    eleventh too, and the panel's technique list holds them all."""
+    registry = dict(REGISTRY)
+    while len(registry) < 11:
+        registry[f"extra{len(registry)}"] = REGISTRY["brute"]
+    names = list(registry)
+    s = LabState(registry, technique=names[8], options=WindowOptions({}), lights=64)
+    s.next_technique()
+    assert s.technique == names[9]
+    s.next_technique()
+    assert s.technique == names[10]
+    s.next_technique()
+    assert s.technique == names[0]                               # round again
+    s.choose_number(9)
+    assert s.technique == names[8]
+    with pytest.raises(UserError, match="no technique 12: 11 registered"):
+        s.choose_number(12)
+    technique = next(c for c in Panel(s).controls() if c.key == "technique")
+    assert technique.choices == tuple(names)
+
+
+def test_heat_scale_one_rule():
+    """app.images.heat_top is the heat scale's top for capture, the window (both halves of
+    the split) and the report; maps_top one scale over a technique's maps."""
+    from app.window.figures import heat_scale, heat_top
+    assert images.heat_top(0) == 1.0 and images.heat_top(37) == 37.0 and images.heat_top(37, 64) == 64.0
+    s = state("clustered")
+    sums, split = {"max_evaluated": 12, "max_exact": 3}, {"max_evaluated": 40, "max_exact": 2}
+    assert heat_top(s, sums, None) == 12 and heat_top(s, sums, split) == 40
+    s.heat_of = "exact"
+    assert heat_top(s, sums, split) == 3
+    s.heat_max = 64
+    assert heat_top(s, sums, split) == 64
+    f = {"heat_of": "exact", "heat_max": 64.0}
+    assert heat_scale(f, "heat", s, ("", "", 0.0)) == (64.0, "exact lights / pixel, log2(1 + n); top 64 (fixed)")
+    assert heat_scale(f, "shaded", s, ("", "", 0.0)) is None
+    assert heat_scale(f, "maps", s, ("coarse", "lights / tile", 9.0)) == (9.0, "coarse: lights / tile, log2(1 + n)")
+    maps = {"a": (np.array([[1, 7]]), "x"), "b": (np.zeros((0, 0)), "y")}
+    assert images.maps_top(maps) == 7.0 and images.maps_top({}) == 1.0
+    full = images.cells_to_pixels(np.array([[1, 2], [3, 4]]), (5, 3))
+    assert full.shape == (3, 5) and full[0].tolist() == [1, 1, 1, 2, 2] and full[2, 4] == 4

@@ -74,25 +74,27 @@ def test_starts_on_the_fastest_exact_technique(tmp_path):
 
 
 def test_keys_switch_technique_view_and_lights():
-    keys = [key_of("clustered"), "v", "v", "+", key_of("brute")]
-    frames, summary, proc = run_window(SMALL + ["--technique", "tree", "--frames", "6",
+    # T: the next technique in registry order (every one, past the ninth too)
+    after_brute = NAMES[(NAMES.index("brute") + 1) % len(NAMES)]
+    keys = [key_of("clustered"), "v", "v", "+", key_of("brute"), "t"]
+    frames, summary, proc = run_window(SMALL + ["--technique", "tree", "--frames", "7",
                                                "--keys", ",".join(keys)])
-    assert [f["frame"] for f in frames] == list(range(6))
+    assert [f["frame"] for f in frames] == list(range(7))
     assert [f["key"] for f in frames] == keys + [None]
-    assert [f["technique"] for f in frames] == ["clustered"] * 4 + ["brute"] * 2
+    assert [f["technique"] for f in frames] == ["clustered"] * 4 + ["brute"] + [after_brute] * 2
     # brute has no tiles view: switching to it shows the shaded image and says why
-    assert [f["view"] for f in frames] == ["shaded", "heat", "tiles", "tiles", "shaded", "shaded"]
+    assert [f["view"] for f in frames] == ["shaded", "heat", "tiles", "tiles", "shaded", "shaded", "shaded"]
     assert "brute has no tiles view" in proc.stderr
-    assert [f["lights"] for f in frames] == [32, 32, 32, 64, 64, 64]
+    assert [f["lights"] for f in frames] == [32, 32, 32, 64, 64, 64, 64]
     for f in frames:
         assert f["size"] == [160, 90]
         assert f["covered"] > 0 and f["visible_lights"] <= f["lights"]
         assert f["evaluated_per_pixel"] >= f["exact_per_pixel"] >= 0
         assert "shade" in f["gpu_ms"] and f["cpu_ms"]
-    assert summary["frames"] == 6 and summary["window"] == "headless"
+    assert summary["frames"] == 7 and summary["window"] == "headless"
     assert [s[1:3] for s in summary["sequence"]] == [
         ["clustered", "shaded"], ["clustered", "heat"], ["clustered", "tiles"],
-        ["clustered", "tiles"], ["brute", "shaded"]]
+        ["clustered", "tiles"], ["brute", "shaded"], [after_brute, "shaded"]]
 
 
 def test_views_cycle_through_the_techniques_own_and_moves():
