@@ -271,6 +271,18 @@ def _boxes_corners(rect, d_lo, d_hi, tile, tiles_x, tiles_y, table, out, diff):
             _add_corners(diff, a0, a1, b0, b1, s0, s1)
 
 
+def rect_counts(grid: Grid, rect, depth_lo, depth_hi) -> np.ndarray:
+    """(tiles_y, tiles_x, slices) int64: per cell the lights whose box (rect_boxes(): the
+    binning's rule) holds it, from the binning's difference array, without the lists."""
+    diff = np.zeros((grid.tiles_y + 1, grid.tiles_x + 1, grid.slices + 1), np.int32)
+    boxes = np.empty((len(rect), 6), np.int32)
+    f64 = lambda a: np.ascontiguousarray(a, np.float64)
+    _boxes_corners(f64(rect).reshape(-1, 4), f64(depth_lo), f64(depth_hi), *_grid_args(grid),
+                   boxes, diff)
+    counts = np.cumsum(np.cumsum(np.cumsum(diff, 0, np.int64), 1), 2)
+    return counts[:grid.tiles_y, :grid.tiles_x, :grid.slices]
+
+
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _offsets(diff, offsets, cursor):
     """Prefix sums of the difference array along slices, tiles x, tiles y (every cell's

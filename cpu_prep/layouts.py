@@ -34,6 +34,12 @@ _GLSL_TYPES = {
     (np.dtype(np.uint32), (4,)): ("uvec4", 16, 16),
 }
 
+
+def _uints(*names: str) -> list:
+    """dtype fields of one uint32 each (counters, whose names say what they count)."""
+    return [(n, np.uint32) for n in names]
+
+
 # One visible light, as the shading loop reads it (view space).
 GPU_LIGHT = np.dtype([
     ("pos_radius", np.float32, 4),       # xyz view-space position, w influence radius
@@ -66,18 +72,12 @@ assert CELL_RANGE.itemsize == 8
 
 # Per-pixel counters of a shading pass (the dump contract's evaluated / contrib_count /
 # contrib_hash, and the tree nodes visited).
-PIXEL_STATS = np.dtype([
-    ("evaluated", np.uint32),
-    ("contrib_count", np.uint32),
-    ("contrib_hash", np.uint32),
-    ("nodes", np.uint32),
-])
+PIXEL_STATS = np.dtype(_uints("evaluated", "contrib_count", "contrib_hash", "nodes"))
 assert PIXEL_STATS.itemsize == 16
 
 # Per 8x8 group (one emulated wave): its longest lane loop (the wave's scalar iterations),
-# the traversal case bits (1 list, 2 tree, 3 mixed; 4: tree read from shared memory), and,
-# where a technique has a per-lane loop beside its scalar one (zbin), that loop's sum over
-# the lanes and its longest lane.
+# the traversal case bits (CASE_*), and, where a technique has a per-lane loop beside its
+# scalar one (zbin), that loop's sum over the lanes and its longest lane.
 WAVE_STATS = np.dtype([
     ("iterations", np.uint32),
     ("case_bits", np.uint32),
@@ -85,16 +85,16 @@ WAVE_STATS = np.dtype([
 ])
 assert WAVE_STATS.itemsize == 16
 
+# WAVE_STATS.case_bits, OR-ed over a wave's lanes: the traversal case each ran (tree paper
+# figure 3: all lists, all trees, mixed; a list-only technique's waves are all lists), and
+# whether the group read its one tree from shared memory.  0: no lane shaded.
+CASE_LIST, CASE_TREE, CASE_SHARED_TREE = 1, 2, 4
+CASE_MIXED = CASE_LIST | CASE_TREE           # also the mask of the case proper
+CASES = {CASE_LIST: "list", CASE_TREE: "tree", CASE_MIXED: "mixed"}
+
 # The window's frame sums over covered pixels (64-bit sums as lo/hi words).
-VIEW_STATS = np.dtype([
-    ("covered", np.uint32),
-    ("evaluated_lo", np.uint32),
-    ("evaluated_hi", np.uint32),
-    ("max_evaluated", np.uint32),
-    ("exact_lo", np.uint32),
-    ("exact_hi", np.uint32),
-    ("reserved", np.uint32, 2),
-])
+VIEW_STATS = np.dtype(_uints("covered", "evaluated_lo", "evaluated_hi", "max_evaluated",
+                             "exact_lo", "exact_hi") + [("reserved", np.uint32, 2)])
 assert VIEW_STATS.itemsize == 32
 
 STRUCTS = {"GpuLight": GPU_LIGHT, "GpuBound": GPU_BOUND, "TreeNode": TREE_NODE,
@@ -152,13 +152,24 @@ def std430_offsets(dtype: np.dtype) -> tuple[dict[str, int], int]:
     return offsets, -(-pos // struct_align) * struct_align
 
 
+def glsl_defines(values: dict[str, int], suffix: str = "u") -> str:
+    """`#define NAME 5u` lines of unsigned constants (the shaders' uint arithmetic; suffix
+    "": int, e.g. a layout binding)."""
+    return "".join(f"#define {k} {int(v)}{suffix}\n" for k, v in values.items())
+
+
+def glsl_constants() -> dict[str, int]:
+    """The constants every shader may read: limits, light type ids, wave case bits."""
+    return {"NODE_COUNT_BITS": limits.NODE_COUNT_BITS, "NODE_SKIP_BITS": limits.NODE_SKIP_BITS,
+            **{f"LIGHT_{name.upper()}": i for i, name in enumerate(LIGHT_TYPES)},
+            "CASE_LIST": CASE_LIST, "CASE_TREE": CASE_TREE, "CASE_MIXED": CASE_MIXED,
+            "CASE_SHARED_TREE": CASE_SHARED_TREE}
+
+
 def glsl_declarations() -> str:
-    """All structs plus the limits and light type ids the shaders need, as one GLSL text."""
-    out = [glsl_struct(n, d) for n, d in STRUCTS.items()]
-    out += [f"#define NODE_COUNT_BITS {limits.NODE_COUNT_BITS}u",
-            f"#define NODE_SKIP_BITS {limits.NODE_SKIP_BITS}u"]
-    out += [f"#define LIGHT_{name.upper()} {i}u" for i, name in enumerate(LIGHT_TYPES)]
-    return "\n".join(out) + "\n"
+    """All structs plus glsl_constants(), as one GLSL text."""
+    structs = "\n".join(glsl_struct(n, d) for n, d in STRUCTS.items())
+    return structs + "\n" + glsl_defines(glsl_constants())
 
 
 # ---- tree node bits, written once ----

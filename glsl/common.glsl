@@ -49,8 +49,9 @@ uint group_index() {
 }
 
 // Wave statistics, per 8x8 group: the longest lane's loop length (the wave's scalar
-// iterations) and which traversal case ran (bit 0 list, bit 1 tree; both = mixed; the
-// hybrid adds bit 2 when the group's tree was read from shared memory).
+// iterations) and which traversal case ran (CASE_LIST, CASE_TREE; both = CASE_MIXED; the
+// tree techniques add CASE_SHARED_TREE when the group's tree was read from shared memory;
+// cpu_prep/layouts.py).
 // Global atomics, not a group reduction: barriers are what the emulation pays most for.
 void write_wave_stats(uint iterations, uint case_bits) {
     uint g = group_index();

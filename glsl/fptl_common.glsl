@@ -32,24 +32,11 @@
 
 // FPTL_TILE (16), FPTL_CAP (24), FPTL_BATCH (64) and the cell flags FPTL_COARSE_OVER,
 // FPTL_SPILLED, FPTL_POOL_FULL come with the structs from app/techniques/fptl.py
-// (fptl_structs.glsl, included first).
-
-#if FPTL_INDEX_BITS == 10
-#define FPTL_LIST_WORDS 8u
-#define FPTL_HEAD_WORDS 0u     // the counts are in the blocks' A2 fields
-#define FPTL_PER_WORD 3u
-#define FPTL_INDEX_MASK 0x3FFu
-#elif FPTL_INDEX_BITS == 16
-#define FPTL_LIST_WORDS 13u
-#define FPTL_HEAD_WORDS 1u     // the count word
-#define FPTL_PER_WORD 2u
-#define FPTL_INDEX_MASK 0xFFFFu
-#else
-#define FPTL_LIST_WORDS 25u
-#define FPTL_HEAD_WORDS 1u
-#define FPTL_PER_WORD 1u
-#define FPTL_INDEX_MASK 0xFFFFFFFFu
-#endif
+// (fptl_structs.glsl, included first); the format's words (FPTL_LIST_WORDS, FPTL_HEAD_WORDS:
+// 0 at 10 bits, the counts are in the blocks' A2 fields, else the count word;
+// FPTL_PER_WORD, FPTL_INDEX_MASK), its count fields and the states' count patterns from
+// the same module (fptl_format.glsl).
+#include "fptl_format.glsl"
 #define FPTL_STATE (FPTL_SPILLED | FPTL_POOL_FULL)
 
 uniform int u_fptl_tiles_x;
@@ -86,20 +73,23 @@ uint fptl_put(uint index, uint k) { return index << fptl_shift(k); }
 //   10-bit: the A2 count of block b of a cell with `listed` entries in its blocks and the
 //   state bits `flags` (FPTL_SPILLED, FPTL_POOL_FULL: a pool-full cell has spilled too)
 uint fptl_block_count(uint b, uint listed, uint flags) {
-    if ((flags & FPTL_POOL_FULL) != 0u) return b == 1u ? 1u : 0u;
-    if ((flags & FPTL_SPILLED) != 0u) return b == 0u ? 0u : 3u;
+    if ((flags & FPTL_POOL_FULL) != 0u) return FPTL_POOL_FULL_COUNTS[b];
+    if ((flags & FPTL_SPILLED) != 0u) return FPTL_SPILLED_COUNTS[b];
     return listed > 3u * b ? min(listed - 3u * b, 3u) : 0u;
 }
 //   16/32-bit: the count word
 uint fptl_count_word(uint listed, uint flags) {
-    return ((flags & FPTL_POOL_FULL) != 0u ? 0u : listed) | ((flags & FPTL_STATE) << 8u);
+    return ((flags & FPTL_POOL_FULL) != 0u ? 0u : listed) |
+           ((flags & FPTL_STATE) << FPTL_COUNT_WORD_STATE_SHIFT);
 }
 
 // ... and what shading decodes: (entries in the blocks, state bits).
 //   10-bit: from block 0's count and the sum of the eight counts
 uvec2 fptl_decode_counts(uint c0, uint sum) {
     if (c0 != 0u || sum == 0u) return uvec2(sum, 0u);                   // a plain list
-    return sum == 21u ? uvec2(FPTL_CAP, FPTL_SPILLED) : uvec2(0u, FPTL_STATE);
+    return sum == FPTL_SPILLED_SUM ? uvec2(FPTL_CAP, FPTL_SPILLED) : uvec2(0u, FPTL_STATE);
 }
 //   16/32-bit: from the count word
-uvec2 fptl_decode_count_word(uint w) { return uvec2(w & 0xFFu, (w >> 8u) & FPTL_STATE); }
+uvec2 fptl_decode_count_word(uint w) {
+    return uvec2(w & FPTL_COUNT_WORD_LISTED, (w >> FPTL_COUNT_WORD_STATE_SHIFT) & FPTL_STATE);
+}

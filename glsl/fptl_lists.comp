@@ -273,7 +273,8 @@ void main() {
         uint listed = min(s_pruned[c], FPTL_CAP);
         uint v = s_words[w];
 #if FPTL_INDEX_BITS == 10
-        v = (v & 0x3FFFFFFFu) | (fptl_block_count(b, listed, s_flags[c]) << 30u);   // the A2 count
+        v = (v & ((1u << FPTL_BLOCK_COUNT_SHIFT) - 1u)) |              // the A2 count
+            (fptl_block_count(b, listed, s_flags[c]) << FPTL_BLOCK_COUNT_SHIFT);
 #else
         if (b == 0u) v = fptl_count_word(listed, s_flags[c]);
 #endif

@@ -67,8 +67,9 @@ void shade_run(inout PixelState s, uint first, uint count, bool spill) {
 uvec2 list_state(uint first) {
 #if FPTL_INDEX_BITS == 10
     uint sum = 0u;                         // all eight blocks: 32 B, one aligned fetch
-    for (uint b = 0u; b < FPTL_LIST_WORDS; ++b) sum += fptl_lists[first + b] >> 30u;
-    return fptl_decode_counts(fptl_lists[first] >> 30u, sum);
+    for (uint b = 0u; b < FPTL_LIST_WORDS; ++b)
+        sum += fptl_lists[first + b] >> FPTL_BLOCK_COUNT_SHIFT;
+    return fptl_decode_counts(fptl_lists[first] >> FPTL_BLOCK_COUNT_SHIFT, sum);
 #else
     return fptl_decode_count_word(fptl_lists[first]);
 #endif
@@ -94,5 +95,5 @@ void main() {
         }
     }
     store_pixel(s);
-    write_wave_stats(s.evaluated, 1u);
+    write_wave_stats(s.evaluated, CASE_LIST);
 }

@@ -31,26 +31,26 @@ void evaluate_list(inout PixelState s, uint first, uint count) {
 // Drobot 2017, "Hierarchical Container iterator scalarized over containers": the wave walks
 // the distinct cells its lanes need, one per round (the address of the first lane still
 // waiting); the lanes of that cell iterate its list from a wave-uniform address, the others
-// wait.  `pending`: this lane still needs `cell`.  Returns the wave's scalar iterations: the
-// rounds plus the entries of every cell walked (what a scalar unit loops over).
-uint evaluate_cells_scalarized(inout PixelState s, uint cell, bool pending) {
-    uint iterations = 0u;
+// wait.  `pending`: this lane still needs `cell`.  One round: its wave-uniform cell `c`;
+// false once no lane waits.
+bool next_wave_cell(bool pending, uint cell, out uint c) {
 #if WAVE_NATIVE
-    while (pending) {            // the slides' loop: a lane leaves once its cell is done
-        uint c = waveReadFirstLane(cell);
-        uvec2 r = ranges[c].offset_count;
-        iterations += 1u + r.y;
-        if (c == cell) {
-            evaluate_list(s, r.x, r.y);
-            pending = false;
-        }
-    }
+    if (!pending) return false;  // the slides' loop: a lane leaves once its cell is done
+    c = waveReadFirstLane(cell);
+    return true;
 #else
     // The emulated wave is the 8x8 group: every invocation takes part in every round (the
     // reduction holds barriers); the first waiting lane's address is the lowest waiting cell.
-    for (;;) {
-        uint c = groupAllMin(pending ? cell : 0xFFFFFFFFu);
-        if (c == 0xFFFFFFFFu) break;
+    c = groupAllMin(pending ? cell : 0xFFFFFFFFu);
+    return c != 0xFFFFFFFFu;
+#endif
+}
+
+// The scalarized walk over list cells.  Returns the wave's scalar iterations: the rounds
+// plus the entries of every cell walked (what a scalar unit loops over).
+uint evaluate_cells_scalarized(inout PixelState s, uint cell, bool pending) {
+    uint iterations = 0u, c;
+    while (next_wave_cell(pending, cell, c)) {
         uvec2 r = ranges[c].offset_count;
         iterations += 1u + r.y;
         if (pending && c == cell) {
@@ -58,6 +58,5 @@ uint evaluate_cells_scalarized(inout PixelState s, uint cell, bool pending) {
             pending = false;
         }
     }
-#endif
     return iterations;
 }

@@ -12,9 +12,10 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;   // one emulated 64-lane wave
 
-layout(binding = 0) uniform sampler2D g_position;  // xyz view-space position, w depth (0 = sky)
-layout(binding = 1) uniform sampler2D g_normal;    // xyz view-space normal
-layout(binding = 2) uniform sampler2D g_albedo;
+// the G-buffer at its units (app/pipeline/gbuffer.py TEXTURE_UNITS, via generated.glsl)
+layout(binding = G_POSITION_UNIT) uniform sampler2D g_position;  // xyz view-space position, w depth (0 = sky)
+layout(binding = G_NORMAL_UNIT) uniform sampler2D g_normal;      // xyz view-space normal
+layout(binding = G_ALBEDO_UNIT) uniform sampler2D g_albedo;
 
 layout(std430, binding = B_LIGHTS) readonly buffer LightBuffer { GpuLight lights[]; };
 

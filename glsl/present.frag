@@ -6,7 +6,7 @@
 // The buffers are bound where the pass declares them (B_<SLOT>, numbered by the renderer):
 //   out_color[y * W + x]   vec4 linear radiance        (GL row order, row 0 = bottom)
 //   out_stats[y * W + x]   PixelStats: evaluated, contrib_count, contrib_hash, nodes
-//   wave_stats[group]      WaveStats: iterations, case_bits (1 list, 2 tree, 3 mixed, 0 empty)
+//   wave_stats[group]      WaveStats: iterations, case_bits (CASE_*: list, tree, mixed; 0 empty)
 // View ids (VIEW_*) and texture units (*_UNIT) are defines from app/window/views.py and
 // passes.py; the display and heat functions are present_common.glsl (app/images.py's twins).
 // define: STASH VIEW_SHADED VIEW_HEAT VIEW_TILES VIEW_SLICES VIEW_CLASSES VIEW_DIFF VIEW_SPLIT
@@ -14,8 +14,8 @@
 #include "generated.glsl"
 #include "present_common.glsl"
 
-layout(binding = 0) uniform sampler2D g_position;   // xyz view space, w = linear depth, 0 = sky
-layout(binding = 2) uniform sampler2D g_albedo;
+layout(binding = G_POSITION_UNIT) uniform sampler2D g_position;   // xyz view space, w = linear depth, 0 = sky
+layout(binding = G_ALBEDO_UNIT) uniform sampler2D g_albedo;
 layout(std430, binding = B_OUT_COLOR) readonly buffer OutColor { vec4 out_color[]; };
 layout(std430, binding = B_OUT_STATS) readonly buffer OutStats { PixelStats out_stats[]; };
 
@@ -105,7 +105,7 @@ void main() {
         c = heat_view(shaded, stats_at(i), u_heat_max, covered);
     } else if (u_view == VIEW_CLASSES) {
         int gw = (u_size.x + 7) / 8;
-        uint bits = wave_stats[(p.y / 8) * gw + p.x / 8].case_bits & 3u;
+        uint bits = wave_stats[(p.y / 8) * gw + p.x / 8].case_bits & CASE_MIXED;
         c = mix(CASE_COLORS[bits], shaded, 0.2);
     } else if (u_view == VIEW_TILES && u_tile > 0) {
         ivec2 q = p % u_tile;

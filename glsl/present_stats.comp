@@ -14,7 +14,7 @@
 #include "present_common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(binding = 0) uniform sampler2D g_position;
+layout(binding = G_POSITION_UNIT) uniform sampler2D g_position;
 #if REF
 layout(binding = REF_UNIT) uniform usampler2D u_ref_stats;   // the reference's PixelStats
 #endif

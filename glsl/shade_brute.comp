@@ -9,5 +9,5 @@ void main() {
     CELLS_ONLY_RETURN(s);
     if (s.shading) evaluate_all_lights(s);
     store_pixel(s);
-    write_wave_stats(s.evaluated, 1u);
+    write_wave_stats(s.evaluated, CASE_LIST);
 }

@@ -23,5 +23,5 @@ void main() {
     uint iterations = s.evaluated;
 #endif
     store_pixel(s);
-    write_wave_stats(iterations, 1u);
+    write_wave_stats(iterations, CASE_LIST);
 }

@@ -18,29 +18,14 @@
 #include "common.glsl"
 #include "lists.glsl"
 #include "tree.glsl"
+#include "hybrid_cells.glsl"        // CELL_TREE_BIT, from app/techniques/hybrid.py
 
-const uint CELL_TREE_BIT = 0x80000000u;
-
-// a) scalarized: the wave's distinct list cells, one per round (see lists.glsl's
-// evaluate_cells_scalarized); returns the wave's scalar iterations (rounds + lights).
+// a) scalarized: the wave's distinct list cells, one per round (lists.glsl's
+// next_wave_cell), each its one node; returns the wave's scalar iterations (rounds + lights).
 uint walk_list_cells(inout PixelState s, uint cell, bool pending) {
-    uint iterations = 0u;
-#if WAVE_NATIVE
-    while (pending) {
-        uint c = waveReadFirstLane(cell);
+    uint iterations = 0u, c;
+    while (next_wave_cell(pending, cell, c)) {
         TreeNode n = nodes[ranges[c].offset_count.x];          // a wave-uniform address
-        iterations += 1u + node_light_count(n.bits);
-        if (c == cell) {
-            uint i = 0u;
-            visit_node(s, n, i);
-            pending = false;
-        }
-    }
-#else
-    for (;;) {                 // the emulated wave is the group: every lane takes every round
-        uint c = groupAllMin(pending ? cell : 0xFFFFFFFFu);
-        if (c == 0xFFFFFFFFu) break;
-        TreeNode n = nodes[ranges[c].offset_count.x];
         iterations += 1u + node_light_count(n.bits);
         if (pending && c == cell) {
             uint i = 0u;
@@ -48,7 +33,6 @@ uint walk_list_cells(inout PixelState s, uint cell, bool pending) {
             pending = false;
         }
     }
-#endif
     return iterations;
 }
 
@@ -61,8 +45,8 @@ void main() {
     uint count = r.y & ~CELL_TREE_BIT;
     bool is_tree = s.shading && count > 1u;         // by structure: which loop can read it
     bool is_list = s.shading && count == 1u;
-    // bit 0: listing 2 chose a list, bit 1: a tree (both in one wave: mixed)
-    uint case_bits = s.shading ? ((r.y & CELL_TREE_BIT) != 0u ? 2u : 1u) : 0u;
+    // listing 2's choice, list or tree (both in one wave: CASE_MIXED)
+    uint case_bits = s.shading ? ((r.y & CELL_TREE_BIT) != 0u ? CASE_TREE : CASE_LIST) : 0u;
     uint iterations = 0u;
 #if SPECIALISED
     // One group vote: the cell range of tree lanes, their node count, and whether any lane
@@ -78,7 +62,7 @@ void main() {
     bool all_list = (v.w & 1u) == 0u;      // the emulated wave is the group: reuse its vote
     bool all_tree = (v.w & 2u) == 0u;
 #endif
-    if (one_tree) case_bits |= 4u;         // bit 2: the group read one tree from shared memory
+    if (one_tree) case_bits |= CASE_SHARED_TREE;     // the group read one tree from shared memory
 
     if (one_tree) {
         load_shared_tree(groupReduce(0u, is_tree ? r.x : 0u, 0u, 0u).y, v.z);

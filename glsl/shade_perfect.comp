@@ -22,6 +22,6 @@ void main() {
     uint longest = groupAllMax(s.evaluated);
     if (gl_LocalInvocationIndex == 0u) {   // a plain store: every band writes only its groups
         wave_stats[perfect_group_index()].iterations = longest;
-        wave_stats[perfect_group_index()].case_bits = 1u;
+        wave_stats[perfect_group_index()].case_bits = CASE_LIST;
     }
 }

@@ -1,7 +1,8 @@
 #version 430
 // tiled: the pixel's tile list from the tile_cull pass; an overflowed tile (count
-// 0xFFFFFFFF) shades every visible light.
+// TILE_OVERFLOW) shades every visible light.
 #include "generated.glsl"
+#include "tiled_lists.glsl"         // TILE_OVERFLOW, from app/techniques/tiled.py
 #include "wave.glsl"
 #include "common.glsl"
 #include "lists.glsl"
@@ -12,11 +13,11 @@ void main() {
         s.cell = cell_of(s);
         CELLS_ONLY_RETURN(s);
         uvec2 r = ranges[s.cell].offset_count;
-        if (r.y == 0xFFFFFFFFu)
+        if (r.y == TILE_OVERFLOW)
             evaluate_all_lights(s);
         else
             evaluate_list(s, r.x, r.y);
     }
     store_pixel(s);
-    write_wave_stats(s.evaluated, 1u);
+    write_wave_stats(s.evaluated, CASE_LIST);
 }

@@ -43,7 +43,7 @@ void main() {
         traverse_tree(s, r.x, r.y);
     }
     store_pixel(s);
-    write_wave_stats(s.evaluated + s.nodes, 2u | (one_tree ? 4u : 0u));
+    write_wave_stats(s.evaluated + s.nodes, CASE_TREE | (one_tree ? CASE_SHARED_TREE : 0u));
 #else
     if (s.shading) {
         s.cell = cell_of(s);
@@ -52,6 +52,6 @@ void main() {
         traverse_tree(s, r.x, r.y);
     }
     store_pixel(s);
-    write_wave_stats(s.evaluated + s.nodes, 2u);
+    write_wave_stats(s.evaluated + s.nodes, CASE_TREE);
 #endif
 }

@@ -3,11 +3,12 @@
 // tile's min/max depth from the G-buffer, then tests every visible light's bounding sphere
 // against the tile's frustum (four side planes through the eye, widened by a pixel, and
 // the depth range).  Lists are allocated from one global pool; a tile whose list does not
-// fit is flagged (count 0xFFFFFFFF) and shades every light, so no light is ever dropped.
+// fit is flagged (count TILE_OVERFLOW) and shades every light, so no light is ever dropped.
 #include "generated.glsl"
+#include "tiled_lists.glsl"         // TILE_OVERFLOW, from app/techniques/tiled.py
 layout(local_size_x = 16, local_size_y = 16) in;
 
-layout(binding = 0) uniform sampler2D g_position;
+layout(binding = G_POSITION_UNIT) uniform sampler2D g_position;
 layout(std430, binding = B_BOUNDS) readonly buffer Bounds { GpuBound bounds[]; };
 layout(std430, binding = B_RANGES) writeonly buffer TileRanges { CellRange tile_ranges[]; };
 layout(std430, binding = B_ENTRIES) writeonly buffer TileEntries { uint tile_entries[]; };
@@ -73,11 +74,11 @@ void main() {
     if (lid == 0u) {
         s_base = s_count > 0u ? atomicAdd(pool_used, s_count) : 0u;
         bool overflow = s_base + s_count > u_capacity || s_base + s_count < s_base;
-        tile_ranges[tile].offset_count = overflow ? uvec2(0u, 0xFFFFFFFFu) : uvec2(s_base, s_count);
-        if (overflow) s_count = 0xFFFFFFFFu;
+        tile_ranges[tile].offset_count = overflow ? uvec2(0u, TILE_OVERFLOW) : uvec2(s_base, s_count);
+        if (overflow) s_count = TILE_OVERFLOW;
     }
     barrier();
-    bool write = s_count != 0xFFFFFFFFu && !empty;
+    bool write = s_count != TILE_OVERFLOW && !empty;
     // Fill in light order (= depth order, like every other technique's lists), so the list
     // and the image's summation order do not depend on atomic scheduling: per chunk of 256
     // lights, each hit's slot is the number of hits of lower invocations.

@@ -5,8 +5,10 @@ generates `features.glsl`, the only light-type code the shading passes compile: 
 without spot lights compiles no cone test, a scene of spots only tests no type.  The
 same set goes into the dump's meta.
 
-Also generates `generated.glsl`: the GPU structs, limits and light type ids (from
-cpu_prep.layouts).  Binding points are not here: the renderer numbers each pass's buffers.
+Also generates `generated.glsl`: the GPU structs, limits, light type ids and wave case bits
+(from cpu_prep.layouts) and the G-buffer's texture units (app.pipeline.gbuffer): every value
+both sides read, written once in Python.  Buffer binding points are not here: the renderer
+numbers each pass's buffers.
 """
 from __future__ import annotations
 
@@ -17,10 +19,12 @@ import numpy as np
 from cpu_prep import layouts
 from scenes.model import LIGHT_TYPES
 
+from .gbuffer import unit_defines
+
 
 @lru_cache(maxsize=None)
 def generated_glsl() -> str:
-    return layouts.glsl_declarations()
+    return layouts.glsl_declarations() + layouts.glsl_defines(unit_defines(), suffix="")
 
 
 def feature_set(light_types: np.ndarray, specular: bool = False) -> tuple[str, ...]:

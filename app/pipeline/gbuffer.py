@@ -2,7 +2,8 @@
 
     gbuffer.vert/.frag -> position (xyz view space, w linear depth; 0 = sky),
                           normal (xyz, w roughness: 0 matte), albedo (rgb, a metallic),
-                          depth; every later pass samples them at units 0, 1, 2.
+                          depth; every later pass samples them at the TEXTURE_UNITS,
+                          which generated.glsl gives the shaders as G_POSITION_UNIT, ...
 """
 from __future__ import annotations
 
@@ -12,6 +13,11 @@ from cpu_prep.camera import FrameCamera
 from .passes import Draw, Pass
 
 TEXTURE_UNITS = {"g_position": 0, "g_normal": 1, "g_albedo": 2}
+
+
+def unit_defines() -> dict[str, int]:
+    """{G_POSITION_UNIT: 0, ...}: the units as generated.glsl defines them."""
+    return {f"{name.upper()}_UNIT": unit for name, unit in TEXTURE_UNITS.items()}
 
 
 def triangle_soup(meshes) -> np.ndarray:

@@ -116,6 +116,14 @@ STATE = FLAG_SPILLED | FLAG_POOL_FULL
 SPILLED_COUNTS = (0,) + (3,) * 7           # the 24 slots full, the rest in the spill
 POOL_FULL_COUNTS = (0, 1) + (0,) * 6       # no list: every light
 
+# The lists' formats by index width (index_bits): the chapter's 10-bit blocks, whose 2-bit
+# count sits above three indices (bits 30-31), and the wide formats' count word, the listed
+# entries in bits 0-7 and the state above them.  fptl_format.glsl is generated from these.
+INDEX_FORMATS = (10, 16, 32)
+BLOCK_COUNT_SHIFT = 30
+COUNT_WORD_LISTED = 0xFF
+COUNT_WORD_STATE_SHIFT = 8
+
 # GPU structs of this technique (the GLSL is generated from them: fptl_structs.glsl).
 FPTL_AABB = np.dtype([
     ("rect", np.float32, 4),     # x0, x1, y0, y1 in pixels (GL, y up), margins included
@@ -135,11 +143,33 @@ SPILL_HEAD = np.dtype((np.uint32, 2))      # (first, count) in fptl_spill
 
 def structs_glsl() -> str:
     """fptl_structs.glsl: the structs and constants above, written once here."""
-    out = [layouts.glsl_struct(n, d) for n, d in STRUCTS.items()]
-    out += [f"#define FPTL_TILE {TILE}", f"#define FPTL_CAP {LIST_CAP}u",
-            f"#define FPTL_BATCH {COARSE_BATCH}u", f"#define FPTL_COARSE_OVER {FLAG_COARSE_OVER}u",
-            f"#define FPTL_SPILLED {FLAG_SPILLED}u", f"#define FPTL_POOL_FULL {FLAG_POOL_FULL}u",
-            f"#define FPTL_COVERED {FLAG_COVERED}u"]
+    structs = "\n".join(layouts.glsl_struct(n, d) for n, d in STRUCTS.items()) + "\n"
+    tile = layouts.glsl_defines({"FPTL_TILE": TILE}, suffix="")     # an int: ivec2 pixel maths
+    return structs + tile + layouts.glsl_defines({
+        "FPTL_CAP": LIST_CAP, "FPTL_BATCH": COARSE_BATCH, "FPTL_COARSE_OVER": FLAG_COARSE_OVER,
+        "FPTL_SPILLED": FLAG_SPILLED, "FPTL_POOL_FULL": FLAG_POOL_FULL,
+        "FPTL_COVERED": FLAG_COVERED})
+
+
+def format_glsl() -> str:
+    """fptl_format.glsl: per index width (FPTL_INDEX_BITS) the words of a cell's list, the
+    words before its indices, the indices a word and their mask; the count fields; the two
+    states' 10-bit count patterns.  fptl_common.glsl reads them; decode_* read the same."""
+    out = []
+    for k, bits in enumerate(INDEX_FORMATS):
+        out.append(f"#{'elif' if k else 'if'} FPTL_INDEX_BITS == {bits}")
+        out.append(layouts.glsl_defines({
+            "FPTL_LIST_WORDS": list_words(bits), "FPTL_HEAD_WORDS": head_words(bits),
+            "FPTL_PER_WORD": 32 // bits, "FPTL_INDEX_MASK": (1 << bits) - 1}).rstrip())
+    out += ["#else", "#error FPTL_INDEX_BITS: not a list format", "#endif"]
+    out.append(layouts.glsl_defines({
+        "FPTL_BLOCK_COUNT_SHIFT": BLOCK_COUNT_SHIFT, "FPTL_COUNT_WORD_LISTED": COUNT_WORD_LISTED,
+        "FPTL_COUNT_WORD_STATE_SHIFT": COUNT_WORD_STATE_SHIFT,
+        "FPTL_SPILLED_SUM": sum(SPILLED_COUNTS)}).rstrip())
+    for name, counts in (("FPTL_SPILLED_COUNTS", SPILLED_COUNTS),
+                         ("FPTL_POOL_FULL_COUNTS", POOL_FULL_COUNTS)):
+        out.append(f"const uint {name}[{len(counts)}] = uint[{len(counts)}]"
+                   f"({', '.join(f'{c}u' for c in counts)});")
     return "\n".join(out) + "\n"
 
 
@@ -171,47 +201,12 @@ def class_order(types: np.ndarray) -> np.ndarray:
     return np.argsort(_LOOP_RANK[np.asarray(types, np.intp)], kind="stable").astype(np.uint32)
 
 
-def cell_bounds(rect: np.ndarray, grid: gridmod.Grid, d_lo=None, d_hi=None) -> np.ndarray:
-    """(tiles_y, tiles_x, slices) count of the lights whose conservative pixel rectangle
-    (x0, x1, y0, y1, GL) meets each tile and, with slices, whose depth range [d_lo, d_hi]
-    meets each slice: cpu_prep.grid's rules (pixel p lies in tile p // tile; depth ranges
-    widen by SLICE_DEPTH_REL_MARGIN), counted by a 3D difference array."""
-    tx, ty, ns = grid.tiles_x, grid.tiles_y, grid.slices
-    if len(rect) == 0:
-        return np.zeros((ty, tx, ns), np.int64)
-    t = float(grid.tile)
-    with np.errstate(invalid="ignore"):
-        x0 = np.clip(np.floor(rect[:, 0] / t), 0, tx - 1)
-        x1 = np.clip(np.floor(rect[:, 1] / t), -1, tx - 1)
-        y0 = np.clip(np.floor(rect[:, 2] / t), 0, ty - 1)
-        y1 = np.clip(np.floor(rect[:, 3] / t), -1, ty - 1)
-    ok = (x0 <= x1) & (y0 <= y1) & (rect[:, 0] <= rect[:, 1]) & (rect[:, 2] <= rect[:, 3]) & \
-        (rect[:, 1] >= 0) & (rect[:, 3] >= 0) & (rect[:, 0] < grid.width) & (rect[:, 2] < grid.height)
-    if ns > 1:
-        m = limits.SLICE_DEPTH_REL_MARGIN
-        s0 = grid.slice_of(np.asarray(d_lo, np.float64) * (1.0 - m))
-        s1 = grid.slice_of(np.asarray(d_hi, np.float64) * (1.0 + m))
-        ok &= (s0 <= s1) & (np.asarray(d_hi) > 0)
-    else:
-        s0 = s1 = np.zeros(len(rect), np.int64)
-    x0, x1, y0, y1, s0, s1 = (np.asarray(a)[ok].astype(np.int64) for a in (x0, x1, y0, y1, s0, s1))
-    shape = (ty + 1, tx + 1, ns + 1)
-    idx, wgt = [], []
-    for yy, sy in ((y0, 1), (y1 + 1, -1)):
-        for xx, sx in ((x0, 1), (x1 + 1, -1)):
-            for zz, sz in ((s0, 1), (s1 + 1, -1)):
-                idx.append(np.ravel_multi_index((yy, xx, zz), shape))
-                wgt.append(np.full(len(yy), sx * sy * sz))
-    diff = np.bincount(np.concatenate(idx), np.concatenate(wgt).astype(np.float64),
-                       minlength=int(np.prod(shape))).reshape(shape)
-    return np.cumsum(np.cumsum(np.cumsum(diff, 0), 1), 2)[:ty, :tx, :ns].round().astype(np.int64)
-
-
 def spill_bound(counts: np.ndarray) -> int:
-    """An upper bound on a frame's spilled entries from cell_bounds() of rectangles (and
-    depth ranges) that hold every light a cell's list can keep: a fine-pruned light affects
-    some pixel of the cell, so its conservative shape rectangle and depth range meet it; a
-    coarse one's AABB lies in its bounding sphere's rectangle and depth range."""
+    """An upper bound on a frame's spilled entries from the counts per cell (list_bounds)
+    of rectangles and depth ranges that hold every light a cell's list can keep: a
+    fine-pruned light affects some pixel of the cell, so its conservative shape rectangle
+    and depth range meet it; a coarse one's AABB lies in its bounding sphere's rectangle
+    and depth range."""
     return int(np.maximum(counts - LIST_CAP, 0).sum())
 
 
@@ -227,11 +222,14 @@ def sphere_rects(pl, cam) -> np.ndarray:
 
 
 def list_bounds(pl, cam, grid: gridmod.Grid, fine: bool) -> np.ndarray:
-    """cell_bounds() of the rectangles and depth ranges that hold a variant's list entries."""
+    """Per cell the lights whose rectangle and depth range, holding a variant's list entries,
+    meet it (cpu_prep.grid's rules: pixel p in tile p // tile, depth ranges widened by
+    SLICE_DEPTH_REL_MARGIN)."""
     if fine:
-        return cell_bounds(pl.rect, grid, pl.depth_lo, pl.depth_hi)
+        return gridmod.rect_counts(grid, pl.rect, pl.depth_lo, pl.depth_hi)
     depth, r = -pl.center[:, 2], pl.bound_radius
-    return cell_bounds(sphere_rects(pl, cam), grid, (depth - r) * (1 - 1e-5), (depth + r) * (1 + 1e-5))
+    return gridmod.rect_counts(grid, sphere_rects(pl, cam), (depth - r) * (1 - 1e-5),
+                               (depth + r) * (1 + 1e-5))
 
 
 def scan_windows(frame, n: int) -> list[tuple[int, int]]:
@@ -249,7 +247,7 @@ class Fptl(Technique, register_at=70):
     name = "fptl"
     summary = "16x16 tiles, GPU screen-AABB coarse lists fine-pruned per pixel (Mikkelsen)"
     views = Technique.views + ("tiles", "slices", "maps")
-    glsl = {"fptl_structs.glsl": structs_glsl()}
+    glsl = {"fptl_structs.glsl": structs_glsl(), "fptl_format.glsl": format_glsl()}
 
     @dataclass(frozen=True)
     class Options(TechniqueOptions):
@@ -443,8 +441,8 @@ def decode_state(words: np.ndarray, bits: int) -> tuple[np.ndarray, np.ndarray]:
     entry in block 1 a pool-full cell; in the wide formats the count word."""
     w = _words(words, bits)
     if bits != 10:
-        return w[:, 0] & 0xFF, (w[:, 0] >> 8) & STATE
-    counts = w >> 30
+        return w[:, 0] & COUNT_WORD_LISTED, (w[:, 0] >> COUNT_WORD_STATE_SHIFT) & STATE
+    counts = w >> BLOCK_COUNT_SHIFT
     total, c0 = counts.sum(1), counts[:, 0]
     marked = (c0 == 0) & (total != 0)
     spilled = marked & (total == sum(SPILLED_COUNTS))

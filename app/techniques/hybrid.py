@@ -28,14 +28,14 @@ from .base import Technique, cell_head, entry_list, prepare_binned
 from .options import ListOptions, ScalarizeOptions, SliceOptions, TreeOptions, WaveOptions, option
 from .blocks import add_shared_load, live_groups, one_tree_groups, study_notes, tree_buffers, tree_passes
 
-CELL_TREE_BIT = np.uint32(1 << 31)     # shade_hybrid.comp: listing 2 chose a tree
-CASES = {1: "list", 2: "tree", 3: "mixed"}
+CELL_TREE_BIT = np.uint32(1 << 31)     # a cell's count word: listing 2 chose a tree
 
 
 class Hybrid(Technique, register_at=50):
     name = "hybrid"
     summary = "2.5D grid, each cell a list or a tree (listing 2 heuristic)"
     views = Technique.views + ("tiles", "slices", "classes")
+    glsl = {"hybrid_cells.glsl": layouts.glsl_defines({"CELL_TREE_BIT": CELL_TREE_BIT})}
 
     @dataclass(frozen=True)
     class Options(SliceOptions, ListOptions, TreeOptions, WaveOptions, ScalarizeOptions):
@@ -136,13 +136,13 @@ def _case_counters(build, waves, pixels):
     pad = lambda a: np.pad(a.astype(np.float64), ((0, gy * WAVE_DIM - h), (0, gx * WAVE_DIM - w)))
     per_group = lambda a: pad(a).reshape(gy, WAVE_DIM, gx, WAVE_DIM).sum((1, 3))
     nodes, busy = per_group(st["nodes"]), per_group((st["evaluated"] + st["nodes"]) > 0)
-    case = wv["case_bits"] & 3
-    for k, name in CASES.items():
+    case = wv["case_bits"] & layouts.CASE_MIXED
+    for k, name in layouts.CASES.items():
         m = case == k
         build.stats[f"waves_{name}"] = int(m.sum())
         build.stats[f"iterations_{name}"] = float(wv["iterations"][m].mean()) if m.any() else 0.0
         build.stats[f"nodes_{name}"] = float(nodes[m].sum() / max(busy[m].sum(), 1.0))
-    build.stats["waves_shared_tree"] = int(((wv["case_bits"] & 4) != 0).sum())
+    build.stats["waves_shared_tree"] = int(((wv["case_bits"] & layouts.CASE_SHARED_TREE) != 0).sum())
     return {}, []
 
 
@@ -164,7 +164,7 @@ def _notes(rows) -> tuple[str, str]:
         s = stats([r for r in path if (r["scene"], int(r["lights"])) == key])
         if "waves_list" not in s:
             continue
-        c = [CASES[k] for k in CASES]
+        c = list(layouts.CASES.values())
         text.append(f"| {key[0]}, {key[1]} | {s.get('lists', 0):.0f} / {s.get('trees', 0):.0f} | "
                     + " / ".join(f"{s[f'waves_{n}']:.0f}" for n in c) + " | "
                     + " / ".join(f"{s[f'iterations_{n}']:.3g}" for n in c) + " | "
@@ -177,7 +177,7 @@ def _notes(rows) -> tuple[str, str]:
                  f"{int(r0['lights'])} lights, frame {int(r0['frame'])}):", "",
                  "| path | waves | scalar iterations, specialised / general | nodes per pixel, "
                  "specialised / general |", "|---|---|---|---|"]
-        for n in CASES.values():
+        for n in layouts.CASES.values():
             a, g = by[True], by[False]
             text.append(f"| {n} | {a.get(f'waves_{n}', 0):.0f} | {a.get(f'iterations_{n}', 0):.3g} / "
                         f"{g.get(f'iterations_{n}', 0):.3g} | {a.get(f'nodes_{n}', 0):.3g} / "

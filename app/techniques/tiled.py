@@ -16,9 +16,9 @@ from ..pipeline.passes import Buffer, Pass
 from ..errors import UserError
 from .base import (Technique, add_all_lights, add_cell_lists, cell_head, grid_uniforms, make_grid,
                    prepare, shading_passes)
+from .options import TileOptions
 
 OVERFLOW = 0xFFFFFFFF          # a tile's count when its list did not fit the pool
-from .options import TileOptions
 
 POOL_MAX_ENTRIES = 8 << 20
 
@@ -31,6 +31,7 @@ class Tiled(Technique, register_at=20):
     name = "tiled"
     summary = "2D tiles, min/max depth and light lists on the GPU (Andersson, Harada)"
     views = Technique.views + ("tiles",)
+    glsl = {"tiled_lists.glsl": layouts.glsl_defines({"TILE_OVERFLOW": OVERFLOW})}
 
     @dataclass(frozen=True)
     class Options(TileOptions):
