@@ -575,32 +575,27 @@ def _issue_lists(n, e_lane, e_list, e_first, e_count, e_scalar, list_start, list
                                         flat_eoff[p], 4)
                     lines += _lines(keys, stamps, stamp, seen, line_base[list_lbuf[lid]],
                                     flat_slot[p] * 96, 96)
-                if li != last:
-                    last = li
-                    shapes[types[li]] = True
-                    miss = not unbounded and _misses_box(li, L, bound, lo, hi)
-                if miss:
-                    continue
-                if affects(wx[q], wy[q], wz[q], li, L, types, unbounded):
+                last, miss, hit = _evaluate(li, last, miss, wx[q], wy[q], wz[q], L, types, bound,
+                                            lo, hi, unbounded, shapes, shaded)
+                if hit:
                     wacc[q] += 1
-                    shaded[types[li]] = True
                     any_spec |= spec[e_lane[q]]
-            loops[5, 0] += 1
-            loops[5, 1] += active
-            loads = 2 if entry_loads else 1
-            if scalar:
-                loops[5, 3] += loads
-                loops[5, 5] += lines
-            else:
-                loops[5, 2] += loads
-                loops[5, 4] += lines
-            for ty in range(types_acc.shape[1]):
-                types_acc[0, ty] += shapes[ty]
-                types_acc[1, ty] += shaded[ty]
-            types_acc[2, 0] += any_spec
+            _issue_lights(active, 2 if entry_loads else 1, lines, scalar, shapes, shaded,
+                          any_spec, loops, types_acc)
     for q in range(n):
         per_pixel[e_lane[q], 2] += wacc[q]
     return stamp
+
+
+@numba.njit(inline="always")
+def _count_loads(kind, loads, lines, scalar, loops):
+    """An issued iteration's loads and cache lines, on the scalar or the vector unit."""
+    if scalar:
+        loops[kind, 3] += loads
+        loops[kind, 5] += lines
+    else:
+        loops[kind, 2] += loads
+        loops[kind, 4] += lines
 
 
 @numba.njit(inline="always")
@@ -610,12 +605,50 @@ def _issue_head(kind, heads, lines, scalar, lds, loops):
     loops[kind, 1] += heads
     if lds:
         loops[kind, 6] += heads
-    elif scalar:
-        loops[kind, 3] += 1
-        loops[kind, 5] += lines
     else:
-        loops[kind, 2] += 1
-        loops[kind, 4] += lines
+        _count_loads(kind, 1, lines, scalar, loops)
+
+
+@numba.njit(inline="always")
+def _wave_scratch():
+    """A replay's scratch: the cache-line set (_lines: keys, stamps), a wave's box of
+    shading positions (lo, hi) and the light shapes an iteration met and shaded."""
+    return (np.zeros(_SET, np.int64), np.zeros(_SET, np.int64), np.empty(3, np.float32),
+            np.empty(3, np.float32), np.zeros(8, np.bool_), np.zeros(8, np.bool_))
+
+
+@numba.njit(inline="always")
+def _positions(n):
+    """x, y, z of n lanes' positions (float32, as the shader's)."""
+    xyz = np.zeros((3, n), np.float32)
+    return xyz[0], xyz[1], xyz[2]
+
+
+@numba.njit(inline="always")
+def _evaluate(li, last, miss, x, y, z, L, types, bound, lo, hi, unbounded, shapes, shaded):
+    """A lane's evaluate_light of light li at (x, y, z): the wave's box test once per light
+    in a row (lanes on one light share it; `last`, `miss`: the previous one's), then the
+    lane's own test.  Returns (li, its miss, whether it affects the lane)."""
+    if li != last:
+        shapes[types[li]] = True
+        miss = not unbounded and _misses_box(li, L, bound, lo, hi)
+    hit = not miss and affects(x, y, z, li, L, types, unbounded)
+    if hit:
+        shaded[types[li]] = True
+    return li, miss, hit
+
+
+@numba.njit(inline="always")
+def _issue_lights(active, loads, lines, scalar, shapes, shaded, any_spec, loops, types_acc):
+    """One issued iteration of a light loop over `active` lanes: its loads (the entry and
+    the light, or the light) and lines, the shapes it met and those it shaded."""
+    loops[5, 0] += 1
+    loops[5, 1] += active
+    _count_loads(5, loads, lines, scalar, loops)
+    for ty in range(types_acc.shape[1]):
+        types_acc[0, ty] += shapes[ty]
+        types_acc[1, ty] += shaded[ty]
+    types_acc[2, 0] += any_spec
 
 
 @numba.njit(cache=True)
@@ -636,24 +669,15 @@ def _replay_segments(wave, lane, step, hoff, first, count, call, calls,
             j += 1
         biggest = max(biggest, j - i)
         i = j
-    keys = np.zeros(_SET, np.int64)
-    stamps = np.zeros(_SET, np.int64)
+    keys, stamps, lo, hi, shapes, shaded = _wave_scratch()
     stamp = 0
-    lo = np.empty(3, np.float32)
-    hi = np.empty(3, np.float32)
-    shapes = np.zeros(8, np.bool_)
-    shaded = np.zeros(8, np.bool_)
-    e_lane = np.zeros(biggest, np.int64)
-    e_list = np.zeros(biggest, np.int64)
-    e_first = np.zeros(biggest, np.int64)
-    e_count = np.zeros(biggest, np.int64)
+    # per segment of a group: its list entry (lane, list, first, count), tree walk (segment,
+    # cursor) and lights affecting it; the lane's position
+    ints = np.zeros((7, biggest), np.int64)
+    e_lane, e_list, e_first, e_count, t_seg, t_cur, wacc = \
+        ints[0], ints[1], ints[2], ints[3], ints[4], ints[5], ints[6]
     e_scalar = np.zeros(biggest, np.bool_)
-    t_seg = np.zeros(biggest, np.int64)
-    t_cur = np.zeros(biggest, np.int64)
-    wx = np.zeros(biggest, np.float32)
-    wy = np.zeros(biggest, np.float32)
-    wz = np.zeros(biggest, np.float32)
-    wacc = np.zeros(biggest, np.int64)
+    wx, wy, wz = _positions(biggest)
     cmask = (1 << _COUNT_BITS) - 1
     i = 0
     while i < n:
@@ -746,19 +770,12 @@ def _replay_words(order, wave, shading, live, address, zlo, zhi, bits, words, ma
     the lanes' z-bin min / max), per word the lanes' words (a vector load each), then the
     per-lane bit loop (max set bits) or the scalar loop over the wave's OR of them."""
     n = len(order)
-    keys = np.zeros(_SET, np.int64)
-    stamps = np.zeros(_SET, np.int64)
+    keys, stamps, lo, hi, shapes, shaded = _wave_scratch()
     stamp = 0
-    lo = np.empty(3, np.float32)
-    hi = np.empty(3, np.float32)
     own = np.zeros(64, np.uint32)
-    wx = np.zeros(64, np.float32)
-    wy = np.zeros(64, np.float32)
-    wz = np.zeros(64, np.float32)
+    wx, wy, wz = _positions(64)
     w_ev = np.zeros(64, np.int64)
     w_hit = np.zeros(64, np.int64)
-    shapes = np.zeros(8, np.bool_)
-    shaded = np.zeros(8, np.bool_)
     empty_min = 0x7FFFFFFF
     i = 0
     while i < n:
@@ -840,31 +857,17 @@ def _replay_words(order, wave, shading, live, address, zlo, zhi, bits, words, ma
                     active += 1
                     w_ev[q] += 1
                     if li != last:               # lanes of one tile fetch the same light
-                        last = li
                         lines += _lines(keys, stamps, stamp, seen, line_base[0], li * 96, 96)
-                        shapes[types[li]] = True
-                        miss = not unbounded and _misses_box(li, L, bound, lo, hi)
-                    if miss:
-                        continue
-                    if affects(wx[q], wy[q], wz[q], li, L, types, unbounded):
+                    last, miss, hit = _evaluate(li, last, miss, wx[q], wy[q], wz[q], L, types,
+                                                bound, lo, hi, unbounded, shapes, shaded)
+                    if hit:
                         w_hit[q] += 1
-                        shaded[types[li]] = True
                         any_spec |= spec[order[s]]
                 if active == 0:
                     break
                 t += 1
-                loops[5, 0] += 1
-                loops[5, 1] += active
-                if scalar:
-                    loops[5, 3] += 1
-                    loops[5, 5] += lines
-                else:
-                    loops[5, 2] += 1
-                    loops[5, 4] += lines
-                for ty in range(types_acc.shape[1]):
-                    types_acc[0, ty] += shapes[ty]
-                    types_acc[1, ty] += shaded[ty]
-                types_acc[2, 0] += any_spec
+                _issue_lights(active, 1, lines, scalar, shapes, shaded, any_spec, loops,
+                              types_acc)
         for s in range(i, j):               # the wave's lanes' sums, once
             per_pixel[order[s], 0] += w_ev[s - i]
             per_pixel[order[s], 2] += w_hit[s - i]

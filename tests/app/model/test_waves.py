@@ -12,6 +12,7 @@ from app.model import predict, waves
 from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY
 from scenes import BUILTIN_SCENES, load_scene
+from tests.app.model.replay_check import check, gl_order
 
 SIZE = (72, 48)                  # 9 x 6 groups: whole 8x8 groups and 4-row halves (W = 32)
 LIGHTS = 1536
@@ -32,30 +33,6 @@ VARIANTS = [
 NATIVE = [("clustered", {"scalarize": True}), ("hybrid", {}), ("hybrid", {"scalarize": True}),
           *[("zbin", {"zbin_variant": v}) for v in (1, 2, 3)], ("raster", {"zbin_variant": 3})]
 NATIVE_WIDTH = 8
-
-
-def gl_order(a: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(a[::-1]).ravel()
-
-
-def check(renderer, name: str, opts: dict, width: int, where: str) -> waves.Replay:
-    tech = REGISTRY[name]
-    res = renderer.render(tech, 0, opts)
-    fr = waves.frame_data(renderer, res, tech.resolve_options(opts))
-    rp = waves.replay(tech.wave_program(fr, width))
-    what = f"{where} {name} {opts} W={width}"
-    ev, nodes = gl_order(res.evaluated), gl_order(res.nodes)
-    bad = np.nonzero(rp.evaluated != ev)[0]
-    assert not len(bad), (f"{what}: evaluated differs at {len(bad)} pixels, first {bad[0]}: "
-                          f"replay {rp.evaluated[bad[0]]}, shader {ev[bad[0]]}")
-    bad = np.nonzero(rp.nodes != nodes)[0]
-    assert not len(bad), (f"{what}: nodes differ at {len(bad)} pixels, first {bad[0]}: "
-                          f"replay {rp.nodes[bad[0]]}, shader {nodes[bad[0]]}")
-    # the CPU's float32 copy of the affects test may round the other way at a boundary
-    differ = int((rp.contrib != gl_order(res.contrib_count)).sum())
-    assert differ <= max(1, ev.size // 1000), f"{what}: contrib differs at {differ} pixels"
-    assert int(res.contrib_count.sum()) > 0, f"{what}: no light affects any pixel"
-    return rp
 
 
 @pytest.mark.parametrize("scene", BUILTIN_SCENES)

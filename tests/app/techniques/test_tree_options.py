@@ -1,10 +1,10 @@
 """tree's shared-memory tree (`shared_tree`) and the top-down build (`tree_build` 1) of tree
 and hybrid: exact against brute on every builtin scene and in the option combinations that
 change the shaders' paths; the wave replay (Tree/Hybrid.wave_program) gives the shaders' own
-per-pixel counters (the check of tests/app/model/test_waves.py, copied: that file is not
-this one's to extend); the groups that read their tree from shared memory are exactly those
-the rules say (one tree of 1..SHARED_TREE_NODES nodes: with tiles of a multiple of 8 pixels
-every such group, without a vote), with the barriers the replay counts."""
+per-pixel counters (tests/app/model/replay_check.py); the groups that read their tree from
+shared memory are exactly those the rules say (one tree of 1..SHARED_TREE_NODES nodes: with
+tiles of a multiple of 8 pixels every such group, without a vote), with the barriers the
+replay counts."""
 from __future__ import annotations
 
 import numpy as np
@@ -13,8 +13,10 @@ import pytest
 from app.model import waves
 from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY
-from app.techniques.tree import SHARED_TREE_NODES, group_tiles
+from app.techniques.blocks import SHARED_TREE_NODES
+from app.techniques.tree import group_tiles
 from scenes import BUILTIN_SCENES, load_scene
+from tests.app.model.replay_check import check, gl_order
 from tests.helpers import assert_exact, render_all
 
 SIZE = (72, 48)                  # 9 x 6 groups, as test_waves: whole groups and 4-row halves
@@ -34,31 +36,6 @@ VARIANTS = [
     ("hybrid", {"tree_build": 1, "specialised": False}),
     ("hybrid", {"tree_build": 1, "radius_scale": 4.0, "scalarize": True}),
 ]
-
-
-def gl_order(a: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(a[::-1]).ravel()
-
-
-def check(renderer, name: str, opts: dict, width: int, where: str) -> waves.Replay:
-    """tests/app/model/test_waves.py's check: the replay's per-pixel lights evaluated and
-    nodes visited equal the shader's, its affecting lights contrib_count's (to rounding)."""
-    tech = REGISTRY[name]
-    res = renderer.render(tech, 0, opts)
-    fr = waves.frame_data(renderer, res, tech.resolve_options(opts))
-    rp = waves.replay(tech.wave_program(fr, width))
-    what = f"{where} {name} {opts} W={width}"
-    ev, nodes = gl_order(res.evaluated), gl_order(res.nodes)
-    bad = np.nonzero(rp.evaluated != ev)[0]
-    assert not len(bad), (f"{what}: evaluated differs at {len(bad)} pixels, first {bad[0]}: "
-                          f"replay {rp.evaluated[bad[0]]}, shader {ev[bad[0]]}")
-    bad = np.nonzero(rp.nodes != nodes)[0]
-    assert not len(bad), (f"{what}: nodes differ at {len(bad)} pixels, first {bad[0]}: "
-                          f"replay {rp.nodes[bad[0]]}, shader {nodes[bad[0]]}")
-    differ = int((rp.contrib != gl_order(res.contrib_count)).sum())
-    assert differ <= max(1, ev.size // 1000), f"{what}: contrib differs at {differ} pixels"
-    assert int(res.contrib_count.sum()) > 0, f"{what}: no light affects any pixel"
-    return rp
 
 
 @pytest.mark.parametrize("scene", ["corridor", "city"])
