@@ -1,12 +1,12 @@
 #version 450
 // raster, the slides' cluster rasterizer (Drobot 2017): proxies mark the clusters (tile x
 // depth slice, cpu_prep.grid's listing-4 slices) of their light's volume; no depth test.
-//   u_mode 3  MARK: back faces of proxies the eye is outside of mark the clusters they
+//   u_mode RASTER_MODE_MARK: back faces of proxies the eye is outside of mark the clusters they
 //             conservatively touch in this pixel's column
-//          4  WALK (after every MARK): their front faces walk from their conservative depth
-//             to the farthest cluster of the column this light MARKed
-//          5  back faces of proxies holding the eye (or reaching the near plane) walk from
-//             the near plane (slice 0) to their conservative depth
+//          RASTER_MODE_WALK (after every MARK): their front faces walk from their
+//             conservative depth to the farthest cluster of the column this light MARKed
+//          RASTER_MODE_INSIDE: back faces of proxies holding the eye (or reaching the near
+//             plane) walk from the near plane (slice 0) to their conservative depth
 // Conservative depth of the triangle over the pixel, as the slides give it: w -+ (|dw/dx| +
 // |dw/dy|), clamped to the triangle's vertex depths (GetVertexParameterP0..2: here the
 // vertex shader computes all three corners, RASTER_TRI_BOUNDS), and never excluding w at
@@ -19,7 +19,7 @@
 // the column is convex, so every slice from its nearest front to its farthest back is
 // touched (exact at cluster granularity, and the same marks in practice).
 //   RASTER_MSAA: each covered sample stands for the full-resolution pixel of its quadrant,
-//   at the (dilated) proxy's exact depth at that sample (raster.py's doc).
+//   at the (dilated) proxy's exact depth at that sample (docs/raster.md).
 //   RASTER_DEPTH_BOUND: the slides' "conservative depth from prepass to early reject": a
 //   pixel only ever reads the cluster of its own depth's slice, so of a tile's clusters only
 //   slices [near, far] of its min / max scene depth (raster_tile_depth.comp) are read, and
@@ -28,7 +28,7 @@
 //   cluster no pixel reads, just outside on its own side (its far end when in front, far + 1
 //   when behind), so a WALK still tells "the tile's back faces are all in front of the read
 //   slices" (walk nothing there) and "behind them" (walk to far) from "no MARK at all"
-//   (walk to far, the unbounded rule); raster.py's doc has the argument.
+//   (walk to far, the unbounded rule); docs/raster.md has the argument.
 // define: RASTER_MSAA RASTER_COMPACT WAVE_NATIVE RASTER_DEPTH_BOUND
 #define WAVE_FRAGMENT 1          // wave.glsl (through raster_common.glsl): no group emulation
 #if RASTER_COMPACT && WAVE_NATIVE      // the loader writes the native path's #extension lines
@@ -47,7 +47,7 @@ layout(std430, binding = B_RASTER_TILE_DEPTH) readonly buffer TileDepth { uvec2 
 
 uint cell_word(ivec2 pixel, uint slice) {
     ivec2 t = pixel / u_tile;
-    return (uint(t.y * u_tiles_x + t.x) * uint(u_slices) + slice) * u_words + v_light / 32u;
+    return (uint(t.y * u_tiles.x + t.x) * uint(u_slices) + slice) * u_words + v_light / 32u;
 }
 
 bool marked(ivec2 pixel, uint slice) {
@@ -63,18 +63,18 @@ void column(ivec2 pixel, float lo, float hi) {
     uint near = 0u, far = top;                         // the slices this tile's pixels read
 #if RASTER_DEPTH_BOUND
     ivec2 t = pixel / u_tile;
-    uvec2 bound = tile_depth[t.y * u_tiles_x + t.x];
+    uvec2 bound = tile_depth[t.y * u_tiles.x + t.x];
     if (bound.y == 0u) return;                         // no geometry: no pixel reads the tile
     near = slice_of(uintBitsToFloat(~bound.x) * (1.0 - SHADER_SLACK));
     far = slice_of(uintBitsToFloat(bound.y) * (1.0 + SHADER_SLACK));
 #endif
-    if (u_mode == 3) {                                 // MARK: [s0, s1] within [near, far]
+    if (u_mode == RASTER_MODE_MARK) {                   // MARK: [s0, s1] within [near, far]
         if (s1 < near) s0 = s1;                        //   wholly in front: its far end alone
         else if (s0 > far) s0 = s1 = far + 1u;         //   wholly behind: far + 1 alone
         else { s0 = max(s0, near); s1 = min(s1, far); }
     } else {
-        if (u_mode == 5) s0 = 0u;                      // eye inside: from the near plane
-        if (u_mode == 4) {                             // WALK: to the column's farthest MARK
+        if (u_mode == RASTER_MODE_INSIDE) s0 = 0u;      // eye inside: from the near plane
+        if (u_mode == RASTER_MODE_WALK) {               // WALK: to the column's farthest MARK
             if (s0 > far) return;                      //   wholly behind what the tile reads
             uint end = min(top, far + 1u);
             s1 = end;

@@ -24,9 +24,9 @@ layout(std430, binding = B_RASTER_LIGHT_TILES) buffer LightTiles { uint light_ti
 
 uniform ivec2 u_size;         // full-resolution frame
 uniform int u_tile;
-uniform int u_tiles_x;
+uniform ivec2 u_tiles;        // tiles in x and y
 uniform uint u_words;
-uniform int u_mode;           // the including shader's
+uniform int u_mode;           // RASTER_MODE_* (raster.MODES): the including shader's
 uniform int u_step;
 uniform ivec2 u_sample_pixel[4];   // MSAA: the full-res pixel of sample k in its 2x2 block
 uniform vec2 u_sample_pos[4];       //   and sample k's position in the low-res pixel

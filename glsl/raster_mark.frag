@@ -1,13 +1,14 @@
 #version 450
 // raster (Drobot 2017): a proxy fragment that survived the early depth (and stencil) test
 // marks its light's bit in its tile's flat bit array (zbin's layout), after the depth bounds
-// test emulated here against the G-buffer's linear depth.  Exactness: raster.py's doc.
+// test emulated here against the G-buffer's linear depth.  Exactness: docs/raster.md.
 //   RASTER_MSAA     one fragment per half-resolution pixel: each covered sample stands for
 //                   the full-resolution pixel of its quadrant (u_sample_pixel)
 //   RASTER_COMPACT  WaveCompactValue (the slides' listing) on the native subgroup: the first
 //                   lane per distinct bit issues the atomic (needs WAVE_NATIVE; else plain)
 //   RASTER_STATS    the untimed twin: counts fragments, atomics and each light's tiles
-//   u_mode          0 front faces, 1 back faces, 2 stencil sequence (u_step 0 front, 1 back)
+//   u_mode          RASTER_MODE_FRONT / _BACK faces, or _STENCIL: the stencil sequence
+//                   (u_step 0 front faces, 1 back faces)
 // define: RASTER_MSAA RASTER_COMPACT WAVE_NATIVE
 #define WAVE_FRAGMENT 1          // wave.glsl (through raster_common.glsl): no group emulation
 #if RASTER_COMPACT && WAVE_NATIVE      // the loader writes the native path's #extension lines
@@ -41,7 +42,7 @@ bool passes(ivec2 pixel, float proxy_depth, RasterProxy pr, bool back) {
 
 uint word_of(ivec2 pixel) {
     ivec2 t = pixel / u_tile;
-    return uint(t.y * u_tiles_x + t.x) * u_words + v_light / 32u;
+    return uint(t.y * u_tiles.x + t.x) * u_words + v_light / 32u;
 }
 
 #if RASTER_MSAA
@@ -66,12 +67,12 @@ void main() {
     // pixel centre's value; the slides estimate depth from ddx / ddy of w the same way).
     float inv_d = gl_FragCoord.w;
     vec2 grad = vec2(dFdx(inv_d), dFdy(inv_d));
-    if (u_mode == 2 && u_step == 0) return;           // stencil sequence: front faces only set it
+    if (u_mode == RASTER_MODE_STENCIL && u_step == 0) return;   // front faces only set the stencil
     // helper invocations (there for the derivatives) leave now: they must not take part in
     // WaveCompactValue's ballots, where one could be the first lane of a key and swallow
     // the real lanes' atomic (a helper's atomics have no effect)
     if (gl_HelperInvocation) return;
-    bool back = u_mode != 0;
+    bool back = u_mode != RASTER_MODE_FRONT;
     RasterProxy pr = proxies[v_light];
 #if RASTER_STATS
     atomicAdd(counters[0], 1u);

@@ -1,7 +1,7 @@
 #version 450
 // raster (Drobot 2017, rasterization based culling): one light's proxy mesh, placed and
 // scaled in view space from the light (GpuLight) and its proxy record (RasterProxy, built by
-// app/techniques/raster.py, whose module doc gives the exactness argument).  Instanced: the
+// cpu_prep/raster_proxies.py; docs/raster.md gives the exactness argument).  Instanced: the
 // instance is the light order[u_first + u_instance + gl_InstanceID].
 //   sphere   in_vertex.xyz on the unit icosphere                 p + radius * v
 //   cone     (cos phi, sin phi, t, apex): cap at polar t * cap_angle, or the apex moved back
@@ -28,7 +28,7 @@ uniform float u_near;
 uniform int u_shape;          // PROXY_*
 uniform uint u_first;         // this group's first entry of order[]
 uniform int u_instance;       // per-instance stencil sequences draw one instance at a time
-uniform int u_mode;           // 0 front faces, 1 back faces, 2 stencil sequence
+uniform int u_mode;           // RASTER_MODE_* (raster.MODES)
 uniform int u_step;           // stencil sequence: 0 front faces, 1 back faces
 uniform vec4 u_ndc;           // x, y scale and (times w) offset of the NDC
 
@@ -83,7 +83,7 @@ void main() {
 #endif
     v_light = li;
     vec4 clip = u_clip_from_view * vec4(v, 1.0);
-    bool back = u_mode == 1 || (u_mode == 2 && u_step == 1);
+    bool back = u_mode == RASTER_MODE_BACK || (u_mode == RASTER_MODE_STENCIL && u_step == 1);
     // window depth n (1 +- rel) / d +- abs:  z_ndc = 2 window - 1, times w = d
     float s = back ? -1.0 : 1.0;
     clip.z = 2.0 * u_near * (1.0 + s * DEPTH_BIAS_REL) + clip.w * (2.0 * s * DEPTH_BIAS_ABS - 1.0);

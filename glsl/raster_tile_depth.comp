@@ -13,7 +13,7 @@ layout(binding = 0) uniform sampler2D g_position;
 layout(std430, binding = B_RASTER_TILE_DEPTH) buffer TileDepth { uvec2 tile_depth[]; };
 uniform ivec2 u_size;
 uniform int u_tile;
-uniform int u_tiles_x;
+uniform ivec2 u_tiles;
 
 #if TILE_DEPTH_GROUP
 shared uint near_bits;        // complement of the min's bits
@@ -25,7 +25,7 @@ void main() {
     bool inside = all(lessThan(pixel, u_size));
     float d = inside ? texelFetch(g_position, pixel, 0).w : 0.0;
     ivec2 t = pixel / u_tile;
-    uint i = uint(t.y * u_tiles_x + t.x);
+    uint i = uint(t.y * u_tiles.x + t.x);
 #if TILE_DEPTH_GROUP
     if (gl_LocalInvocationIndex == 0u) {
         near_bits = 0u;

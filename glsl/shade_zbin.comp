@@ -18,6 +18,7 @@
 #include "generated.glsl"
 #include "wave.glsl"
 #include "common.glsl"
+#include "zbin_mask.glsl"
 
 layout(std430, binding = B_TILE_BITS) readonly buffer TileBits { uint tile_bits[]; };
 #if ZBIN_MASKED
@@ -31,7 +32,7 @@ layout(std430, binding = B_ZBINS) readonly buffer ZBins { uint zbins[]; };
 #endif
 
 uniform int u_tile;           // bit-array tile, pixels (after the memory budget)
-uniform int u_tiles_x;
+uniform ivec2 u_tiles;       // tiles in x and y
 uniform uint u_words;         // words per tile: ceil(visible lights / 32)
 uniform uint u_bins;
 uniform float u_bin_scale;    // bins per metre of view depth
@@ -62,21 +63,6 @@ uvec2 zbin_range(uint bin) {
 #endif
 }
 
-// GCN's v_bfm_b32, the slides' BitFieldMask: ((1 << width) - 1) << offset, 5-bit operands.
-uint BitFieldMask(uint width, uint offset) {
-    return ((1u << (width & 31u)) - 1u) << (offset & 31u);
-}
-
-// Bits of word `w` that hold lights lo..hi (inclusive; none when lo > hi), built with
-// BitFieldMask and the listing's manual 32-wide wrap.  Ids below 2^31 (cpu_prep.zbin).
-uint range_mask(uint lo, uint hi, uint w) {
-    int base = int(w * 32u);
-    uint a = uint(clamp(int(lo) - base, 0, 32));
-    uint b = uint(clamp(int(hi) - base, -1, 31) + 1);
-    uint width = b > a ? b - a : 0u;
-    return width == 32u ? 0xFFFFFFFFu : BitFieldMask(width, a);
-}
-
 // Each lane's Z-bin mask of word `wordIndex`.  The listing as printed (ZBIN_PRINTED_MASK)
 // clamps the start to the word but takes the width of the whole range: it leaks bit 31 of
 // the words before the range, the tail of its last word, and once the range is 32 or wider
@@ -93,12 +79,6 @@ uint zbin_word_mask(uint minIdx, uint maxIdx, uint wordIndex) {
 #endif
 }
 
-// Bits of word `w` whose light lies in this dispatch window [u_window.x, u_window.y).
-uint window_mask(uint w) {
-    if (u_window.y == 0u || u_window.x >= u_window.y) return 0u;
-    return range_mask(min(u_window.x, 0x7FFFFFFFu), min(u_window.y - 1u, 0x7FFFFFFFu), w);
-}
-
 // One lane's word `w`: its tile's bits (loaded per lane), masked by its z-bin range and by
 // the dispatch window; none for lanes that shade nothing.
 uint lane_word(bool shading, uint address, uint minIdx, uint maxIdx, uint w) {
@@ -112,7 +92,7 @@ uint lane_word(bool shading, uint address, uint minIdx, uint maxIdx, uint w) {
 void main() {
     PixelState s = load_pixel();
     ivec2 t = s.pixel / u_tile;
-    uint address = s.shading ? uint(t.y * u_tiles_x + t.x) * u_words : 0u;
+    uint address = s.shading ? uint(t.y * u_tiles.x + t.x) * u_words : 0u;
 #if ZBIN_MASKED
     if (s.shading) s.cell = zbin_of(s.depth);
 #endif

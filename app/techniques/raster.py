@@ -1,500 +1,67 @@
 """raster (Drobot 2017, "Improved Culling for Tiled and Clustered Rendering", rasterization
-based culling): every visible light is a proxy mesh, drawn instanced against the scene's
-depth; each fragment that survives the early depth test and the shader's depth-bounds test
-ORs its light's bit into the flat bit array of its 8x8 tile (zbin's layout), and the frame
-is shaded by zbin's loop (glsl/shade_zbin.comp, any zbin_variant) over those bits.  With
-`cluster`, the slides' cluster rasterizer marks clusters instead (MARK / WALK, below).
+based culling): every visible light is a proxy mesh (cpu_prep/raster_proxies.py), drawn
+instanced against the scene's depth; each fragment that survives the early depth test and
+the shader's depth-bounds test ORs its light's bit into the flat bit array of its 8x8 tile
+(zbin's layout), and the frame is shaded by zbin's loop (bit_arrays.shading_steps,
+any zbin_variant) over those bits.  With `cluster`, the slides' cluster rasterizer marks
+clusters instead (MARK / WALK) and a per-cluster loop shades them.  The design, the
+slides' variants and why every mode is exact: docs/raster.md.
 
-    proxies (built once per shape, placed and scaled per light in raster_proxy.vert):
-      sphere   icosphere (80 triangles) circumscribing the point light's sphere
-      cone     cone cap for spots: apex + 12-sided cone + 3 rings of spherical cap (72 tris)
-      capsule  two 3-ring hemispheres joined by a 12-sided cylinder (144 triangles)
-      box      the light's own box (12 triangles)
-    per light (RasterProxy, CPU): margin M, the cone's apex shift and cap angle, circumscribed
-      radius, the light's depth span (cpu_prep's conservative range), which faces to draw
-    A known limit: the slides' production proxies are "tightly cut to level geometry (~300
-    tris)", triangulated from each stationary light's conservative shadow map.  This lab
-    simulates no shadows (a light lights its whole volume), so a proxy cut by occluders
-    would drop pixels that light reaches: the proxies stay the light's own shape.
+    raster_proxies[i]   RasterProxy of sorted light i (shape, side, margin, depth span)
+    raster_order[]      the lights by (proxy shape, side): one instanced draw a group
+    raster_bits         tiles:    [(ty * tiles_x + tx) * words + N / 32] |= 1 << N % 32
+                        clusters: [((ty * tiles_x + tx) * slices + s) * words + N / 32]
 
-    passes: [stats twin, untimed] fill -> mark (per proxy mesh and side) -> shade
-      fill   the scene's depth into the technique's own 32-bit depth target, from the
-             G-buffer's linear depth: reversed, far plane at infinity (window depth
-             near / depth, affine on screen, well conditioned in float32)
-      front  eye outside the proxy, proxy wholly past the near plane: front faces, depth
-             test GREATER_EQUAL (reversed: proxy in front of the scene), then the shader:
-             scene depth in the light's span (the slides' depth bounds test, emulated) and
-             proxy depth <= scene depth, exactly, in linear depth
-      back   eye inside the proxy, or the proxy reaching the near plane (its clipped front
-             faces would be lost): back faces, LESS_EQUAL (the proxy behind the scene), span
-             and proxy depth >= scene depth; no far plane to clip them
-      stencil option, front group: per light, front faces set the stencil where they pass,
-             then back faces pass where it is set, mark and clear it: the slides' two-pass,
-             pixel-perfect test [THI11] (two draws per light)
-      tile   bits[(ty * tiles_x + tx) * words + N / 32] |= 1 << N % 32  (N: sorted light)
-
-The slides' tile rasterizer table is the option `raster_variant`:
-  0 atomic     full resolution, one atomicOr per marking fragment
-  1 + 4xMSAA   proxies drawn into a half-resolution 4-sample target whose samples hold the
-               scene depth of the full-resolution pixels (the fill pass writes them per
-               sample: a console aliases one buffer as the other); one fragment per low-res
-               pixel, each covered sample marks its own pixel's tile
-  2 + compaction  WaveCompactValue over the fragment subgroup (GL_ARB_shader_ballot): only
-               the first lane per distinct bit issues the atomic; without native ballot the
-               variant issues every atomic (fragment shaders have no shared memory)
-  3 both
-Every culling pass is timed, the fill pass too (a console gets it free by aliasing); the
-atomics, fragments and per-light marks of a frame are counted by an untimed twin of the
-culling passes (`raster_stats`), so the counters cost the timed passes nothing; the twin
-also takes each tile's min / max scene depth first (raster_tile_depth.comp: the meta's
-occlusion figures below, and the cluster rasterizer's bound).
-
-Cluster rasterizer (`cluster` 1 or 2; raster_cluster.frag; clusters of cluster_tile px x
-cluster_slices listing-4 slices; no depth test, no fill): MARK, back faces of the proxies the
-eye is outside of mark the clusters their triangle conservatively touches in the pixel's
-column (depth from derivatives, clamped to the triangle's vertex depths, as the slides give
-it); WALK, their front faces then walk from their conservative depth to the column's
-farthest MARK; proxies holding the eye walk their back faces from the near plane.  Shaded
-by a per-cluster loop over the cluster's bits (raster_shade_cluster.comp).  All variants.
-
-    passes: [stats twin, untimed] tile depth (cluster 1) -> mark (per proxy mesh) -> walk
-            -> inside -> shade
-      tile depth  each tile's min / max scene depth (raster_tile_depth.comp): the slides'
-                  "conservative depth from prepass to early reject"
-      mark / walk / inside   within the slices [near, far] of that min / max (cluster 1)
-
-`cluster` 1 bounds MARK and WALK by the depth prepass; 2 does not (the slides' rasterizer
-with no prepass).  Both set the same bits in every cluster a pixel reads, so they evaluate
-the same lights (a pixel reads only the cluster of its own depth's slice, which lies in its
-tile's [near, far]); the bound saves the marks, atomics and walk steps of the clusters no
-pixel reads (in front of and behind the tile's surfaces, and every cluster of a tile with
-no geometry).  The cluster mode's evaluations exceed the tile mode's because of its XY
-size: a cluster_tile (32 px, the slides' 60 x 40 at 1080p) column holds 16 of the tile
-mode's 8x8 tiles, and marks every cluster a light's volume passes through, where a tile is
-marked only by lit surface pixels.
-
-Why it is exact (every pixel whose G-buffer position P a light affects gets that light's
-bit in its tile or cluster; README "What the lab guarantees"):
-  * A fragment is generated only where the proxy covers a pixel CENTRE, which is exactly
-    where the G-buffer sampled P (P lies on that pixel's centre ray up to float rounding).
-    So a full-resolution proxy that contains the light's volume grown by a margin M covers
-    every pixel whose P is inside: the point X of the centre ray at P's depth is inside the
-    proxy.  M (cpu side, per light) covers float32 rounding of the proxy's vertices and of P
-    (3e-5 of the light's distance plus extent: 30x the GPU test's own error) and the
-    rasterizer's sub-pixel vertex snapping (1/32 pixel of footprint at the proxy's far end,
-    8 x llvmpipe's 1/256-pixel grid).  The proxies circumscribe their volumes: every mesh
-    face plane lies at least the volume's (grown) radius from its centre, computed from the
-    mesh (icosphere 0.934, cylinders cos(15 deg), a spot's cap per light); a spot's cone is
-    widened by moving its apex back by M / sin(outer) (the cone grown by M lies inside;
-    cones too narrow for that fall back to the sphere).  Tests check containment of sampled
-    grown volumes and convexity of every proxy, every shape.
-  * Depth: the proxy is convex, so along the centre ray a point inside lies behind every
-    front-facing plane and before every back-facing one, even where the rasterizer
-    extrapolates a face's depth a fraction of a pixel outside the face.  The G-buffer's own
-    depth buffer is NOT used: llvmpipe's interpolation of window depth on huge triangles
-    errs by 2e-4 near 1.0 (a floor 1e5 wide: 11 cm at 7.5 m), which rejected a lit pixel
-    (test_hard_cases' slice boundaries).  The fill pass writes near / depth from
-    g_position's linear depth instead; the proxies' window depth moves by 2^-16 relative
-    and 2^-20 absolute towards passing; the shader redoes the comparison exactly in linear
-    depth (1 / gl_FragCoord.w, affine on screen) with a 1e-5 relative slack.
-  * Near plane: a proxy that reaches the near plane loses its clipped front faces, so it is
-    drawn like the eye-inside case (back faces); the choice is conservative (proxy bound
-    sphere within 1e-3 of near).  The far plane is at infinity: nothing else clips.
-  * MSAA at half resolution: llvmpipe's 4 samples sit one per quadrant of the low-res pixel
-    (standard positions, queried), so sample k stands for the full-res pixel of its
-    quadrant; the proxy is grown by the distance between a sample and that pixel's centre
-    (0.354 full-res pixels, plus the snapping margin) times the footprint at its far end, so
-    every full-res centre inside the volume has its sample covered, passing the depth test
-    (the fill wrote that pixel's scene depth into it) and the shader's test at the grown
-    proxy's depth at that sample (from the derivatives of 1 / depth: llvmpipe's
-    interpolateAtSample returns the pixel centre's value).  Any tile size, odd ones too.
-  * Compaction keys on the bit itself (word * 32 + bit): the slides key on the word alone,
-    which drops bits when one wave mixes lights of one word; instanced draws do mix them.
-  * A light whose margin would be a large part of its depth (a pixel's footprint at that
-    depth comparable to the light: 1x1 screens, huge fields of view) gets an icosphere
-    around both it and the eye, drawn as back faces: it then marks every tile whose scene
-    depth lies in its span.
-  * The cluster depth bound (`cluster` 1): clusters outside a tile's slices [near, far]
-    (of its min / max scene depth, moved out by the shader slack) are never read, so it is
-    exact if every read cluster keeps every bit the unbounded MARK / WALK gives it.  The
-    unbounded WALK from front slice s0 goes to F, the farthest MARK at or past s0 (or to
-    the last slice if there is none).  Bounded, a MARK range [a, b] meeting [near, far]
-    writes its part inside; one wholly in front writes b alone, one wholly behind far + 1
-    alone (clusters no pixel reads); a WALK with s0 > far walks nothing (all it would mark
-    lies behind), else searches down from far + 1 and walks [max(s0, near), min(F', far)].
-    F in [near, far] is written, so F' = F; F behind far leaves far or far + 1 marked, so
-    F' >= far; F in front of near leaves b = F marked, so the walk marks nothing (nor did
-    the unbounded one, inside); no MARK at or past s0 leaves none there bounded either (the
-    written clusters are MARKs' own or far + 1 from a MARK past s0), so both walk to the
-    end.  Eye-inside walks are cut to [near, far]; a tile with no geometry is skipped.
-Occlusion comes free: a light whose volume reaches no visible surface marks nothing.  The
-meta stats count those (`unmarked_lights`, of the lights whose CPU rectangles touch the
-screen) and the ones among them that a tile depth-bounds test (tiled's per-tile min/max
-depth over the CPU rectangle) would still keep (`occluded_lights`): removed by occlusion
-and per-pixel depth alone.  `raster_marks` / `rect_marks`: (tile or cluster, light) pairs
-marked, against the CPU boxes' pairs (zbin's bits, clustered's cells).
+    tile mode     [stats twin, untimed] fill -> mark (per proxy mesh and side) -> shade_zbin
+    cluster mode  [stats twin, untimed] tile depth (cluster 1) -> mark -> walk -> inside
+                  -> raster_shade_cluster
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-import math
 
 import numpy as np
 
-from cpu_prep import frame as cpuframe, grid as gridmod, layouts, limits, zbin as zb
-from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_SPOT
+from cpu_prep import frame as cpuframe, grid as gridmod, layouts, limits, raster_proxies as rp, zbin as zb
 
 from ..pipeline.gbuffer import column_major
-from ..pipeline.passes import (WAVE_STATS, Buffer, Draw, HostStep, Pass, StencilStep, Target,
-                               image_groups)
-from .base import Technique, prepare, shading_passes
-from .options import option
-from .zbin import (VARIANTS as SHADE_VARIANTS, ShadingOptions, _wave_counters, add_bit_words,
-                   attach_zbins, tile_boxes, variant_flags)
+from ..pipeline.passes import Buffer, Draw, HostStep, Pass, StencilStep, Target, image_groups
+from .base import Technique, grid_uniforms, prepare, shading_passes
+from .options import choice, option
+from .bit_arrays import (ShadingOptions, add_bit_words, attach_zbins, shading_steps, tile_bit_maps,
+                         tile_uniforms, variant_flags)
+from .blocks import tile_boxes
 
 VARIANTS = ("atomic", "atomic + 4xMSAA", "atomic + compaction", "atomic + compaction + 4xMSAA")
-PROXY_SPHERE, PROXY_CONE, PROXY_CAPSULE, PROXY_BOX = 0, 1, 2, 3
-PROXY_NAMES = ("sphere", "cone", "capsule", "box")
+MSAA_SAMPLES = 4
+CONTENTION_SCENE = "contention"      # scenes/builtin.py: the slides' "3 x full screen lights"
 
-# ---- margins (module doc) ----------------------------------------------------------------
-MARGIN_REL = 3e-5            # of (|light position| + extent + near): float32 rounding
-MARGIN_PX = 1.0 / 32.0       # pixels of footprint: sub-pixel vertex snapping (1/256 px)
-NEAR_SIDE = 1e-3             # proxies within this relative distance of the near plane: back faces
+# ---- the GPU side of the depth tests (docs/raster.md, "Depth") ---------------------------
 DEPTH_BIAS_REL = 2.0 ** -16  # proxy window depth n / d moved towards passing the hardware
 DEPTH_BIAS_ABS = 2.0 ** -20  #   test by this relative and absolute amount
 FRONT_TEST, BACK_TEST = "greater_equal", "less_equal"   # reversed depth: window depth n / d
 SHADER_SLACK = 1e-5          # relative slack of the shader's depth comparisons
-MSAA_SAMPLES = 4
 
-# ---- proxy meshes (canonical, unit; the vertex shader places and scales them) -------------
-SIDES = 12                   # azimuth segments of cones, cylinders and caps
-RINGS = 3                    # polar bands of a cap (a spot's, a capsule's hemisphere)
-
-
-def _icosphere(level: int) -> tuple[np.ndarray, np.ndarray]:
-    t = (1.0 + 5.0 ** 0.5) / 2.0
-    v = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t), (0, -1, -t),
-         (0, 1, -t), (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
-    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4),
-         (11, 10, 2), (10, 7, 6), (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8),
-         (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10), (8, 6, 7), (9, 8, 1)]
-    vs = [np.asarray(p, np.float64) / np.linalg.norm(p) for p in v]
-    for _ in range(level):
-        mids: dict = {}
-
-        def mid(a, b):
-            k = (min(a, b), max(a, b))
-            if k not in mids:
-                m = vs[a] + vs[b]
-                vs.append(m / np.linalg.norm(m))
-                mids[k] = len(vs) - 1
-            return mids[k]
-        nf = []
-        for a, b, c in f:
-            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
-            nf += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
-        f = nf
-    return np.asarray(vs), np.asarray(f)
-
-
-def _outward(tris: np.ndarray, inside) -> np.ndarray:
-    """Triangles (T, 3, 3) reordered counter-clockwise seen from outside (`inside`: a point
-    inside, or (T, 3) points)."""
-    n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
-    flip = np.einsum("ij,ij->i", n, tris[:, 0] - inside) < 0
-    out = tris.copy()
-    out[flip, 1], out[flip, 2] = tris[flip, 2], tris[flip, 1]
-    return out
-
-
-def plane_distance(a, b, c) -> np.ndarray:
-    """Distance from the origin to the plane through points a, b, c ((..., 3) arrays)."""
-    n = np.cross(b - a, c - a)
-    return np.abs(np.einsum("...k,...k->...", n, a)) / np.linalg.norm(n, axis=-1)
-
-
-def _unit(theta, phi):
-    return np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], -1)
-
-
-def cap_plane_distance(theta_r) -> np.ndarray:
-    """Smallest distance from the centre to the face planes of a unit-sphere cap of RINGS
-    polar bands over [0, theta_r] and SIDES azimuth segments (the cap of the cone and
-    capsule proxies): bands are isosceles trapezoids (triangles at the pole), planar."""
-    theta_r = np.asarray(theta_r, np.float64)[..., None]
-    j = np.arange(RINGS, dtype=np.float64)
-    t0, t1 = theta_r * j / RINGS, theta_r * (j + 1) / RINGS
-    dphi = 2.0 * math.pi / SIDES
-    z = np.zeros_like(t0)
-    a = _unit(t1, z)
-    b = _unit(t1, z + dphi)
-    c = np.where((j == 0)[..., None], _unit(z, z), _unit(t0, z))   # the pole, or the band's top
-    return plane_distance(a, b, c).min(-1)
-
-
-def _cap_vertex(j: int, i: int) -> tuple[float, float, float]:
-    """(cos phi, sin phi, polar fraction) of cap ring j (0 = pole), azimuth step i."""
-    phi = 2.0 * math.pi * (i % SIDES) / SIDES
-    return math.cos(phi), math.sin(phi), j / RINGS
-
-
-def _cap_faces() -> list:
-    """Faces of a cap as (ring, step) vertex pairs, outward for a cap around +z."""
-    faces = []
-    for i in range(SIDES):
-        faces.append(((0, 0), (1, i), (1, i + 1)))
-        for j in range(1, RINGS):
-            faces.append(((j, i), (j + 1, i), (j + 1, i + 1)))
-            faces.append(((j, i), (j + 1, i + 1), (j, i + 1)))
-    return faces
-
-
-def _sphere_mesh() -> tuple[np.ndarray, float]:
-    v, f = _icosphere(1)
-    tris = _outward(v[f], np.zeros(3))
-    k = 1.0 / plane_distance(tris[:, 0], tris[:, 1], tris[:, 2]).min()
-    out = np.zeros((len(tris) * 3, 4), np.float32)
-    out[:, :3] = tris.reshape(-1, 3)
-    return out, k
-
-
-def _cone_mesh() -> np.ndarray:
-    """Attributes (cos phi, sin phi, polar fraction t, apex flag): cap vertex at polar angle
-    t * theta_r, or the (moved back) apex.  Winding checked on a sample placement."""
-    rows, place = [], []
-    theta_r, b = 1.2, 0.1
-
-    def at(a):
-        if a[3]:
-            return np.array([0.0, 0.0, -b])
-        cp, sp, t = a[:3]
-        s = math.sin(t * theta_r)
-        return np.array([s * cp, s * sp, math.cos(t * theta_r)])
-    for face in _cap_faces():
-        rows.append([(*_cap_vertex(j, i), 0.0) for j, i in face])
-    for i in range(SIDES):
-        rows.append([(0.0, 0.0, 0.0, 1.0), (*_cap_vertex(RINGS, i + 1), 0.0), (*_cap_vertex(RINGS, i), 0.0)])
-    rows = np.asarray(rows, np.float64)                        # (T, 3, 4)
-    place = np.asarray([[at(a) for a in tri] for tri in rows])
-    flip = _outward(place, np.array([0.0, 0.0, 0.3]))
-    out = rows.copy()
-    swap = ~np.all(np.isclose(flip, place), axis=(1, 2))
-    out[swap, 1], out[swap, 2] = rows[swap, 2], rows[swap, 1]
-    return out.reshape(-1, 4).astype(np.float32)
-
-
-def _capsule_mesh() -> tuple[np.ndarray, float]:
-    """Attributes (unit x, y, z, end): a vertex of the hemisphere around segment end `end`
-    (+1 / -1), placed at end * length / 2 along the axis.  Hemispheres of RINGS bands,
-    a SIDES-sided cylinder between their equators."""
-    def cap(sign):
-        tris = []
-        for face in _cap_faces():
-            tri = []
-            for j, i in face:
-                cp, sp, t = _cap_vertex(j, i)
-                th = t * math.pi / 2
-                tri.append((math.sin(th) * cp, math.sin(th) * sp, sign * math.cos(th), sign))
-            tris.append(tri)
-        return tris
-    tris = cap(1.0) + cap(-1.0)
-    for i in range(SIDES):
-        a, b = _cap_vertex(RINGS, i), _cap_vertex(RINGS, i + 1)
-        top = [(a[0], a[1], 0.0, 1.0), (b[0], b[1], 0.0, 1.0)]
-        bot = [(a[0], a[1], 0.0, -1.0), (b[0], b[1], 0.0, -1.0)]
-        tris += [[top[0], bot[0], bot[1]], [top[0], bot[1], top[1]]]
-    rows = np.asarray(tris, np.float64)
-    place = rows[..., :3] + np.stack([np.zeros_like(rows[..., 3])] * 2 + [rows[..., 3]], -1)
-    flip = _outward(place, np.zeros(3))
-    swap = ~np.all(np.isclose(flip, place), axis=(1, 2))
-    out = rows.copy()
-    out[swap, 1], out[swap, 2] = rows[swap, 2], rows[swap, 1]
-    k = 1.0 / min(float(cap_plane_distance(math.pi / 2)), math.cos(math.pi / SIDES))
-    return out.reshape(-1, 4).astype(np.float32), k
-
-
-def _box_mesh() -> np.ndarray:
-    """Corners (+-1, +-1, +-1) on the light's axes (right, up' = right x dir, dir): a
-    left-handed frame (right x up' = -dir), so the winding is set in it."""
-    c = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], np.float64)
-    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
-    tris = np.asarray([c[[q[0], q[1], q[2]]] for q in quads] + [c[[q[0], q[2], q[3]]] for q in quads])
-    mirror = np.array([1.0, 1.0, -1.0])                 # into the left-handed frame and back
-    tris = _outward(tris * mirror, np.zeros(3)) * mirror
-    out = np.zeros((len(tris) * 3, 4), np.float32)
-    out[:, :3] = tris.reshape(-1, 3)
-    return out
-
-
-SPHERE_MESH, K_SPHERE = _sphere_mesh()
-CONE_MESH = _cone_mesh()
-CAPSULE_MESH, K_CAPSULE = _capsule_mesh()
-BOX_MESH = _box_mesh()
-MESHES = (SPHERE_MESH, CONE_MESH, CAPSULE_MESH, BOX_MESH)
-
-
-def _with_corners(mesh: np.ndarray) -> np.ndarray:
-    """(V, 12): each vertex followed by its triangle's other two corners (in order), so the
-    vertex shader can bound the triangle's depth (the cluster rasterizer)."""
-    t = mesh.reshape(-1, 3, 4)
-    rot = lambda k: np.roll(t, -k, axis=1)
-    return np.concatenate([t, rot(1), rot(2)], axis=2).reshape(-1, 12).astype(np.float32)
-
-
-MESHES_CORNERS = tuple(_with_corners(m) for m in MESHES)
-CLUSTER_MODES = {"mark": 3, "walk": 4, "inside": 5}    # raster_cluster.frag's u_mode
+# u_mode of the proxy draws (RASTER_MODE_* in raster_structs.glsl): the tile rasterizer's
+# front faces, back faces, stencil sequence; the cluster rasterizer's MARK, WALK, eye inside
+MODES = ("front", "back", "stencil", "mark", "walk", "inside")
+MODE = {name: i for i, name in enumerate(MODES)}
 CLUSTER_BOUNDED = 1             # `cluster`: 1 MARK / WALK within each tile's scene depth, 2 not
 CLUSTER_NAMES = ("tiles", "clusters", "clusters, no depth bound")
 # the options cluster mode does not read: zbin's shading loop's, the tile rasterizer's own
 CLUSTER_IGNORES = ("zbin_variant", "zbins", "printed_mask", "native_wave", "bit_tile", "stencil",
                    "early_depth")
-CONE_APEX_MAX = 1.0 / 16.0    # a spot's apex moves back at most this fraction of its radius
-# cap angles stay below 90 deg + asin(1/16): the largest cap factor a cone proxy can need
-K_CONE_MAX = 1.0 / float(cap_plane_distance(math.pi / 2 + math.asin(CONE_APEX_MAX) + 0.05))
-
-# One visible light's proxy (sorted order), as the vertex and fragment shaders read it.
-RASTER_PROXY = np.dtype([
-    ("radius", np.float32),       # sphere / capsule / cone: vertex radius (circumscribing)
-    ("margin", np.float32),       # M: the volume's growth (box extents grow by it)
-    ("apex_back", np.float32),    # cone: apex moved back along -direction
-    ("cap_angle", np.float32),    # cone: polar angle of the cap's rim (radians)
-    ("depth_span", np.float32, 2),  # the light's conservative view-depth range
-    ("shape", np.uint32),         # the proxy mesh drawn (PROXY_*)
-    ("back", np.uint32),          # 1: drawn as back faces (eye inside / near plane)
-])
-assert RASTER_PROXY.itemsize == 32
-STRUCTS_GLSL = layouts.glsl_struct("RasterProxy", RASTER_PROXY) + "\n" + "\n".join(
-    f"#define PROXY_{n.upper()} {i}" for i, n in enumerate(PROXY_NAMES)) + \
-    f"\n#define DEPTH_BIAS_REL {DEPTH_BIAS_REL!r}\n#define DEPTH_BIAS_ABS {DEPTH_BIAS_ABS!r}" \
-    f"\n#define SHADER_SLACK {SHADER_SLACK!r}\n"
 
 
-def msaa_dilation(positions) -> tuple[np.ndarray, float]:
-    """(pixel offsets (4, 2) int32 of each sample's full-res pixel inside its low-res pixel,
-    dilation in full-res pixels: the farthest a sample sits from that pixel's centre).
-    Needs one sample per quadrant (refused otherwise)."""
-    pos = np.asarray(positions, np.float64)
-    quad = np.floor(pos * 2.0).astype(np.int32).clip(0, 1)
-    if len({tuple(q) for q in quad}) != len(pos):
-        raise ValueError(f"MSAA sample positions {pos.tolist()} are not one per quadrant")
-    d = np.linalg.norm(pos * 2.0 - (quad + 0.5), axis=1).max()
-    return quad, float(d)
+def _defines(prefix: str, names) -> list[str]:
+    return [f"#define {prefix}{n.upper()} {i}" for i, n in enumerate(names)]
 
 
-def proxy_params(pl, cam, dilation_px: float = 0.0) -> np.ndarray:
-    """RASTER_PROXY per visible light (float64 arithmetic, stored float32 rounded outwards
-    where it grows the proxy).  `dilation_px`: extra growth in full-res pixels (MSAA)."""
-    n = len(pl)
-    out = np.zeros(n, RASTER_PROXY)
-    if n == 0:
-        return out
-    g = pl.gpu
-    pos = g["pos_radius"][:, :3].astype(np.float64)
-    R = g["pos_radius"][:, 3].astype(np.float64)
-    cos_o = g["dir_cos_outer"][:, 3].astype(np.float64)
-    ext = g["extent_length"][:, :3].astype(np.float64)
-    half = 0.5 * g["extent_length"][:, 3].astype(np.float64)
-    t = pl.type
-    dist = np.linalg.norm(pos, axis=1)
-    d0 = -pos[:, 2]
-    shape = np.full(n, PROXY_SPHERE, np.uint32)
-    shape[t == LIGHT_CAPSULE] = PROXY_CAPSULE
-    shape[t == LIGHT_BOX] = PROXY_BOX
-    shape[t == LIGHT_SPOT] = PROXY_CONE
-    reach = np.where(t == LIGHT_CAPSULE, R + half, R)
-    reach = np.where(t == LIGHT_BOX, np.linalg.norm(ext, axis=1), reach)
-    grow = np.select([shape == PROXY_SPHERE, shape == PROXY_CAPSULE, shape == PROXY_BOX],
-                     [K_SPHERE, K_CAPSULE, math.sqrt(3.0)], K_CONE_MAX)
-    # M = a + c * z_far, z_far = the proxy's far depth <= d0 + grow * (reach + M)
-    footprint = 2.0 * cam.tan_half_y / cam.height          # metres per pixel per metre of depth
-    c = (MARGIN_PX + dilation_px) * footprint
-    a = MARGIN_REL * (dist + reach + cam.near)
-    ok = c * grow < 0.5
-    M = (a + c * np.maximum(d0 + grow * reach, cam.near)) / np.where(ok, 1.0 - c * grow, 1.0)
-    # spots: the cone grown by M lies in the cone with its apex moved back by M / sin(outer)
-    spot = shape == PROXY_CONE
-    ca = np.clip(cos_o, 0.0, 1.0)
-    sa = np.sqrt(1.0 - ca * ca)
-    sa2 = np.maximum(sa, M / (CONE_APEX_MAX * np.maximum(R, 1e-30)))
-    as_sphere = spot & (sa2 > 1.0)
-    shape[as_sphere] = PROXY_SPHERE
-    spot &= ~as_sphere
-    alpha = np.where(sa2 > sa, np.arcsin(np.minimum(sa2, 1.0)), np.arccos(ca))
-    b = np.where(spot, M / np.maximum(sa2, 1e-30), 0.0)
-    R1 = R + M
-    # lateral faces: a SIDES-gon cone through the rim circumscribes the cone of `alpha`
-    gamma = np.arctan2(np.sin(alpha), np.cos(alpha) * math.cos(math.pi / SIDES))
-    rho = R1.copy()
-    theta_r = np.zeros(n)
-    for _ in range(8):
-        theta_r = gamma + np.arcsin(np.clip(np.sin(gamma) * b / rho, -1.0, 1.0))
-        need = R1 / cap_plane_distance(theta_r)
-        short = spot & (rho < need)
-        if not short.any():
-            break
-        rho = np.where(short, need * (1.0 + 1e-12), rho)
-    else:
-        shape[spot & (rho < need)] = PROXY_SPHERE          # (never seen) fall back: sphere
-    spot = shape == PROXY_CONE
-    radius = np.select([shape == PROXY_SPHERE, shape == PROXY_CAPSULE], [K_SPHERE * R1, K_CAPSULE * R1],
-                       np.where(spot, rho, 0.0))
-    # the proxy's bounding radius around the light position, and which faces to draw
-    bound = np.select([shape == PROXY_SPHERE, shape == PROXY_CAPSULE, shape == PROXY_BOX],
-                      [radius, half + radius, np.linalg.norm(ext + M[:, None], axis=1)],
-                      np.maximum(rho, b))
-    back = d0 - bound <= cam.near * (1.0 + NEAR_SIDE)
-    # no usable margin (footprint comparable to the light): an icosphere holding the eye and
-    # the whole volume, back faces: every pixel whose depth is in the span
-    eye_ball = ~ok
-    shape[eye_ball] = PROXY_SPHERE
-    radius = np.where(eye_ball, K_SPHERE * ((2.0 * dist + reach) * (1.0 + 1e-3) + cam.near), radius)
-    back |= eye_ball
-    up = lambda x: np.nextafter(x.astype(np.float32), np.float32(np.inf))
-    out["radius"] = up(radius)
-    out["margin"] = up(M)
-    out["apex_back"] = up(b)
-    out["cap_angle"] = np.where(spot, theta_r, 0.0).astype(np.float32)
-    out["depth_span"][:, 0] = pl.depth_lo
-    out["depth_span"][:, 1] = pl.depth_hi
-    out["shape"] = shape
-    out["back"] = back
-    return out
-
-
-def basis(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(e1, e2) with (e1, e2, f) right-handed orthonormal (Duff et al. 2017), as the vertex
-    shader builds it."""
-    s = np.where(f[..., 2] >= 0.0, 1.0, -1.0)
-    a = -1.0 / (s + f[..., 2])
-    b = f[..., 0] * f[..., 1] * a
-    e1 = np.stack([1.0 + s * f[..., 0] ** 2 * a, s * b, -s * f[..., 0]], -1)
-    e2 = np.stack([b, s + f[..., 1] ** 2 * a, -f[..., 1]], -1)
-    return e1, e2
-
-
-def proxy_vertices(light, proxy) -> np.ndarray:
-    """(V, 3) float64 view-space vertices of one light's proxy (GPU_LIGHT and RASTER_PROXY
-    records), as glsl/raster_proxy.vert places them: for tests and tools."""
-    shape = int(proxy["shape"])
-    mesh = MESHES[shape].astype(np.float64)
-    p = light["pos_radius"][:3].astype(np.float64)
-    f = light["dir_cos_outer"][:3].astype(np.float64)
-    M, r = float(proxy["margin"]), float(proxy["radius"])
-    if shape == PROXY_SPHERE:
-        return p + r * mesh[:, :3]
-    e1, e2 = basis(f)
-    if shape == PROXY_CAPSULE:
-        half = 0.5 * float(light["extent_length"][3])
-        local = mesh[:, 0:1] * e1 + mesh[:, 1:2] * e2 + mesh[:, 2:3] * f
-        return p + f * (mesh[:, 3:4] * half) + r * local
-    if shape == PROXY_CONE:
-        th = mesh[:, 2:3] * float(proxy["cap_angle"])
-        local = np.sin(th) * (mesh[:, 0:1] * e1 + mesh[:, 1:2] * e2) + np.cos(th) * f
-        return np.where(mesh[:, 3:4] > 0.5, p - f * float(proxy["apex_back"]), p + r * local)
-    right = light["right"][:3].astype(np.float64)
-    upp = np.cross(right, f)
-    e = light["extent_length"][:3].astype(np.float64) + M
-    return p + mesh[:, 0:1] * e[0] * right + mesh[:, 1:2] * e[1] * upp + mesh[:, 2:3] * e[2] * f
+STRUCTS_GLSL = "\n".join(
+    [layouts.glsl_struct("RasterProxy", rp.RASTER_PROXY)] + _defines("PROXY_", rp.PROXY_NAMES)
+    + _defines("RASTER_MODE_", MODES)
+    + [f"#define DEPTH_BIAS_REL {DEPTH_BIAS_REL!r}", f"#define DEPTH_BIAS_ABS {DEPTH_BIAS_ABS!r}",
+       f"#define SHADER_SLACK {SHADER_SLACK!r}"]) + "\n"
 
 
 class Raster(Technique, register_at=80):
@@ -506,9 +73,9 @@ class Raster(Technique, register_at=80):
 
     @dataclass(frozen=True)
     class Options(ShadingOptions):          # zbin's shading loop's options (not its tile_depth)
-        raster_variant: int = option(0, "the slides' tile rasterizer table: 0 atomic, 1 + 4xMSAA "
-                                        "at half resolution, 2 + wave compaction, 3 both",
-                                     lo=0, hi=3, study=(0, 1, 2, 3), also_study=("contention",))
+        raster_variant: int = choice("atomic", VARIANTS, "the slides' tile rasterizer table "
+                                     "(MSAA at half resolution, compaction over the wave)",
+                                     study=True, also_study=(CONTENTION_SCENE,))
         stencil: bool = option(False, "tile rasterizer: two-pass stencil test (front faces, then "
                                       "back faces; pixel-perfect) for proxies the eye is outside of",
                                study=(False, True))
@@ -544,50 +111,28 @@ class Raster(Technique, register_at=80):
     def build(self, frame, opts):
         opts = self.resolve_options(opts)
         b = prepare(frame)
-        masked, _ = variant_flags(opts.zbin_variant)
-        msaa = bool(opts.raster_variant & 1)
         n = len(b.lights)
         w, h = frame.size
         slices = opts.cluster_slices if opts.cluster else 1
-        tile = cluster_tile(w, h, n, opts.cluster_tile, slices, opts.bit_budget_mib) if opts.cluster \
-            else zb.choose_tile(w, h, n, opts.bit_tile, int(opts.bit_budget_mib * 2**20))
+        tile = zb.choose_tile(w, h, n, opts.cluster_tile if opts.cluster else opts.bit_tile,
+                              opts.budget_bytes, slices)
         b.grid = gridmod.make_grid(frame.camera, tile, slices, frame.max_depth,
                                    limits.DEFAULT_NEAR_SLICE_DEPTH)
-        g = b.grid
-        masked = masked and not opts.cluster
+        masked = variant_flags(opts.zbin_variant)[0] and not opts.cluster
         if masked:
             attach_zbins(b, opts.zbins, frame.max_depth)
-        dilation, quad = 0.0, np.zeros((MSAA_SAMPLES, 2), np.int32)
-        positions = np.full((MSAA_SAMPLES, 2), 0.5, np.float32)
-        if msaa:
-            from ..pipeline.renderer import sample_positions
-            positions = np.asarray(sample_positions(MSAA_SAMPLES), np.float32)
-            quad, dilation = msaa_dilation(positions)
+        positions, quad, dilation = _msaa_samples(frame, bool(opts.raster_variant & 1))
         with b.times.stage("build"):
-            proxies = proxy_params(b.lights, frame.camera, dilation)
+            proxies = rp.proxy_params(b.lights, frame.camera, dilation)
             key = proxies["shape"].astype(np.int64) * 2 + proxies["back"]
             order = np.argsort(key, kind="stable").astype(np.uint32)
             groups = np.bincount(key, minlength=8)
-        bits_bytes = g.cells * zb.words_for(n) * 4
+        bits_bytes = b.grid.cells * zb.words_for(n) * 4
         cpuframe.check_buffer("raster bit arrays", bits_bytes)
         b.buffers["raster_proxies"] = proxies
         b.buffers["raster_order"] = order if n else np.zeros(1, np.uint32)
         b.data.update(groups=groups, quad=quad, sample_pos=positions)
-        tris = sum(int(groups[2 * s + k]) * len(MESHES[s]) // 3 for s in range(4) for k in range(2))
-        wide = zb.is_wide(n)
-        b.stats.update(
-            variant=VARIANTS[opts.raster_variant] + (f" ({CLUSTER_NAMES[opts.cluster]})" if opts.cluster else ""),
-            shade_variant="cluster loop" if opts.cluster else SHADE_VARIANTS[opts.zbin_variant],
-            stencil=int(opts.stencil), bit_tile_used=tile,
-            tiles=g.tiles_x * g.tiles_y, cells=g.cells, words_per_tile=zb.words_for(n),
-            bits_bytes=bits_bytes,
-            zbins=opts.zbins if masked else 0,
-            zbin_bytes=int(b.buffers["zbins"].nbytes) if masked else 0,
-            zbin_id_bits=32 if wide else zb.ZBIN_ID_BITS,
-            proxies_front=int(groups[0::2].sum()), proxies_back=int(groups[1::2].sum()),
-            proxy_triangles=tris, msaa_dilation_px=round(dilation, 4),
-            compaction=_compaction(opts.raster_variant),
-            **{f"proxies_{PROXY_NAMES[s]}": int(groups[2 * s] + groups[2 * s + 1]) for s in range(4)})
+        b.stats.update(_build_stats(b, opts, masked, bits_bytes, dilation, frame.limits))
         return b
 
     def report_notes(self, rows):
@@ -598,7 +143,6 @@ class Raster(Technique, register_at=80):
         b = result.build
         if b.grid.slices > 1:
             return {}
-        from .zbin import tile_bit_maps
         m = tile_bit_maps(read("raster_bits"), b.grid)
         return {"raster_lights": (m["tile_lights"][0], "marked lights / tile")}
 
@@ -613,28 +157,13 @@ class Raster(Technique, register_at=80):
                                                     "raster_tile_depth"),
                                 lambda got: _raster_counters(build, got), figures=True))
         out += self._cull_passes(build, opts, stats=False)
-        g, n = build.grid, len(build.lights)
         if opts.cluster:
-            out += shading_passes(
-                build, "raster_shade_cluster.comp", ("cluster_bits",), longest=n,
-                uniforms={"u_tile": g.tile, "u_tiles_x": g.tiles_x, "u_words": zb.words_for(n),
-                          "u_slices": g.slices, "u_slice_scale": float(g.slice_scale),
-                          "u_slice_bias": float(g.slice_bias)},
+            g = build.grid
+            return out + shading_passes(
+                build, "raster_shade_cluster.comp", ("cluster_bits",), longest=len(build.lights),
+                uniforms=dict(grid_uniforms(g), u_words=zb.words_for(len(build.lights))),
                 sources={"cluster_bits": "raster_bits"})
-            return out
-        masked, scalarized = variant_flags(opts.zbin_variant)
-        wide = zb.is_wide(n)
-        out += shading_passes(
-            build, "shade_zbin.comp", ("tile_bits",) + (("zbins",) if masked else ()), longest=n,
-            defines={"ZBIN_MASKED": int(masked), "SCALARIZED": int(scalarized),
-                     "ZBIN_WIDE": int(wide), "ZBIN_PRINTED_MASK": int(opts.printed_mask),
-                     "ZBIN_EMPTY_MIN": zb.ZBIN_WIDE_EMPTY_MIN if wide else zb.ZBIN_NARROW_EMPTY},
-            uniforms={"u_tile": g.tile, "u_tiles_x": g.tiles_x, "u_words": zb.words_for(n),
-                      "u_bins": opts.zbins, "u_bin_scale": build.data.get("bin_scale", 0.0)},
-            native_wave=opts.native_wave, sources={"tile_bits": "raster_bits"})
-        out.append(HostStep("wave counters", (WAVE_STATS,),
-                            lambda got: _wave_counters(build, got[WAVE_STATS]), figures=True))
-        return out
+        return out + shading_steps(build, opts, "raster_bits")
 
     def cull_figures(self, frame, width):
         """The depth fill (a fragment a pixel; tile mode), the tile depth pass (cluster
@@ -674,7 +203,7 @@ class Raster(Technique, register_at=80):
             width, up(verts) + up(frags),
             {"vertex": (up(verts), verts, 2 * up(verts), 2 * up(verts) * 2),
              "fragment": (up(frags), frags, up(frags), atomics)},
-            {"lights": len(b.lights) * 96, "raster_proxies": len(b.lights) * RASTER_PROXY.itemsize,
+            {"lights": len(b.lights) * layouts.GPU_LIGHT.itemsize, "raster_proxies": len(b.lights) * rp.RASTER_PROXY.itemsize,
              "raster_bits": int(b.stats.get("bits_bytes", 0)), **bounds},
             graphics=True, fragments=frags, atomics=atomics)
         return out
@@ -715,11 +244,10 @@ class Raster(Technique, register_at=80):
         if stats:
             writes["raster_counters"] = Buffer(16, cleared=True)
             writes["raster_light_tiles"] = Buffer(max(n, 1) * 4, cleared=True)
-        uniforms = {"u_clip_from_view": clip, "u_near": float(cam.near), "u_instance": 0,
-                    "u_step": 0, "u_ndc": (sx, sy, sx - 1.0, sy - 1.0), "u_tile": g.tile,
-                    "u_tiles_x": g.tiles_x, "u_words": words, "u_sample_pixel": quad,
-                    "u_sample_pos": build.data["sample_pos"], "u_slices": g.slices,
-                    "u_slice_scale": float(g.slice_scale), "u_slice_bias": float(g.slice_bias)}
+        # raster_proxy.vert's and raster_common.glsl's (the cluster passes add the slices)
+        uniforms = dict(tile_uniforms(g), u_clip_from_view=clip, u_near=float(cam.near),
+                        u_instance=0, u_step=0, u_ndc=(sx, sy, sx - 1.0, sy - 1.0), u_words=words,
+                        u_sample_pixel=quad, u_sample_pos=build.data["sample_pos"])
         # each tile's min / max scene depth: the stats' (tile mode: which unmarked lights a
         # depth-bounds test would keep), the cluster MARK / WALK's bounds (the depth prepass)
         bounded = opts.cluster == CLUSTER_BOUNDED
@@ -730,8 +258,7 @@ class Raster(Technique, register_at=80):
                             writes={"raster_tile_depth": Buffer(max(tiles, 1) * 8, cleared=True)},
                             groups=image_groups(w, h), timed=not stats,
                             defines={"TILE_DEPTH_GROUP": int(g.tile % 8 == 0)},
-                            uniforms={"u_tile": g.tile, "u_tiles_x": g.tiles_x},
-                            sources={"raster_tile_depth": depth}))
+                            uniforms=tile_uniforms(g), sources={"raster_tile_depth": depth}))
         if opts.cluster:
             out += self._cluster_passes(build, msaa, compact, stats, bounded, depth, writes,
                                         uniforms, suffix)
@@ -757,17 +284,18 @@ class Raster(Technique, register_at=80):
         target = Target("raster_cluster", scale=2 if msaa else 1, samples=MSAA_SAMPLES if msaa else 0)
         groups, out = build.data["groups"], []
         starts = np.concatenate([[0], np.cumsum(groups)])      # order[] is sorted by (shape, side)
+        uniforms = dict(uniforms, **grid_uniforms(build.grid))
         for mode, back, cull in (("mark", 0, "front"), ("walk", 0, "back"), ("inside", 1, "front")):
             for shape in range(4):
                 count = int(groups[2 * shape + back])
                 if count:
                     out.append(Pass(
-                        f"raster {PROXY_NAMES[shape]} {mode}" + suffix,
+                        f"raster {rp.PROXY_NAMES[shape]} {mode}" + suffix,
                         ("raster_proxy.vert", "raster_cluster.frag"),
                         reads=("lights", "raster_proxies", "raster_order")
                         + (("raster_tile_depth",) if bounded else ()),
                         writes=self._written(writes, not out),
-                        draw=Draw(vertices=MESHES_CORNERS[shape], format="4f 4f 4f",
+                        draw=Draw(vertices=rp.MESHES_CORNERS[shape], format="4f 4f 4f",
                                   attributes=("in_vertex", "in_vertex1", "in_vertex2"),
                                   instances=count, target=target, cull=cull),
                         timed=not stats, native_wave=compact,
@@ -775,8 +303,8 @@ class Raster(Technique, register_at=80):
                                  "RASTER_STATS": int(stats), "RASTER_TRI_BOUNDS": 1,
                                  "RASTER_DEPTH_BOUND": int(bounded)},
                         uniforms=dict(uniforms, u_shape=shape, u_first=int(starts[2 * shape + back]),
-                                      u_mode=CLUSTER_MODES[mode]),
-                        sources={"raster_tile_depth": depth}))
+                                      u_mode=MODE[mode]),
+                        sources={"raster_tile_depth": depth} if bounded else {}))
         return out or [self._no_lights(writes, stats, suffix)]
 
     @staticmethod
@@ -805,19 +333,19 @@ class Raster(Technique, register_at=80):
                     first += count
                     continue
                 stencil = ()
-                mode = back
+                mode = MODE["back" if back else "front"]
                 if opts.stencil and not back:
-                    mode = 2
+                    mode = MODE["stencil"]
                     stencil = (StencilStep(cull="back", depth_test=FRONT_TEST, func="always",
                                            ops=("keep", "keep", "replace")),
                                StencilStep(cull="front", depth_test=BACK_TEST, func="equal",
                                            ops=("keep", "keep", "zero")))
-                draw = Draw(vertices=MESHES[shape], format="4f", attributes=("in_vertex",),
+                draw = Draw(vertices=rp.MESHES[shape], format="4f", attributes=("in_vertex",),
                             instances=count, target=target,
                             depth_test=(BACK_TEST if back else FRONT_TEST) if opts.early_depth else "always",
                             cull="front" if back else "back", stencil=stencil)
                 out.append(Pass(
-                    f"raster {PROXY_NAMES[shape]} {'back' if back else 'front'}" + suffix,
+                    f"raster {rp.PROXY_NAMES[shape]} {'back' if back else 'front'}" + suffix,
                     ("raster_proxy.vert", "raster_mark.frag"),
                     reads=("lights", "raster_proxies", "raster_order"),
                     writes=self._written(writes, not drawn),
@@ -832,23 +360,44 @@ class Raster(Technique, register_at=80):
         return out
 
 
-def _compaction(variant: int) -> str:
+def _msaa_samples(frame, msaa: bool) -> tuple[np.ndarray, np.ndarray, float]:
+    """(sample positions, each sample's full-res pixel in its 2x2 block, dilation in full-res
+    pixels) of the MSAA variants, from the frame's GL limits; pixel centres without MSAA."""
+    positions = np.full((MSAA_SAMPLES, 2), 0.5, np.float32)
+    if not msaa:
+        return positions, np.zeros((MSAA_SAMPLES, 2), np.int32), 0.0
+    positions = np.asarray(frame.limits.sample_positions(MSAA_SAMPLES), np.float32)
+    quad, dilation = rp.msaa_dilation(positions)
+    return positions, quad, dilation
+
+
+def _build_stats(b, opts, masked: bool, bits_bytes: int, dilation: float, gl_limits) -> dict:
+    """The build's meta stats: the variant, the grid, the bit arrays and the proxies drawn."""
+    g, n, groups = b.grid, len(b.lights), b.data["groups"]
+    tris = sum(int(groups[2 * s + k]) * len(rp.MESHES[s]) // 3 for s in range(4) for k in range(2))
+    cluster = f" ({CLUSTER_NAMES[opts.cluster]})" if opts.cluster else ""
+    return dict(
+        variant=opts.choice_name("raster_variant") + cluster,
+        shade_variant="cluster loop" if opts.cluster else opts.choice_name("zbin_variant"),
+        stencil=int(opts.stencil), bit_tile_used=g.tile,
+        tiles=g.tiles_x * g.tiles_y, cells=g.cells, words_per_tile=zb.words_for(n),
+        bits_bytes=bits_bytes,
+        zbins=opts.zbins if masked else 0,
+        zbin_bytes=int(b.buffers["zbins"].nbytes) if masked else 0,
+        zbin_id_bits=32 if zb.is_wide(n) else zb.ZBIN_ID_BITS,
+        proxies_front=int(groups[0::2].sum()), proxies_back=int(groups[1::2].sum()),
+        proxy_triangles=tris, msaa_dilation_px=round(dilation, 4),
+        compaction=_compaction(opts.raster_variant, gl_limits),
+        **{f"proxies_{rp.PROXY_NAMES[s]}": int(groups[2 * s] + groups[2 * s + 1]) for s in range(4)})
+
+
+def _compaction(variant: int, gl_limits) -> str:
     """How the compaction variants run here (meta stats)."""
     if not variant & 2:
         return "off"
-    from ..pipeline import gl
-    if gl.limits().native_wave:
+    if gl_limits.native_wave:
         return "native subgroup"
     return "unavailable (neither GL_KHR_shader_subgroup nor GL_ARB_shader_ballot): plain atomics"
-
-
-def cluster_tile(width: int, height: int, lights: int, tile: int, slices: int, budget_mib: float) -> int:
-    """The cluster rasterizer's tile: `tile`, doubled until its bit arrays (tiles x slices x
-    words x 4 bytes) fit the budget (as zbin.choose_tile for tiles)."""
-    budget = min(int(budget_mib * 2**20), limits.MAX_STORAGE_BYTES)
-    while zb.bits_bytes(width, height, tile, lights) * slices > budget and tile < max(width, height):
-        tile *= 2
-    return int(tile)
 
 
 def _raster_counters(build, got):
@@ -884,7 +433,6 @@ def _raster_counters(build, got):
 
 SLIDES_TILE = {0: "1.44 ms (100%)", 1: "0.27 ms (18%)", 2: "0.36 ms (25%)", 3: "0.10 ms (7%)"}
 SLIDES_TILE_MS = {0: 1.44, 1: 0.27, 2: 0.36, 3: 0.10}
-CONTENTION_SCENE = "contention"      # scenes/builtin.py: the slides' "3 x full screen lights"
 SLIDES_SIZE = (1920, 1080)           # their 240 x 135 tiles of 8 x 8
 MODEL_GPU = "ps4"                    # the slides' GPU in app/model/cost.py
 

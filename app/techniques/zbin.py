@@ -55,7 +55,8 @@ merged loop; per lane: the longest lane), `lane_loops[0]` = the sum over lanes o
 own bits (what the per-lane loop iterates), `lane_loops[1]` = the longest lane's own bits (with
 several dispatch windows: its longest window).  Their frame sums are in the meta stats
 (wave_iterations, lane_iterations, lane_max_iterations, waves_active), read back by an
-untimed host step after the shading pass.
+untimed host step after the shading pass.  The loop's options, its passes and its replay
+are app/techniques/bit_arrays.py's, shared with raster's tile mode.
 """
 from __future__ import annotations
 
@@ -63,70 +64,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cpu_prep import frame as cpuframe, grid as gridmod, layouts, limits, zbin as zb
+from cpu_prep import frame as cpuframe, grid as gridmod, limits, zbin as zb
 
 from ..errors import UserError
 from ..model import waves
-from ..pipeline.passes import WAVE_STATS, Buffer, HostStep, Pass
-from .base import Technique, cell_head, prepare, shading_passes
-from .options import WaveOptions, option
-
-VARIANTS = ("base tile", "tile + zbin", "scalarized tile", "scalarized tile + zbin")
-DEFAULT_ZBINS = 8096          # the slides' figure at 1080p
-DEFAULT_BIT_TILE = 8          # the slides' 8x8 pixel tiles
-
-
-def tile_boxes(pl, grid, arena=None) -> np.ndarray:
-    """(N, 6) tile boxes of the sorted lights on a 2D grid from the conservative screen
-    rectangles the binning uses (cpu_prep.frame.bin_cells: each shape's Mara-McGuire
-    rectangle with PIXEL_MARGIN, radii grown against the float32 test)."""
-    return gridmod.rect_boxes(grid, pl.rect, pl.depth_lo, pl.depth_hi, arena)
-
-
-def attach_zbins(b, zbins: int, max_depth: float) -> None:
-    """Drobot's Z-bins over the build's depth-sorted lights: the look-up table into
-    b.buffers["zbins"] and its depth scale into b.data["bin_scale"] (zbin and raster)."""
-    with b.times.stage("bin"):
-        lut, scale = zb.zbin_lut(b.lights.depth_lo, b.lights.depth_hi, zbins, max_depth)
-    b.buffers["zbins"] = lut
-    b.data["bin_scale"] = float(scale)
-
-
-def variant_flags(variant: int) -> tuple[bool, bool]:
-    """(z-bin masked, scalarized) of a `zbin_variant`."""
-    return bool(variant & 1), bool(variant & 2)
-
-
-@dataclass(frozen=True)
-class ShadingOptions(WaveOptions):
-    """The options of shade_zbin.comp's loop (zbin's and raster's)."""
-    zbin_variant: int = option(3, "the slides' optimization table: 0 base tile, 1 tile + zbin, "
-                                  "2 scalarized tile, 3 scalarized tile + zbin",
-                               lo=0, hi=3, study=(0, 1, 2, 3))
-    zbins: int = option(DEFAULT_ZBINS, "uniform Z bins over [0, max depth] (Drobot: 8096 at 1080p)",
-                        lo=1, hi=1 << 20)
-    bit_tile: int = option(DEFAULT_BIT_TILE, "tile of the flat bit arrays in pixels, before "
-                                             "the memory budget doubles it", lo=1, hi=4096)
-    bit_budget_mib: float = option(32.0, "memory budget of the tile bit arrays (MiB): the tile "
-                                         "doubles until they fit (Unity URP Forward+)",
-                                   lo=1 / 64, hi=limits.MAX_STORAGE_BYTES / 2**20)
-    printed_mask: bool = option(False, "the slides' Z-bin word mask as printed: it leaks bit 31 "
-                                       "of earlier words, the tail of the last, and whole words "
-                                       "(the first's head too) once the range is 32 or wider "
-                                       "(more evaluations, still exact)", study=(False, True))
-
-    def ignored(self) -> dict[str, str]:
-        """What shade_zbin.comp's variant does not read (options.py's rule): without z-bins
-        (variants 0, 2) neither their count nor their mask; the base tile (0) no wave op."""
-        masked, scalarized = variant_flags(self.zbin_variant)
-        out = dict(super().ignored())
-        mode = f"without z-bins (--zbin-variant {self.zbin_variant})"
-        if not masked:
-            out.update(zbins=mode, printed_mask=mode)
-        if not masked and not scalarized:
-            out["native_wave"] = "in the base tile (--zbin-variant 0: no wave operation)"
-        return out
-
+from ..pipeline.passes import Buffer, HostStep, Pass
+from .base import Technique, prepare
+from .bit_arrays import (VARIANTS, ShadingOptions, add_bit_words, attach_zbins, shading_steps,
+                         tile_bit_maps, variant_flags)
+from .blocks import tile_boxes
+from .options import option
 
 DEPTH_GROUP = 64              # zbin_tile_depth.comp: one 8x8 group a tile
 
@@ -153,7 +100,7 @@ class ZBin(Technique, register_at=60):
         masked, _ = variant_flags(opts.zbin_variant)
         n = len(b.lights)
         w, h = frame.size
-        tile = zb.choose_tile(w, h, n, opts.bit_tile, int(opts.bit_budget_mib * 2**20))
+        tile = zb.choose_tile(w, h, n, opts.bit_tile, opts.budget_bytes)
         b.grid = gridmod.make_grid(frame.camera, tile, 1, frame.max_depth,
                                    limits.DEFAULT_NEAR_SLICE_DEPTH)
         g = b.grid
@@ -170,7 +117,7 @@ class ZBin(Technique, register_at=60):
             b.buffers["light_depth"] = np.column_stack([b.lights.depth_lo, b.lights.depth_hi]).astype(np.float32)
         wide = zb.is_wide(n)
         b.stats.update(
-            variant=VARIANTS[opts.zbin_variant], bit_tile_used=tile, tiles=g.tiles_x * g.tiles_y,
+            variant=opts.choice_name("zbin_variant"), bit_tile_used=tile, tiles=g.tiles_x * g.tiles_y,
             words_per_tile=zb.words_for(n), bits_bytes=int(bits.nbytes),
             zbins=opts.zbins if masked else 0,
             zbin_bytes=int(b.buffers["zbins"].nbytes) if masked else 0,
@@ -195,30 +142,16 @@ class ZBin(Technique, register_at=60):
 
     def passes(self, build, opts):
         opts = self.resolve_options(opts)
-        masked, scalarized = variant_flags(opts.zbin_variant)
-        g, n = build.grid, len(build.lights)
-        reads = ("tile_bits",) + (("zbins",) if masked else ())
-        wide = zb.is_wide(n)
         depth = []
         if opts.tile_depth:
-            words = zb.words_for(n)
+            g, words = build.grid, zb.words_for(len(build.lights))
             depth = [Pass("zbin tile depth", "zbin_tile_depth.comp", reads=("tile_bits", "light_depth"),
                           writes={"zbin_bits": Buffer(max(g.tiles_x * g.tiles_y * words, 1) * 4)},
                           groups=(g.tiles_x, g.tiles_y, 1),
                           uniforms={"u_tile": g.tile, "u_words": words}),
                      HostStep("depth counts", ("tile_bits", "zbin_bits"),
                               lambda got: _depth_counts(build, got), figures=True)]
-        shade = shading_passes(
-            build, "shade_zbin.comp", reads, longest=n,
-            defines={"ZBIN_MASKED": int(masked), "SCALARIZED": int(scalarized),
-                     "ZBIN_WIDE": int(wide), "ZBIN_PRINTED_MASK": int(opts.printed_mask),
-                     "ZBIN_EMPTY_MIN": zb.ZBIN_WIDE_EMPTY_MIN if wide else zb.ZBIN_NARROW_EMPTY},
-            uniforms={"u_tile": g.tile, "u_tiles_x": g.tiles_x, "u_words": zb.words_for(n),
-                      "u_bins": opts.zbins, "u_bin_scale": build.data.get("bin_scale", 0.0)},
-            native_wave=opts.native_wave,
-            sources={"tile_bits": "zbin_bits"} if opts.tile_depth else {})
-        return depth + shade + [HostStep("wave counters", (WAVE_STATS,),
-                                         lambda got: _wave_counters(build, got[WAVE_STATS]), figures=True)]
+        return depth + shading_steps(build, opts, "zbin_bits" if opts.tile_depth else "tile_bits")
 
     def wave_program(self, frame, width):
         opts = frame.opts
@@ -270,55 +203,6 @@ def _depth_counts(build, got):
     rect, kept = count(got["tile_bits"]), count(got["zbin_bits"])
     build.stats.update(rect_bits=rect, depth_bits=kept,
                        depth_kept_share=round(kept / rect, 4) if rect else 1.0)
-    return {}, []
-
-
-def add_bit_words(prog, bits_buf: str, grid, masked: bool, scalarized: bool, printed: bool,
-                  cluster: bool = False) -> None:
-    """shade_zbin.comp's loop for the wave replay (app.model.waves.Program.bit_words): each
-    pixel's tile word offset, its z-bin's record (out_cell: the bin) and id range; or, for
-    the cluster rasterizer's loop (`cluster`), its cluster's words (out_cell: the cluster)."""
-    fr = prog.frame
-    words = zb.words_for(len(fr.build.lights))
-    x, y = fr.pixel_xy
-    address = ((y // grid.tile) * grid.tiles_x + x // grid.tile) * words
-    lo = np.zeros(len(x), np.int64)
-    hi = np.full(len(x), 0xFFFFFFFF, np.int64)
-    if cluster:
-        address = fr.cell * words
-    elif masked:
-        lut = fr.build.buffers["zbins"]
-        lanes = np.nonzero(fr.shading)[0]
-        prog.add(lanes, head=cell_head(prog, lanes, "zbins", np.dtype((np.uint32, lut.shape[1:]))))
-        zlo, zhi = zb.unpack_lut(lut)
-        lo, hi = zlo[fr.cell], zhi[fr.cell]
-    prog.bit_words(address, lo, hi, bits_buf, words, masked, scalarized, printed)
-
-
-def tile_bit_maps(tile_bits, grid, depth=None, lut=None, bin_scale=0.0) -> dict:
-    """{"tile_lights": per tile (image order) the lights its bit array holds; with a z-bin
-    LUT, "zbin_lights": per pixel the lights of its z-bin range (0 on the sky)}."""
-    words = np.ascontiguousarray(tile_bits).view(np.uint32).reshape(grid.tiles_y, grid.tiles_x, -1)
-    per_tile = np.unpackbits(words.view(np.uint8), axis=-1).sum(-1, dtype=np.int64)
-    out = {"tile_lights": (per_tile[::-1], "lights / tile (bits)")}
-    if lut is not None and depth is not None:
-        lo, hi = zb.unpack_lut(lut)
-        b = np.minimum(np.floor(depth.astype(np.float32) * np.float32(bin_scale)), len(lo) - 1)
-        b = b.astype(np.int64)
-        count = np.where(hi[b] >= lo[b], hi[b] - lo[b] + 1, 0)
-        out["zbin_lights"] = (np.where(depth > 0, count, 0), "lights / z-bin range")
-    return out
-
-
-def _wave_counters(build, waves: np.ndarray):
-    """Meta stats from the shading pass's wave statistics (untimed, after the frame): the
-    waves' loop iterations against the per-lane loops' (module doc of shade_zbin.comp)."""
-    waves = waves.view(layouts.WAVE_STATS)
-    build.stats.update(
-        wave_iterations=int(waves["iterations"].sum(dtype=np.int64)),
-        lane_iterations=int(waves["lane_loops"][:, 0].sum(dtype=np.int64)),
-        lane_max_iterations=int(waves["lane_loops"][:, 1].sum(dtype=np.int64)),
-        waves_active=int((waves["lane_loops"][:, 0] > 0).sum()))
     return {}, []
 
 

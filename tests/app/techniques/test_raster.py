@@ -31,9 +31,11 @@ from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY
 from app.techniques import raster as rs
 from app.techniques.base import prepare
+from cpu_prep import raster_proxies as rp
 from cpu_prep.camera import frame_camera
 from scenes.geometry import box_mesh
 from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT, Camera, make_lights
+from tests.app.techniques.raster_helpers import basis, proxy_vertices
 from tests.helpers import CAMERA, assert_exact, make_scene, random_shapes, render_all, render_on
 
 RASTER = REGISTRY["raster"]
@@ -71,7 +73,7 @@ def _boundary(light, k, rng):
         return p + (s * e) @ axes
     ca = max(float(light["dir_cos_outer"][3]), 0.0)
     alpha = math.acos(min(ca, 1.0))
-    e1, e2 = rs.basis(f)
+    e1, e2 = basis(f)
     phi = rng.uniform(0, 2 * math.pi, k)
     side = rng.random(k) < 0.5
     th = np.where(side, alpha, rng.uniform(0, 1, k) * alpha)        # cone wall or cap
@@ -96,11 +98,11 @@ def test_proxies_hold_their_volume_grown_by_the_margin(size, fov, dilation):
     L["type"][:20] = LIGHT_SPOT
     b = prepare(_frame(L, size, fov=fov))
     pl, cam = b.lights, b.frame.camera
-    px = rs.proxy_params(pl, cam, dilation)
+    px = rp.proxy_params(pl, cam, dilation)
     assert {int(s) for s in px["shape"]} >= ({0, 3} if size == (1, 1) else {0, 1, 2, 3})
     for i in range(len(pl)):
         g, pr = pl.gpu[i], px[i]
-        V = rs.proxy_vertices(g, pr)
+        V = proxy_vertices(g, pr)
         tris = V.reshape(-1, 3, 3)
         n, off = _planes(tris)
         scale = np.abs(V).max() + 1.0
@@ -113,11 +115,11 @@ def test_proxies_hold_their_volume_grown_by_the_margin(size, fov, dilation):
         u = rng.normal(size=Q.shape)
         Q += 0.999 * M * u / np.linalg.norm(u, axis=1, keepdims=True)
         worst = (Q @ n.T - off).max()
-        assert worst <= 1e-6 * scale, f"light {i} ({rs.PROXY_NAMES[int(pr['shape'])]}): " \
+        assert worst <= 1e-6 * scale, f"light {i} ({rp.PROXY_NAMES[int(pr['shape'])]}): " \
                                       f"a point of the grown volume lies {worst:g} outside"
         # front faces only for proxies wholly past the near plane (back: conservatively)
         if not pr["back"]:
-            assert -V[:, 2].max() > cam.near * (1 + rs.NEAR_SIDE)
+            assert -V[:, 2].max() > cam.near * (1 + rp.NEAR_SIDE)
         if size == (1, 1) and pr["back"] and float(pr["radius"]) > 2 * np.linalg.norm(g["pos_radius"][:3]):
             assert (np.zeros(3) @ n.T - off).max() < 0                   # the eye inside
 
@@ -128,26 +130,41 @@ def test_margin_covers_a_pixel_fraction_of_footprint():
     L = random_shapes(rng, 100, (-14, -1, -34), (14, 7, 6))
     b = prepare(_frame(L))
     cam = b.frame.camera
-    px = rs.proxy_params(b.lights, cam, 0.354)
+    px = rp.proxy_params(b.lights, cam, 0.354)
     for g, pr in zip(b.lights.gpu, px):
-        far = -rs.proxy_vertices(g, pr)[:, 2].min()
-        assert pr["margin"] >= (rs.MARGIN_PX + 0.354) * 2 * cam.tan_half_y / cam.height * far * 0.999
+        far = -proxy_vertices(g, pr)[:, 2].min()
+        assert pr["margin"] >= (rp.MARGIN_PX + 0.354) * 2 * cam.tan_half_y / cam.height * far * 0.999
 
 
 def test_msaa_samples_pair_with_quadrant_pixels():
-    quad, d = rs.msaa_dilation([(0.375, 0.125), (0.875, 0.375), (0.125, 0.625), (0.625, 0.875)])
+    quad, d = rp.msaa_dilation([(0.375, 0.125), (0.875, 0.375), (0.125, 0.625), (0.625, 0.875)])
     assert quad.tolist() == [[0, 0], [1, 0], [0, 1], [1, 1]]
     assert d == pytest.approx(math.sqrt(2) / 4)
     with pytest.raises(ValueError, match="one per quadrant"):
-        rs.msaa_dilation([(0.2, 0.2), (0.3, 0.3), (0.7, 0.7), (0.6, 0.8)])
+        rp.msaa_dilation([(0.2, 0.2), (0.3, 0.3), (0.7, 0.7), (0.6, 0.8)])
 
 
 def test_mesh_factors_circumscribe():
-    assert rs.K_SPHERE == pytest.approx(1 / 0.93417, rel=1e-4)
-    assert rs.K_CAPSULE >= 1 / math.cos(math.pi / rs.SIDES)
-    theta = np.linspace(0.01, math.pi / 2 + math.asin(rs.CONE_APEX_MAX), 200)   # every cap angle
-    d = rs.cap_plane_distance(theta)
-    assert (np.diff(d) <= 1e-12).all() and d.min() >= 1 / rs.K_CONE_MAX - 1e-12
+    assert rp.K_SPHERE == pytest.approx(1 / 0.93417, rel=1e-4)
+    assert rp.K_CAPSULE >= 1 / math.cos(math.pi / rp.SIDES)
+    theta = np.linspace(0.01, math.pi / 2 + math.asin(rp.CONE_APEX_MAX), 200)   # every cap angle
+    d = rp.cap_plane_distance(theta)
+    assert (np.diff(d) <= 1e-12).all() and d.min() >= 1 / rp.K_CONE_MAX - 1e-12
+
+
+def test_mode_ids_are_generated_from_one_source():
+    """u_mode's values cross into GLSL as RASTER_MODE_* from raster.MODES, the proxy shapes as
+    PROXY_* from raster_proxies.PROXY_NAMES: no raster shader compares them with a literal."""
+    import re
+    from pathlib import Path
+    glsl = Path(__file__).resolve().parents[3] / "glsl"
+    for path in sorted(glsl.glob("raster*")):
+        text = path.read_text()
+        assert not re.search(r"\b(u_mode|u_shape)\s*[!=]=\s*\d", text), path.name
+    for i, name in enumerate(rs.MODES):
+        assert f"#define RASTER_MODE_{name.upper()} {i}\n" in rs.STRUCTS_GLSL
+    for i, name in enumerate(rp.PROXY_NAMES):
+        assert f"#define PROXY_{name.upper()} {i}\n" in rs.STRUCTS_GLSL
 
 
 # ---------------------------------------------------------------------------- exact (GL)
