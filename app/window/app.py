@@ -292,9 +292,10 @@ class LabWindow(mglw.WindowConfig):
         self.recorder.add(cam)
         lights = self.lights.of(self.state)
         plan, c, fc, key = self._compose(cam, lights, size)
-        self._draw(self.wnd.fbo, self._buffer_size())
         tech, opts = plan.technique, plan.opts
         config = (tech.name, tuple(sorted(opts.as_dict().items())), LightSets.key(self.state), size)
+        self.figures["model"] = self.model.line((config, key))     # the HUD shows it this frame
+        self._draw(self.wnd.fbo, self._buffer_size())
         if config in self.seen:          # its first frame compiles: not a measure
             self.costs.record(tech.name, c.render_ms, size[0] * size[1], len(lights))
         self.seen.add(config)

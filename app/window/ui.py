@@ -32,6 +32,7 @@ SECTIONS = (("technique", "Technique", True), ("options", "Options", True),
             ("lights", "Lights", True), ("display", "Display", True), ("compare", "Compare", False),
             ("camera", "Camera path", False), ("inspect", "Inspect", False))
 PANEL_WIDTH = 330
+HUD_MARGIN = 24               # between the HUD and the panel (or the window's right edge)
 HISTORY_SIZE = (0, 34)
 
 
@@ -112,7 +113,7 @@ class LabUI:
         imgui.new_frame()
         self.for_shot = for_shot
         if model.hud:
-            self._hud(model)
+            self._hud(model, ww - (self.panel_width(ww) if model.panel else 0) - HUD_MARGIN)
             if model.panel:
                 self._panel(model, ww, wh)
             self._colorbar(model, ww, wh)
@@ -131,7 +132,9 @@ class LabUI:
         return q
 
     # ---- pieces ---------------------------------------------------------------------------------
-    def _hud(self, model) -> None:
+    def _hud(self, model, width: int) -> None:
+        """The HUD's lines, wrapped at `width` (what the panel leaves): a line wider than the
+        window would be cut off, the help line first."""
         imgui = self.imgui
         imgui.set_next_window_pos((0, 0))
         imgui.set_next_window_bg_alpha(0.6)
@@ -139,11 +142,15 @@ class LabUI:
                  imgui.WindowFlags_.no_inputs | imgui.WindowFlags_.no_saved_settings |
                  imgui.WindowFlags_.no_focus_on_appearing | imgui.WindowFlags_.no_nav)
         imgui.begin("hud", None, flags)
+        imgui.push_text_wrap_pos(max(float(width), 80.0))
         for line in model.hud_lines:
-            if line.startswith("!"):
-                imgui.text_colored(imgui.ImVec4(1.0, 0.75, 0.2, 1.0), line[1:])
-            else:
-                imgui.text(line)
+            warning = line.startswith("!")
+            if warning:
+                imgui.push_style_color(imgui.Col_.text, imgui.ImVec4(1.0, 0.75, 0.2, 1.0))
+            imgui.text_wrapped(line[1:] if warning else line)
+            if warning:
+                imgui.pop_style_color()
+        imgui.pop_text_wrap_pos()
         imgui.end()
 
     @staticmethod
