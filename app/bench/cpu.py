@@ -8,6 +8,14 @@ all (nothing here imports moderngl; a test checks it).
     --sweep 8192,16384,32768,65536   the same for each light count in turn: one table row
                                      (or, with --json, one object in "rows") a count, and
                                      the growth of the total from the first to the last
+    --growth [--threads 1,2] [--out DIR]
+                                     issue 23 item 4: every technique with a CPU build (a
+                                     bin or build step; --technique a,b to choose) at each
+                                     count of --sweep (default 8,192 doubling to 1,048,576)
+                                     on each thread count, interleaved; the time per
+                                     doubling and each build buffer's bytes; --out writes
+                                     growth.csv (results.csv's schema, study "growth"),
+                                     cpu_growth.png and growth.md (the report's CPU page)
 
 The machine is shared (2 cores, other work on them): compare minimums and medians over
 many builds (--repeat 31 or more), never single runs.  docs/cpu_stage.md has the profile.
@@ -15,6 +23,7 @@ many builds (--repeat 31 or more), never single runs.  docs/cpu_stage.md has the
 from __future__ import annotations
 
 import json
+import sys
 from typing import Callable
 
 from cpu_prep.arena import Arena
@@ -23,8 +32,8 @@ from .. import cli
 from ..errors import UserError
 from ..pipeline.passes import FrameInput
 from ..results import CPU_STAGES, UPLOAD, stats
-from ..techniques import get
-from .presets import int_list
+from ..techniques import REGISTRY, get
+from .presets import GROWTH_LIGHTS, int_list
 
 
 def cpu_stage_samples(technique, scene, size, opts, repeat: int, frame: int = 0,
@@ -32,7 +41,8 @@ def cpu_stage_samples(technique, scene, size, opts, repeat: int, frame: int = 0,
                       upload: Callable | None = None, warmup: int = 1) -> dict:
     """technique.build `repeat` times (after `warmup` unrecorded builds) on the scene's camera
     at `frame`: per-stage lists of ms (every stage of CPU_STAGES, 0 where a technique has
-    none), 'total', and the visible light count.  `upload(build) -> ms` adds an upload stage."""
+    none), 'total', the visible light count, the build's sizes (SIZE_STATS) and the bytes
+    of each of its buffers ('bytes').  `upload(build) -> ms` adds an upload stage."""
     from cpu_prep.camera import frame_camera
     w, h = size
     cam = frame_camera(scene.camera_at(frame, frames), w, h)
@@ -44,7 +54,7 @@ def cpu_stage_samples(technique, scene, size, opts, repeat: int, frame: int = 0,
         technique.build(fi, opts)
     stages = list(CPU_STAGES) + ([UPLOAD] if upload else [])
     out = {k: [] for k in stages + ["total"]}
-    visible, sizes = 0, {}
+    visible, sizes, nbytes = 0, {}, {}
     for _ in range(repeat):
         b = technique.build(fi, opts)
         ms = dict(b.times.ms)
@@ -55,13 +65,106 @@ def cpu_stage_samples(technique, scene, size, opts, repeat: int, frame: int = 0,
         out["total"].append(float(sum(ms.values())))
         visible = int(b.stats.get("visible_lights", 0))
         sizes = {k: int(v) for k, v in b.stats.items() if k in SIZE_STATS}
+        nbytes = {k: int(a.nbytes) for k, a in b.buffers.items()}
     out["visible"] = visible
     out["sizes"] = sizes
+    out["bytes"] = nbytes
     return out
 
 
 # the build statistics worth printing beside the times (app.techniques: Build.stats)
-SIZE_STATS = ("cells", "list_entries", "nodes", "trees", "lists")
+SIZE_STATS = ("cells", "list_entries", "nodes", "trees", "lists", "bit_tile_used")
+
+GROWTH = "growth"                                  # results.csv study of the growth series
+
+
+def cache_bytes() -> dict[str, int]:
+    """{"L1d", "L2", "L3": bytes} of cpu0's data caches, from sysfs (what it lacks, absent)."""
+    from pathlib import Path
+    out = {}
+    for d in sorted(Path("/sys/devices/system/cpu/cpu0/cache").glob("index*")):
+        try:
+            kind, level = (d / "type").read_text().strip(), (d / "level").read_text().strip()
+            size = (d / "size").read_text().strip()
+        except OSError:
+            continue
+        if kind in ("Data", "Unified") and size[:-1].isdigit():
+            unit = {"K": 1 << 10, "M": 1 << 20}.get(size[-1], 1)
+            out["L1d" if level == "1" else f"L{level}"] = int(size[:-1]) * unit
+    return out
+
+
+def has_cpu_build(samples: dict) -> bool:
+    """Whether a technique's CPU stage builds a structure (a bin or build step beyond the
+    cull, sort and pack every technique shares), from cpu_stage_samples' result."""
+    return sum(samples["bin"]) + sum(samples["build"]) > 0
+
+
+def growth_row(technique, scene_name: str, n: int, size, frames: int, opts, s: dict,
+               threads: int) -> dict:
+    """One results.csv row of the growth series from cpu_stage_samples' result `s`: stage
+    medians, the total's median / min / max, the build buffers' bytes (bytes_lights, the
+    light rows; bytes_culling, the rest), and in `stats` (JSON) the thread count, every
+    buffer's bytes, the build's sizes and this machine's cache sizes."""
+    from .measure import option_cells
+    r = {"study": GROWTH, "scene": scene_name, "lights": n, "visible": s["visible"],
+         "width": size[0], "height": size[1], "frame": 0, "frames": frames,
+         "technique": technique.name, "role": technique.role, "cutoff": 0,
+         "samples": len(s["total"])}
+    r.update(option_cells(opts))
+    for k in CPU_STAGES:
+        r[f"cpu_{k}_ms"] = stats(s[k])[0]
+    r["cpu_total_ms"], r["cpu_total_min_ms"], r["cpu_total_max_ms"] = stats(s["total"])
+    r["bytes_lights"] = int(s["bytes"].get("lights", 0))
+    r["bytes_culling"] = int(sum(v for k, v in s["bytes"].items() if k != "lights"))
+    r["stats"] = json.dumps({"threads": int(threads), "buffer_bytes": s["bytes"],
+                             "caches": cache_bytes(), **s["sizes"]}, sort_keys=True)
+    return r
+
+
+def growth_series(scene_name: str, counts, threads, size, repeat: int, techniques=None,
+                  opts: dict | None = None, seed: int = 0, frames: int = 64,
+                  cap_ms: float = 0.0, progress: Callable | None = None) -> list[dict]:
+    """Issue 23 item 4: the CPU stage of each technique (`techniques`, default: every one
+    with a CPU build, found at the first count) at each light count of the builtin scene,
+    on each thread count of `threads` in turn at every count (so both meet the same load),
+    `repeat` builds after a warm-up; one growth_row each.  `cap_ms`: a technique whose
+    median passes it runs no larger count on that thread count (the quick preset's bound
+    on its time); `opts`: {technique: options}.  numba's thread count is restored."""
+    from scenes import BUILTIN_SCENES, load_scene
+    if scene_name not in BUILTIN_SCENES or not counts or not threads:
+        return []
+    before = set_cpu_threads(0)
+    names = list(techniques or REGISTRY)
+    dropped: set[str] = set()
+    capped: set[tuple[str, int]] = set()
+    rows: list[dict] = []
+    total, i = len(counts) * len(threads) * len(names), 0
+    try:
+        for n in counts:
+            scene = load_scene(scene_name, lights=int(n), seed=seed)
+            for t in threads:
+                used = set_cpu_threads(t)
+                for name in names:
+                    i += 1
+                    if name in dropped or (name, t) in capped:
+                        continue
+                    tech = get(name)
+                    o = tech.resolve_options((opts or {}).get(name))
+                    if progress:
+                        progress(i, total, f"{GROWTH} {scene_name} {n} lights {name} "
+                                           f"on {used} thread(s) at {size[0]}x{size[1]}")
+                    s = cpu_stage_samples(tech, scene, size, o, repeat, 0, frames)
+                    if techniques is None and not has_cpu_build(s):
+                        dropped.add(name)
+                        continue
+                    rows.append(growth_row(tech, scene_name, int(n), size, frames, o, s, used))
+                    if cap_ms and rows[-1]["cpu_total_ms"] > cap_ms:
+                        capped.add((name, t))
+            del scene
+    finally:
+        set_cpu_threads(before)
+    return rows
 
 
 def set_cpu_threads(n: int) -> int:
@@ -77,22 +180,36 @@ def cpu_main(argv) -> None:
     p = cli.Parser(prog="python -m app.bench cpu",
                    description="CPU stage of one technique, no GL context")
     cli.add_scene_args(p)
-    p.add_argument("--technique", default="hybrid", help="technique id")
+    p.add_argument("--technique", default=None,
+                   help="technique id (default hybrid; with --growth a list a,b, default every "
+                        "technique with a CPU build)")
     p.add_argument("--frame", type=int, default=0, help="camera path frame (of --frames)")
     p.add_argument("--frames", type=int, default=64, help="length of the camera path loop")
     p.add_argument("--repeat", type=int, default=9, help="measured builds (after one warm-up)")
-    p.add_argument("--threads", type=int, default=1,
-                   help="numba threads of the CPU stage (default 1, as the paper; 0: all)")
+    p.add_argument("--threads", default=None,
+                   help="numba threads of the CPU stage (default 1, as the paper; 0: all); "
+                        "with --growth a list, default 1,2")
     p.add_argument("--sweep", metavar="N,N,...",
                    help="light counts to run in turn (instead of --lights): one row each")
+    p.add_argument("--growth", action="store_true",
+                   help="the growth series (issue 23 item 4): techniques x counts x threads")
+    p.add_argument("--out", help="--growth: folder for growth.csv, cpu_growth.png, growth.md")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     cli.add_option_args(p)
     args = p.parse_args(argv)
-    if args.repeat < 1 or args.frames < 1 or args.frame < 0 or args.threads < 0:
-        raise UserError("--repeat and --frames must be >= 1, --frame and --threads >= 0")
-    technique = get(args.technique)
+    if args.repeat < 1 or args.frames < 1 or args.frame < 0:
+        raise UserError("--repeat and --frames must be >= 1, --frame >= 0")
+    threads = int_list(args.threads, "--threads") if args.threads else ((1, 2) if args.growth else (1,))
+    if args.growth:
+        _growth_main(args, threads)
+        return
+    if args.out:
+        raise UserError("--out: only with --growth")
+    if len(threads) != 1:
+        raise UserError("--threads: one count (a list only with --growth)")
+    technique = get(args.technique or "hybrid")
     opts = cli.options_for(technique, args)
-    threads = set_cpu_threads(args.threads)
+    threads = set_cpu_threads(threads[0])
     counts = list(int_list(args.sweep, "--sweep")) if args.sweep else [args.lights]
     keys = list(CPU_STAGES) + ["total"]
     rows = []
@@ -130,6 +247,41 @@ def cpu_main(argv) -> None:
             f"{r['min_ms'][k]:6.2f}/{r['median_ms'][k]:6.2f}" for k in keys))
     print(f"total growth {rows[0]['lights']} -> {rows[-1]['lights']} lights: "
           f"{growth['min_ms']}x (min), {growth['median_ms']}x (median)")
+
+
+def _growth_main(args, threads) -> None:
+    from pathlib import Path
+    names = [n.strip() for n in args.technique.split(",") if n.strip()] if args.technique else None
+    techs = [get(n) for n in names] if names else None      # unknown ids: one line
+    opts = {t.name: cli.options_for(t, args) for t in techs} if techs and len(techs) == 1 else None
+    counts = int_list(args.sweep, "--sweep") if args.sweep else GROWTH_LIGHTS
+    from scenes import BUILTIN_SCENES, load_scene
+    if args.scene not in BUILTIN_SCENES:
+        raise UserError(f"--growth: --scene must be a builtin scene ({', '.join(BUILTIN_SCENES)}; "
+                        f"got '{args.scene}')")
+    size = tuple(args.size or load_scene(args.scene, lights=0).resolution)
+    log = (lambda i, total, what: sys.stderr.write(f"[{i}/{total}] {what}\n")) if not args.json else None
+    rows = growth_series(args.scene, counts, threads, size, args.repeat, names, opts,
+                         args.seed, args.frames, progress=log)
+    if not rows:
+        raise UserError(f"--growth: no technique with a CPU build on '{args.scene}' (a builtin scene)")
+    from ..report.cpu import growth_report
+    if args.out:
+        from ..results import columns, write_csv
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        write_csv(rows, out / "growth.csv", columns())
+        png, text, tables = growth_report(rows, out)
+        (out / "growth.md").write_text(
+            "# CPU stage growth\n\n" + (f"![CPU stage growth]({png})\n\n" if png else "")
+            + "\n".join(t if t.startswith(("|", "-")) else f"- {t}" for t in text)
+            + "\n\n" + tables + "\n")
+    if args.json:
+        print(json.dumps({"rows": rows}))
+        return
+    _, text, tables = growth_report(rows, None)
+    print(tables)
+    print("\n".join(text))
 
 
 def _print_one(out: dict, as_json: bool) -> None:

@@ -9,6 +9,8 @@ from dataclasses import dataclass, replace
 
 from ..errors import UserError
 
+GROWTH_LIGHTS = tuple(8192 << k for k in range(8))  # 8,192 .. 1,048,576, doubling
+
 
 @dataclass(frozen=True)
 class Preset:
@@ -42,6 +44,13 @@ class Preset:
     paper_lights: tuple[int, ...] = (8192, 16384, 32768, 65536)
     paper_frames: int = 2         # camera-path frames of figure 7
     paper_sample: int = 8         # the shading replay over every k-th 8x8 group (scaled)
+    # the CPU stage's growth (issue 23 item 4; app.bench.cpu.growth_series) in cpu_scene at
+    # cpu_size: every technique with a CPU build, each count on each thread count in turn;
+    # () none.  growth_cap_ms: a technique whose median build passes it runs no larger count
+    growth_lights: tuple[int, ...] = ()
+    growth_threads: tuple[int, ...] = (1, 2)
+    growth_repeat: int = 1
+    growth_cap_ms: float = 0.0
 
 
 QUICK = Preset(
@@ -49,7 +58,10 @@ QUICK = Preset(
     lights=(1024, 4096), frames=6, repeat=3, study_repeat=5, heavy_repeat=2, heavy_eval_pp=256.0,
     cutoffs=(256, 1024, 4096, 16384, 65536), cutoff_scenes=("arena", "city"), cutoff_lights=2048,
     study_scene="arena", study_lights=4096, heat_scene="city", cpu_scene="arena",
-    cpu_size=(1920, 1080), cpu_lights=(1024, 4096, 16384, 65536), cpu_repeat=5)
+    cpu_size=(1920, 1080), cpu_lights=(1024, 4096, 16384, 65536), cpu_repeat=5,
+    # 8,192 doubling to 1,048,576, one build after a warm-up each; ~25 s on 2 idle cores,
+    # raster's numpy proxies (~0.5 s at 128k) stopped by the cap
+    growth_lights=GROWTH_LIGHTS, growth_repeat=1, growth_cap_ms=500.0)
 
 FULL = Preset(
     name="full", size=(1920, 1080), scenes=("arena", "city", "hangar", "gallery", "corridor"),
@@ -58,7 +70,7 @@ FULL = Preset(
     cutoff_lights=16384, study_scene="arena", study_lights=32768, heat_scene="city",
     cpu_scene="arena", cpu_size=(1920, 1080),
     cpu_lights=(1024, 2048, 4096, 8192, 16384, 32768, 65536), cpu_repeat=9,
-    paper_frames=16, paper_sample=2)
+    paper_frames=16, paper_sample=2, growth_lights=GROWTH_LIGHTS, growth_repeat=5)
 
 # scripts/gpu_check.sh: what matters of --full on one real GPU in minutes: every technique,
 # two scenes (figure 7's two kinds of level), three light counts, exactness; measured against
@@ -66,7 +78,8 @@ FULL = Preset(
 # series (the CPU is not the question there)
 GPU_CHECK = replace(
     FULL, name="gpu-check", scenes=("arena", "city"), lights=(8192, 32768, 65536), frames=2,
-    cutoffs=(), cutoff_scenes=(), cpu_lights=(), option_studies=False, paper_size=None)
+    cutoffs=(), cutoff_scenes=(), cpu_lights=(), option_studies=False, paper_size=None,
+    growth_lights=())
 
 PRESETS = {"quick": QUICK, "full": FULL, "gpu-check": GPU_CHECK}
 
@@ -110,6 +123,8 @@ def preset_from_args(args) -> Preset:
         ch["cpu_lights"] = int_list(args.cpu_lights, "--cpu-lights")
     if args.cpu_size:
         ch["cpu_size"] = tuple(args.cpu_size)
+    if getattr(args, "growth_lights", None) is not None:      # "" or "0": no growth series
+        ch["growth_lights"] = tuple(n for n in int_list(args.growth_lights or "0", "--growth-lights") if n)
     if getattr(args, "papers", None) is not None:
         ch["paper_size"] = preset.paper_size if args.papers else None
     if args.threads is not None:

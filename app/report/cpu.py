@@ -2,6 +2,8 @@
 and each step's share against the paper's."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..results import STAGES
@@ -28,6 +30,20 @@ def stage_shares(cpu_rows) -> dict:
 
 
 def fig_cpu(rows, out) -> tuple[str | None, list[str], str]:
+    """Figure 4 (the "cpu" study) and, after its tables, the growth series (growth_report)."""
+    name, text, table = _fig4(rows, out)
+    png, gtext, gtables = growth_report(rows, out)
+    if not png and not gtext:
+        return name, text, table
+    growth = "\n\n".join(x for x in (
+        "### Growth from 8k to 1M lights (issue 23 item 4)", f"![CPU stage growth]({png})" if png else "",
+        "\n".join(t if t.startswith(("|", "-")) else f"- {t}" for t in gtext), gtables) if x)
+    if name is None:           # no figure 4 rows: the growth alone, its image inline
+        return None, [], growth
+    return name, text, table + "\n\n" + growth
+
+
+def _fig4(rows, out) -> tuple[str | None, list[str], str]:
     cpu = sel(rows, study="cpu")
     if not cpu:
         return None, [], ""
@@ -87,3 +103,253 @@ def fig_cpu(rows, out) -> tuple[str | None, list[str], str]:
                     f"(paper 25%), sorting {shares[t]['sort'][0]:.0f}% (12%), upload "
                     f"{shares[t]['upload'][0]:.0f}% (7%), culling {shares[t]['cull'][0]:.0f}% (3%).")
     return name, text, "\n".join(table)
+
+
+# ---- growth: the CPU stage from 8k to 1M lights (issue 23 item 4) ------------------------
+
+GROWTH_STUDY = "growth"          # app.bench.cpu.GROWTH
+LINEAR = (0.85, 1.15)            # a doubling whose exponent log2(t(2n) / t(n)) lies here is linear
+SCENE_RECORD = 84                # bytes of a scene light record the pack gathers (LIGHT_DTYPE)
+# what each step does per light, and so why it may stop growing linearly (docs/cpu_stage.md)
+STAGE_WHY = {
+    "cull": "streams every light once (sphere and frustum, 12 B written a light): linear",
+    "sort": "radix-sorts the visible lights' 8-byte (key | id) words in 3 passes of 11 bits, "
+            "each scattering into 2,048 buckets: linear in the lights, dearer a word once the "
+            "words outgrow the L2",
+    "pack": f"gathers each visible light's {SCENE_RECORD}-byte scene record in depth order "
+            "(random reads): a cache miss a light once the records outgrow the caches",
+    "bin": "writes each light into every cell it overlaps through per-cell cursors (scattered "
+           "stores, list entries in proportion to the lights)",
+    "build": "walks each cell's entries (listing 2, the trees), or fills tiles x lights/32 "
+             "bit words (zbin), or fits every light's proxy in numpy (raster)",
+}
+
+
+def _st(r) -> dict:
+    import json
+    v = r.get("stats")
+    return json.loads(v) if isinstance(v, str) and v else {}
+
+
+def _threads(r) -> int:
+    return int(_st(r).get("threads", 1))
+
+
+def _series(rows):
+    """{(technique, threads): rows by ascending light count} of the growth study."""
+    out: dict = {}
+    for r in sorted(rows, key=lambda r: num(r["lights"])):
+        out.setdefault((r["technique"], _threads(r)), []).append(r)
+    return out
+
+
+def _k(n) -> str:
+    n = int(n)
+    return f"{n >> 20}M" if n >= 1 << 20 and n % (1 << 20) == 0 else f"{n >> 10}k" if n >= 1024 else str(n)
+
+
+def _mib(b) -> str:
+    b = num(b)
+    return f"{b / 2**20:.3g} MiB" if b >= 2**20 else f"{b / 1024:.3g} KiB"
+
+
+def _exponents(values) -> list[float]:
+    """log2 of each doubling's ratio (1.0: linear), over consecutive points."""
+    return [math.log2(b / a) if a > 0 and b > 0 else math.nan for a, b in zip(values, values[1:])]
+
+
+def _total_bytes(r) -> float:
+    return num(r["bytes_lights"]) + num(r["bytes_culling"])
+
+
+def growth_figure(series, out, techs) -> str | None:
+    if out is None:
+        return None
+    colors = dict(zip(techs, plt().get_cmap("tab10").colors))
+    fig, (a, b) = plt().subplots(1, 2, dpi=DPI, figsize=(10.5, 3.8))
+    for (t, th), rs in series.items():
+        n = np.array([num(r["lights"]) for r in rs])
+        med = np.array([num(r["cpu_total_ms"]) for r in rs])
+        lo = np.array([num(r["cpu_total_min_ms"]) for r in rs])
+        hi = np.array([num(r["cpu_total_max_ms"]) for r in rs])
+        a.errorbar(n, med, yerr=[med - lo, hi - med], color=colors[t], marker="o", ms=3,
+                   ls="-" if th == 1 else "--", lw=1, capsize=2,
+                   label=f"{t}, {th} thread{'s' if th > 1 else ''}")
+        if th == min(k[1] for k in series if k[0] == t):
+            b.plot(n, [_total_bytes(r) / 2**20 for r in rs], color=colors[t], marker="o", ms=3,
+                   lw=1, label=t)
+    for ax, what in ((a, "CPU stage ms (median, min-max)"), (b, "bytes of the build's buffers (MiB)")):
+        ax.set_xscale("log", base=2)
+        ax.set_yscale("log")
+        x0, x1 = ax.get_xlim()
+        y0 = ax.get_ylim()[0]
+        xs = np.array([x0, x1])
+        ax.plot(xs, y0 * 2 * xs / x0, color="0.6", ls=":", lw=1, label="linear (slope 1)")
+        ax.set_xlabel("lights", fontsize=8)
+        ax.set_ylabel(what, fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3, which="both")
+    side_legend(b, fontsize=6)
+    a.legend(fontsize=6, loc="upper left")
+    r0 = next(iter(series.values()))[0]
+    fig.suptitle(f"CPU stage growth, {r0['scene']} at {resolution(r0)} (log-log; solid one "
+                 f"thread, dashed two)", fontsize=9)
+    return save(fig, out, "cpu_growth.png")
+
+
+def _why_superlinear(rs, j, caches) -> str:
+    """The step that adds most beyond a doubling's 2x between rs[j] and rs[j + 1], and the
+    working sets against the caches there."""
+    a, b = rs[j], rs[j + 1]
+    excess = {k: num(b[f"cpu_{k}_ms"]) - 2 * num(a[f"cpu_{k}_ms"]) for k in STAGES if k != "upload"}
+    top = max(excess, key=lambda k: excess[k])       # medians: the step, not the total
+    vis = num(b["visible"])
+    sets = [f"{vis * SCENE_RECORD / 2**20:.3g} MiB of scene records, {vis * 8 / 2**20:.3g} MiB "
+            f"of sort words, {_mib(_total_bytes(b))} of buffers"]
+    beyond = [f"{k} ({_mib(v)})" for k, v in caches.items() if k != "L1d" and vis * 8 > v]
+    where = f"; the sort words alone outgrow {', '.join(beyond)}" if beyond else ""
+    return (f"{top} adds the most ({ms(num(a[f'cpu_{top}_ms']))} -> {ms(num(b[f'cpu_{top}_ms']))}): "
+            f"it {STAGE_WHY[top]}; at {_k(b['lights'])} lights the frame holds "
+            f"{sets[0]}{where}")
+
+
+def _fixed_part(rs) -> tuple[float, float]:
+    """(a ms, b ns a light) of t = a + b n fitted to the minimums of the two smallest counts."""
+    n0, n1 = num(rs[0]["lights"]), num(rs[1]["lights"])
+    t0, t1 = num(rs[0]["cpu_total_min_ms"]), num(rs[1]["cpu_total_min_ms"])
+    b = (t1 - t0) / (n1 - n0)
+    return t0 - b * n0, b * 1e6
+
+
+def doubling_kinds(rs) -> list[str]:
+    """Per doubling of rs (by ascending count): "super" when even the fastest build at 2n
+    over the slowest at n passes exponent LINEAR[1], "sub" when even the slowest at 2n over
+    the fastest at n stays under LINEAR[0], else "linear" (within the spread: the rule the
+    report applies to every comparison)."""
+    out = []
+    for a, b in zip(rs, rs[1:]):
+        lo = num(b["cpu_total_min_ms"]) / max(num(a["cpu_total_max_ms"]), 1e-12)
+        hi = num(b["cpu_total_max_ms"]) / max(num(a["cpu_total_min_ms"]), 1e-12)
+        out.append("super" if lo > 2 ** LINEAR[1] else "sub" if hi < 2 ** LINEAR[0] else "linear")
+    return out
+
+
+def _threads_line(rs, rs2, n2) -> str:
+    """The second thread count against the first, by medians, 'within the spread' where
+    their min-max ranges overlap."""
+    by = {num(r["lights"]): r for r in rs2}
+    parts = []
+    for r in (rs[0], rs[-1]):
+        o = by.get(num(r["lights"]))
+        if o is None or num(o["cpu_total_ms"]) <= 0:
+            continue
+        overlap = (num(o["cpu_total_min_ms"]) <= num(r["cpu_total_max_ms"])
+                   and num(r["cpu_total_min_ms"]) <= num(o["cpu_total_max_ms"]))
+        parts.append(f"{num(r['cpu_total_ms']) / num(o['cpu_total_ms']):.2f}x the speed at "
+                     f"{_k(r['lights'])}" + (" (within the spread)" if overlap else ""))
+    return f" {n2} threads: {', '.join(parts)} (medians)." if parts else ""
+
+
+def growth_text(series, techs) -> list[str]:
+    """Where each technique's time and memory stop growing linearly, and why (judged on
+    each count's fastest and slowest builds, so the load of a shared machine is no trend)."""
+    text = []
+    for t in techs:
+        keys = sorted(k for k in series if k[0] == t)
+        if not keys or len(series[keys[0]]) < 2:
+            continue
+        rs = series[keys[0]]
+        caches = _st(rs[0]).get("caches", {})
+        tot = [num(r["cpu_total_min_ms"]) for r in rs]
+        whole = math.log(tot[-1] / tot[0]) / math.log(num(rs[-1]["lights"]) / num(rs[0]["lights"]))
+        kinds = doubling_kinds(rs)
+        line = (f"{t} ({keys[0][1]} thread): {ms(tot[0])} at {_k(rs[0]['lights'])} lights, "
+                f"{ms(tot[-1])} at {_k(rs[-1]['lights'])} (fastest builds; exponent "
+                f"{whole:.2f} overall, per doubling {', '.join(f'{x:.2f}' for x in _exponents(tot))}).")
+        if kinds[0] == "sub":
+            a, b = _fixed_part(rs)
+            end = next((j for j, k in enumerate(kinds) if k != "sub"), len(kinds))
+            cells = _st(rs[0]).get("cells")
+            line += f" Up to {_k(rs[end]['lights'])} lights it grows slower than the lights"
+            if a > 0 and b > 0:
+                line += (f": a fixed part of about {ms(a)} a frame (t = {a:.2f} ms + {b:.0f} ns "
+                         f"a light over the two smallest counts)"
+                         + (f", the per-cell work over its {int(cells):,} cells, which does not "
+                            f"grow with the lights" if cells else ""))
+            line += "."
+        if "super" in kinds:
+            j = kinds.index("super")
+            line += (f" From {_k(rs[j]['lights'])} to {_k(rs[j + 1]['lights'])} it stops growing "
+                     f"linearly ({tot[j + 1] / tot[j]:.2f}x for 2x the lights, beyond the spread): "
+                     + _why_superlinear(rs, j, caches) + ".")
+        elif "sub" not in kinds:
+            line += " No doubling departs from linear beyond the measured spread."
+        if len(keys) > 1:
+            line += _threads_line(rs, series[keys[1]], keys[1][1])
+        mem = [_total_bytes(r) for r in rs]
+        per = [m / num(r["lights"]) for m, r in zip(mem, rs)]
+        flat = [j for j, x in enumerate(_exponents(mem)) if x < LINEAR[0]]
+        line += f" Memory: {_mib(mem[0])} -> {_mib(mem[-1])} ({per[0]:.0f} -> {per[-1]:.0f} B a light)"
+        if flat:
+            j = flat[0]
+            tiles = [_st(r).get("bit_tile_used") for r in rs]
+            why = (f": its bit arrays stay within their budget by doubling the tile "
+                   f"({tiles[j]} -> {tiles[-1]} px)" if tiles[-1] and tiles[-1] != tiles[0] else
+                   ": a fixed part (per-cell records) outweighs the lights' share there"
+                   if j == 0 else "")
+            line += f", growing slower than the lights from {_k(rs[j]['lights'])}{why}."
+        else:
+            line += ", in proportion to the lights."
+        text.append(line)
+    return text
+
+
+def growth_tables(series, techs) -> str:
+    counts = sorted({num(r["lights"]) for rs in series.values() for r in rs})
+    head = "| technique | threads | " + " | ".join(_k(n) for n in counts) + " | exponent per doubling |"
+    out = ["CPU stage ms, median [min-max] over the builds, by light count:", "", head,
+           "|---|---|" + "---|" * (len(counts) + 1)]
+    for t in techs:
+        for key in sorted(k for k in series if k[0] == t):
+            by = {num(r["lights"]): r for r in series[key]}
+            cells = [f"{num(by[n]['cpu_total_ms']):.3g} [{num(by[n]['cpu_total_min_ms']):.3g}-"
+                     f"{num(by[n]['cpu_total_max_ms']):.3g}]" if n in by else "-" for n in counts]
+            e = _exponents([num(r["cpu_total_ms"]) for r in series[key]])
+            out.append(f"| {t} | {key[1]} | " + " | ".join(cells) + " | "
+                       + ", ".join(f"{x:.2f}" for x in e) + " |")
+    out += ["", "Bytes of the build's buffers (one thread's build; the lights' GPU rows and "
+                "the structure's), by light count:", "",
+            "| technique | buffer | " + " | ".join(_k(n) for n in counts) + " |",
+            "|---|---|" + "---|" * len(counts)]
+    for t in techs:
+        keys = sorted(k for k in series if k[0] == t)
+        if not keys:
+            continue
+        by = {num(r["lights"]): _st(r).get("buffer_bytes", {}) for r in series[keys[0]]}
+        names = list(dict.fromkeys(k for b in by.values() for k in b))
+        for name in names + ["all"]:
+            cells = [(_mib(sum(by[n].values())) if name == "all" else _mib(by[n][name]))
+                     if n in by and (name == "all" or name in by[n]) else "-" for n in counts]
+            out.append(f"| {t} | {'**all**' if name == 'all' else name} | " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+def growth_report(rows, out) -> tuple[str | None, list[str], str]:
+    """(PNG name or None, text, markdown tables) of the growth series' rows (study
+    "growth"): a log-log plot of time and bytes against lights, the exponent of each
+    doubling, and where each technique stops growing linearly and why."""
+    g = sel(rows, study=GROWTH_STUDY) if rows and "study" in rows[0] else []
+    if not g:
+        return None, [], ""
+    techs = order(g, "technique")
+    series = _series(g)
+    png = growth_figure(series, out, techs)
+    r0 = g[0]
+    text = [f"The CPU stage alone (cull, sort, pack, bin, build; no upload) in {r0['scene']} at "
+            f"{resolution(r0)}, the lights doubling from {_k(min(num(r['lights']) for r in g))} "
+            f"to {_k(max(num(r['lights']) for r in g))}, every technique with a CPU build, one "
+            f"thread and two in turn at each count. An exponent of 1 a doubling is linear "
+            f"growth; below {LINEAR[0]} a fixed cost is being spread, above {LINEAR[1]} each "
+            f"light costs more than at half the count; a doubling is called either only where "
+            f"the counts' fastest and slowest builds agree."] + growth_text(series, techs)
+    return png, text, growth_tables(series, techs)
