@@ -165,35 +165,38 @@ def _total_bytes(r) -> float:
 def growth_figure(series, out, techs) -> str | None:
     if out is None:
         return None
+    from matplotlib.lines import Line2D
     colors = dict(zip(techs, plt().get_cmap("tab10").colors))
     fig, (a, b) = plt().subplots(1, 2, dpi=DPI, figsize=(10.5, 3.8))
+    counts = sorted({num(r["lights"]) for rs in series.values() for r in rs})
     for (t, th), rs in series.items():
         n = np.array([num(r["lights"]) for r in rs])
         med = np.array([num(r["cpu_total_ms"]) for r in rs])
         lo = np.array([num(r["cpu_total_min_ms"]) for r in rs])
         hi = np.array([num(r["cpu_total_max_ms"]) for r in rs])
         a.errorbar(n, med, yerr=[med - lo, hi - med], color=colors[t], marker="o", ms=3,
-                   ls="-" if th == 1 else "--", lw=1, capsize=2,
-                   label=f"{t}, {th} thread{'s' if th > 1 else ''}")
+                   ls="-" if th == 1 else "--", lw=1, capsize=2)
         if th == min(k[1] for k in series if k[0] == t):
-            b.plot(n, [_total_bytes(r) / 2**20 for r in rs], color=colors[t], marker="o", ms=3,
-                   lw=1, label=t)
+            b.plot(n, [_total_bytes(r) / 2**20 for r in rs], color=colors[t], marker="o", ms=3, lw=1)
     for ax, what in ((a, "CPU stage ms (median, min-max)"), (b, "bytes of the build's buffers (MiB)")):
         ax.set_xscale("log", base=2)
         ax.set_yscale("log")
+        ax.set_xticks(counts, [_k(n) for n in counts])
         x0, x1 = ax.get_xlim()
         y0 = ax.get_ylim()[0]
         xs = np.array([x0, x1])
-        ax.plot(xs, y0 * 2 * xs / x0, color="0.6", ls=":", lw=1, label="linear (slope 1)")
+        ax.plot(xs, y0 * 2 * xs / x0, color="0.6", ls=":", lw=1)
         ax.set_xlabel("lights", fontsize=8)
         ax.set_ylabel(what, fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3, which="both")
-    side_legend(b, fontsize=6)
-    a.legend(fontsize=6, loc="upper left")
+    handles = [Line2D([], [], color=colors[t], marker="o", ms=3, lw=1, label=t) for t in techs]
+    handles += [Line2D([], [], color="k", lw=1, label="1 thread"),
+                Line2D([], [], color="k", lw=1, ls="--", label="2 threads"),
+                Line2D([], [], color="0.6", lw=1, ls=":", label="linear (slope 1)")]
+    side_legend(b, handles, [h.get_label() for h in handles])
     r0 = next(iter(series.values()))[0]
-    fig.suptitle(f"CPU stage growth, {r0['scene']} at {resolution(r0)} (log-log; solid one "
-                 f"thread, dashed two)", fontsize=9)
+    fig.suptitle(f"CPU stage growth, {r0['scene']} at {resolution(r0)} (log-log)", fontsize=9)
     return save(fig, out, "cpu_growth.png")
 
 
