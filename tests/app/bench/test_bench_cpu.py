@@ -54,6 +54,9 @@ def test_bench_cpu_json_without_gl():
     (["cpu", "--technique", "no-such-technique"], "no-such-technique"),
     (["cpu", "--technique", next(t for t in REGISTRY if not takes(t, "tile")), "--tile", "32"],
      "--tile"),
+    (["cpu", "--threads", "1,2"], "--threads"),                     # a list only with --growth
+    (["cpu", "--out", "x"], "--out"),
+    (["cpu", "--growth", "--scene", "no-such.json"], "--scene"),
 ])
 def test_bench_errors_are_one_line(capsys, argv, word):
     from app.cli import run_main

@@ -122,18 +122,3 @@ def test_growth_command(tmp_path):
     for f in ("growth.csv", "cpu_growth.png", "growth.md"):
         assert (tmp_path / f).stat().st_size > 0, f
     assert "clustered (1 thread)" in (tmp_path / "growth.md").read_text()
-
-
-@pytest.mark.parametrize("argv, word", [
-    (["cpu", "--threads", "1,2"], "--threads"),
-    (["cpu", "--out", "x"], "--out"),
-    (["cpu", "--growth", "--scene", "no-such.json"], "--scene"),
-])
-def test_growth_errors_are_one_line(capsys, argv, word):
-    from app import bench
-    from app.cli import run_main
-    with pytest.raises(SystemExit) as e:
-        run_main(lambda: bench.main(argv))
-    assert e.value.code == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and word in err[0]
