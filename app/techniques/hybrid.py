@@ -26,7 +26,8 @@ from ..model import waves
 from ..pipeline.passes import OUT_STATS, WAVE_DIM, WAVE_STATS, HostStep
 from .base import Technique, cell_head, entry_list, prepare_binned
 from .options import ListOptions, ScalarizeOptions, SliceOptions, TreeOptions, WaveOptions, option
-from .blocks import add_shared_load, live_groups, one_tree_groups, study_notes, tree_buffers, tree_passes
+from .blocks import (add_shared_load, live_groups, one_tree_groups, study_notes, tree_buffers,
+                     tree_passes)
 
 CELL_TREE_BIT = np.uint32(1 << 31)     # a cell's count word: listing 2 chose a tree
 
