@@ -46,12 +46,17 @@ def timing_cells(samples: list[dict]) -> dict:
         stats(p[1] + p[2] for p in parts)
     r["frame_cost_ms"], r["frame_cost_min_ms"], r["frame_cost_max_ms"] = \
         stats(frame_cost(m) for m in samples)
-    names = list(dict.fromkeys(k for m in samples for k in m["gpu_ms"]))
-    r["gpu_passes"] = ";".join(
-        "{}={:.3f}/{:.3f}/{:.3f}".format(k, *stats(m["gpu_ms"].get(k, 0.0) for m in samples))
-        for k in names)
+    r["gpu_passes"] = ";".join("{}={:.3f}/{:.3f}/{:.3f}".format(k, *v)
+                               for k, v in pass_stats(samples).items())
     r["samples"] = len(samples)
     return r
+
+
+def pass_stats(samples: list[dict]) -> dict[str, tuple[float, float, float]]:
+    """Each timed pass's (median, min, max) ms over the samples, in the frame's pass order
+    (0 in a sample that lacks it)."""
+    names = dict.fromkeys(k for m in samples for k in m["gpu_ms"])
+    return {k: stats(m["gpu_ms"].get(k, 0.0) for m in samples) for k in names}
 
 
 def option_cells(opts) -> dict:

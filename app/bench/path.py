@@ -26,9 +26,7 @@ in seconds at full size); --size or --full for more.
 """
 from __future__ import annotations
 
-import csv
 import json
-import math
 from pathlib import Path
 import statistics
 import sys
@@ -38,11 +36,13 @@ import numpy as np
 
 from .. import cli
 from ..errors import UserError
-from ..results import FRAME_PASS, STAGES, option_columns, stats
+from ..results import STAGES, option_columns, write_csv
 from . import measure
 from .presets import FULL, QUICK
 
 FIXED = ["frame", "t", "scene", "lights", "visible", "width", "height", "technique", "role", "samples"]
+# the columns measure.timing_cells gives a path row (the others are the sweep's)
+TIMED = [f"cpu_{s}_ms" for s in STAGES] + ["cpu_total_ms", "gpu_lighting_ms", "frame_cost_ms"]
 TAIL = ["cpu_total_ms", "gpu_lighting_ms", "frame_cost_ms", "setup_ms", "evaluated_pp", "exact_pp",
         "waste", "mismatch_pixels", "wall_ms"]
 
@@ -157,14 +157,9 @@ def row(k, t, scene_name, lights, size, tech, opts, res, ref, wall_ms) -> dict:
          "visible": int(res.meta["stats"].get("visible_lights", 0)), "width": size[0],
          "height": size[1], "technique": tech.name, "role": tech.role, "samples": len(samples)}
     r.update(measure.option_cells(opts))
-    for s in STAGES:
-        r[f"cpu_{s}_ms"] = stats(float(m["cpu_ms"].get(s, 0.0)) for m in samples)[0]
-    r["cpu_total_ms"] = stats(sum(m["cpu_ms"].values()) for m in samples)[0]
-    for name in dict.fromkeys(p for m in samples for p in m["gpu_ms"]):
-        r[f"gpu_{name}_ms"] = stats(m["gpu_ms"].get(name, 0.0) for m in samples)[0]
-    r["gpu_lighting_ms"] = stats(sum(v for p, v in m["gpu_ms"].items() if p != FRAME_PASS)
-                                 for m in samples)[0]
-    r["frame_cost_ms"] = stats(measure.frame_cost(m) for m in samples)[0]
+    timing = measure.timing_cells(samples)
+    r.update({k: timing[k] for k in TIMED})
+    r.update({f"gpu_{name}_ms": v[0] for name, v in measure.pass_stats(samples).items()})
     r["setup_ms"] = float(sum(res.meta.get("setup_ms", {}).values()))
     fig = measure.figure_cells(res)
     r["evaluated_pp"], r["exact_pp"], r["waste"] = fig["evaluated_pp"], fig["exact_pp"], fig["waste"]
@@ -179,21 +174,8 @@ def columns(rows) -> list[str]:
     return (FIXED + option_columns() + [f"cpu_{s}_ms" for s in STAGES] + gpu + TAIL)
 
 
-def _cell(v):
-    if isinstance(v, bool):
-        return int(v)
-    if isinstance(v, float):
-        return "" if math.isnan(v) else f"{v:.4f}"
-    return v
-
-
 def write(rows: list[dict], out: Path, info: dict) -> None:
-    cols = columns(rows)
-    with open(out / "path.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, cols, restval="", extrasaction="ignore")
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: _cell(v) for k, v in r.items()})
+    write_csv(rows, out / "path.csv", columns(rows))
     by = {}
     for r in rows:
         by.setdefault(r["technique"], []).append(r)
