@@ -7,6 +7,7 @@ from hypothesis import given, settings, strategies as st
 
 from cpu_prep import bounds
 from cpu_prep.camera import FrameCamera, perspective
+from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_SPOT
 
 
 def camera(w=160, h=90, fov=60.0, near=0.1, far=1000.0):
@@ -91,7 +92,6 @@ def _check_inside(pts, cam, rect):
 
 def _bounds_of(t, p, d, right, radius, cos_o, length, ext, cam):
     """shape_bounds through the same culling sphere the cull kernel would use."""
-    from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_SPOT
     c, r = p, radius
     if t == LIGHT_SPOT:
         (c,), (r,) = bounds.spot_bounding_spheres(p[None], d[None], np.array([radius]), np.array([cos_o]))
@@ -107,13 +107,16 @@ def _bounds_of(t, p, d, right, radius, cos_o, length, ext, cam):
 POS = st.tuples(st.floats(-15, 15), st.floats(-15, 15), st.floats(-40, 3))
 
 
+def _posed(pos, fov, seed):
+    """One example's camera, rng, light position and random unit direction."""
+    rng = np.random.default_rng(seed)
+    return camera(fov=fov), rng, np.array(pos), _unit(rng.normal(size=3))
+
+
 @settings(max_examples=200, deadline=None)
 @given(POS, st.floats(0.05, 10), st.floats(0.0, 30), st.floats(10, 150), st.integers(0, 2**31))
 def test_capsule_rect_contains_its_volume(pos, r, length, fov, seed):
-    from scenes.model import LIGHT_CAPSULE
-    cam = camera(fov=fov)
-    rng = np.random.default_rng(seed)
-    p, d = np.array(pos), _unit(rng.normal(size=3))
+    cam, rng, p, d = _posed(pos, fov, seed)
     rect = _bounds_of(LIGHT_CAPSULE, p, d, np.zeros(3), r, 1.0, length, np.zeros(3), cam)
     t = rng.uniform(-length / 2, length / 2, 6000)
     pts = sphere_samples(rng, np.zeros(3), r, 6000) + p + t[:, None] * d
@@ -125,11 +128,8 @@ def test_capsule_rect_contains_its_volume(pos, r, length, fov, seed):
        st.floats(10, 150), st.integers(0, 2**31))
 def test_box_rect_contains_its_volume(pos, ext, fov, seed):
     """Boxes in front, across the near plane, around the eye and behind it."""
-    from scenes.model import LIGHT_BOX
-    cam = camera(fov=fov)
-    rng = np.random.default_rng(seed)
-    p, ext = np.array(pos), np.array(ext)
-    d = _unit(rng.normal(size=3))
+    cam, rng, p, d = _posed(pos, fov, seed)
+    ext = np.array(ext)
     right = _unit(np.cross(d, _unit(rng.normal(size=3))))
     up = np.cross(right, d)
     rect = _bounds_of(LIGHT_BOX, p, d, right, 1.0, 1.0, 0.0, ext, cam)
@@ -142,10 +142,7 @@ def test_box_rect_contains_its_volume(pos, ext, fov, seed):
 @settings(max_examples=200, deadline=None)
 @given(POS, st.floats(0.05, 20), st.floats(0.0, 90.0), st.floats(10, 150), st.integers(0, 2**31))
 def test_spot_cone_rect_contains_its_volume(pos, r, angle, fov, seed):
-    from scenes.model import LIGHT_SPOT
-    cam = camera(fov=fov)
-    rng = np.random.default_rng(seed)
-    p, d = np.array(pos), _unit(rng.normal(size=3))
+    cam, rng, p, d = _posed(pos, fov, seed)
     cos_o = math.cos(math.radians(angle))
     rect = _bounds_of(LIGHT_SPOT, p, d, np.zeros(3), r, cos_o, 0.0, np.zeros(3), cam)
     v = sphere_samples(rng, np.zeros(3), r, 20000)
@@ -156,7 +153,6 @@ def test_spot_cone_rect_contains_its_volume(pos, r, angle, fov, seed):
 def test_cone_and_box_covers_are_tighter_than_spheres():
     """A narrow spot seen from the side and a thin box: the shape's own rectangle is much
     smaller than its bounding sphere's."""
-    from scenes.model import LIGHT_BOX, LIGHT_SPOT
     cam = camera()
     p, d = np.array([-3.0, 0.0, -20.0]), np.array([1.0, 0.0, 0.0])
     spot = _bounds_of(LIGHT_SPOT, p, d, np.zeros(3), 8.0, math.cos(math.radians(5)), 0, np.zeros(3), cam)
