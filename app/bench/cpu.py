@@ -52,24 +52,32 @@ def cpu_stage_samples(technique, scene, size, opts, repeat: int, frame: int = 0,
     fi = FrameInput(lights, cam, scene.max_depth or cam.far, Arena())
     for _ in range(warmup):
         technique.build(fi, opts)
-    stages = list(CPU_STAGES) + ([UPLOAD] if upload else [])
-    out = {k: [] for k in stages + ["total"]}
-    visible, sizes, nbytes = 0, {}, {}
+    out = new_samples(upload is not None)
     for _ in range(repeat):
-        b = technique.build(fi, opts)
-        ms = dict(b.times.ms)
-        if upload:
-            ms[UPLOAD] = upload(b)
-        for k in stages:
-            out[k].append(float(ms.get(k, 0.0)))
-        out["total"].append(float(sum(ms.values())))
-        visible = int(b.stats.get("visible_lights", 0))
-        sizes = {k: int(v) for k, v in b.stats.items() if k in SIZE_STATS}
-        nbytes = {k: int(a.nbytes) for k, a in b.buffers.items()}
-    out["visible"] = visible
-    out["sizes"] = sizes
-    out["bytes"] = nbytes
+        record(out, technique.build(fi, opts), upload)
     return out
+
+
+def new_samples(upload: bool = False) -> dict:
+    """cpu_stage_samples' result before any build: empty lists of ms per stage."""
+    out = {k: [] for k in list(CPU_STAGES) + ([UPLOAD] if upload else []) + ["total"]}
+    out.update(visible=0, sizes={}, bytes={})
+    return out
+
+
+def record(out: dict, b, upload: Callable | None = None) -> None:
+    """Add one build's stage times (and its upload's), visible count, sizes and buffer
+    bytes to `out` (new_samples)."""
+    ms = dict(b.times.ms)
+    if upload:
+        ms[UPLOAD] = upload(b)
+    for k, v in out.items():
+        if isinstance(v, list) and k != "total":
+            v.append(float(ms.get(k, 0.0)))
+    out["total"].append(float(sum(ms.values())))
+    out["visible"] = int(b.stats.get("visible_lights", 0))
+    out["sizes"] = {k: int(v) for k, v in b.stats.items() if k in SIZE_STATS}
+    out["bytes"] = {k: int(a.nbytes) for k, a in b.buffers.items()}
 
 
 # the build statistics worth printing beside the times (app.techniques: Build.stats)
@@ -92,12 +100,6 @@ def cache_bytes() -> dict[str, int]:
             unit = {"K": 1 << 10, "M": 1 << 20}.get(size[-1], 1)
             out["L1d" if level == "1" else f"L{level}"] = int(size[:-1]) * unit
     return out
-
-
-def has_cpu_build(samples: dict) -> bool:
-    """Whether a technique's CPU stage builds a structure (a bin or build step beyond the
-    cull, sort and pack every technique shares), from cpu_stage_samples' result."""
-    return sum(samples["bin"]) + sum(samples["build"]) > 0
 
 
 def growth_row(technique, scene_name: str, n: int, size, frames: int, opts, s: dict,
@@ -126,45 +128,66 @@ def growth_series(scene_name: str, counts, threads, size, repeat: int, technique
                   opts: dict | None = None, seed: int = 0, frames: int = 64,
                   cap_ms: float = 0.0, progress: Callable | None = None) -> list[dict]:
     """Issue 23 item 4: the CPU stage of each technique (`techniques`, default: every one
-    with a CPU build, found at the first count) at each light count of the builtin scene,
-    on each thread count of `threads` in turn at every count (so both meet the same load),
-    `repeat` builds after a warm-up; one growth_row each.  `cap_ms`: a technique whose
-    median passes it runs no larger count on that thread count (the quick preset's bound
-    on its time); `opts`: {technique: options}.  numba's thread count is restored."""
+    with a CPU build, a bin or build step, found in the warm-up) at each light count of the
+    builtin scene on each thread count of `threads`, one growth_row each.  A warm-up round
+    builds every configuration once; then `repeat` rounds build each once more, counts,
+    thread counts and techniques interleaved, so a change of the shared machine's load
+    falls on all of them alike (not on one count, where it would pass for a change of
+    slope).  One arena per technique, reused across counts (as frames of changing counts
+    reuse it).  `cap_ms`: a technique whose warm-up build passes it runs no larger count
+    on that thread count (the quick preset's bound on its time); `opts`: {technique:
+    options}.  numba's thread count is restored."""
+    from cpu_prep.camera import frame_camera
     from scenes import BUILTIN_SCENES, load_scene
     if scene_name not in BUILTIN_SCENES or not counts or not threads:
         return []
     before = set_cpu_threads(0)
     names = list(techniques or REGISTRY)
-    dropped: set[str] = set()
-    capped: set[tuple[str, int]] = set()
-    rows: list[dict] = []
-    total, i = len(counts) * len(threads) * len(names), 0
+    techs = {n: get(n) for n in names}
+    o = {n: techs[n].resolve_options((opts or {}).get(n)) for n in names}
+    arenas = {n: Arena() for n in names}
+    inputs, samples, used, dropped, capped = {}, {}, {}, set(), set()
+    total, i = (repeat + 1) * len(counts) * len(threads) * len(names), 0
     try:
-        for n in counts:
-            scene = load_scene(scene_name, lights=int(n), seed=seed)
-            for t in threads:
-                used = set_cpu_threads(t)
-                for name in names:
-                    i += 1
-                    if name in dropped or (name, t) in capped:
-                        continue
-                    tech = get(name)
-                    o = tech.resolve_options((opts or {}).get(name))
-                    if progress:
-                        progress(i, total, f"{GROWTH} {scene_name} {n} lights {name} "
-                                           f"on {used} thread(s) at {size[0]}x{size[1]}")
-                    s = cpu_stage_samples(tech, scene, size, o, repeat, 0, frames)
-                    if techniques is None and not has_cpu_build(s):
-                        dropped.add(name)
-                        continue
-                    rows.append(growth_row(tech, scene_name, int(n), size, frames, o, s, used))
-                    if cap_ms and rows[-1]["cpu_total_ms"] > cap_ms:
-                        capped.add((name, t))
-            del scene
+        for rnd in range(repeat + 1):
+            for n in counts:
+                if rnd == 0:
+                    scene = load_scene(scene_name, lights=int(n), seed=seed)
+                    cam = frame_camera(scene.camera_at(0, frames), *size)
+                    for m in names:
+                        inputs[m, n] = FrameInput(scene.lights, cam, scene.max_depth or cam.far,
+                                                  arenas[m])
+                for t in threads:
+                    used[t] = set_cpu_threads(t)
+                    for name in names:
+                        i += 1
+                        if name in dropped or (name, t) in capped and (name, n, t) not in samples:
+                            continue
+                        if progress:
+                            progress(i, total, f"{GROWTH} {scene_name} {n} lights {name} on "
+                                               f"{used[t]} thread(s) at {size[0]}x{size[1]}"
+                                               + (" (warm-up)" if rnd == 0 else ""))
+                        b = techs[name].build(inputs[name, n], o[name])
+                        if rnd > 0:
+                            record(samples[name, n, t], b)
+                        elif techniques is None and not (b.times.ms.get("bin") or b.times.ms.get("build")):
+                            dropped.add(name)
+                        else:
+                            samples[name, n, t] = new_samples()
+                            if cap_ms and sum(b.times.ms.values()) > cap_ms:
+                                capped.add((name, t))
     finally:
         set_cpu_threads(before)
-    return rows
+    return [growth_row(techs[name], scene_name, int(n), size, frames, o[name], s, used[t])
+            for (name, n, t), s in samples.items() if name not in dropped]
+
+
+def preset_growth(preset, progress: Callable | None = None) -> list[dict]:
+    """The preset's growth series (its growth_* fields, in cpu_scene at cpu_size): the rows
+    the sweep adds to results.csv (study "growth")."""
+    return growth_series(preset.cpu_scene, preset.growth_lights, preset.growth_threads,
+                         preset.cpu_size, preset.growth_repeat, seed=preset.seed,
+                         frames=preset.frames, cap_ms=preset.growth_cap_ms, progress=progress)
 
 
 def set_cpu_threads(n: int) -> int:
