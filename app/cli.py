@@ -49,7 +49,8 @@ def add_scene_args(p: argparse.ArgumentParser) -> None:
 def _option_type(spec):
     def parse(text):
         try:
-            return spec.check(spec.kind(text))
+            # a choice takes its name or its number (spec.check knows both)
+            return spec.check(text if spec.choices else spec.kind(text))
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected {spec.kind.__name__}, got '{text}'") from None
         except UserError as exc:
@@ -66,13 +67,14 @@ def add_option_args(p: argparse.ArgumentParser) -> None:
     owners = {n: [t.name for t in REGISTRY.values() if n in t.Options.names()] for n in specs}
     g = p.add_argument_group("technique options (an option the technique does not take is an error)")
     for name, s in specs.items():
-        who = f" [{', '.join(owners[name])}; default {s.default}]"
+        who = f" [{', '.join(owners[name])}; default {s.label(s.default) if s.choices else s.default}]"
         if s.kind is bool:
             g.add_argument(s.flag, dest=name, action=argparse.BooleanOptionalAction,
                            default=argparse.SUPPRESS, help=s.help + who)
         else:
             g.add_argument(s.flag, dest=name, type=_option_type(s), default=argparse.SUPPRESS,
-                           metavar=s.kind.__name__.upper(), help=s.help + who)
+                           metavar="NAME|K" if s.choices else s.kind.__name__.upper(),
+                           help=s.help + who)
 
 
 def given_options(args) -> dict:

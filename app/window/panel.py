@@ -149,7 +149,12 @@ class Control:
 
 def spec_control(spec, label: str, value, section: str, set, help: str | None = None) -> Control:
     """The control of a declared option (app.techniques.options.OptionSpec): its kind,
-    range and help as declared; a slider on a log scale where the range spans decades."""
+    range and help as declared; a slider on a log scale where the range spans decades; a
+    choice()'s names in a combo (its setter takes the name, as the command line does)."""
+    if spec.choices:
+        return Control(spec.name, label, "choice", spec.label(value), choices=spec.choices,
+                       lo=spec.lo, hi=spec.hi, section=section, set=set,
+                       help=help if help is not None else f"{flag(spec.name)}: {spec.help}")
     kind = {bool: "bool", int: "int", float: "float"}[spec.kind]
     lo, hi = spec.lo, spec.hi
     return Control(spec.name, label, kind, value, lo=lo, hi=hi, section=section, set=set,

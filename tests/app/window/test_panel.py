@@ -59,6 +59,19 @@ def test_apply_is_checked_and_changes_the_technique_options():
     assert s.options.for_technique(REGISTRY["tree"])[0].tile == 32     # the command line's stays
 
 
+def test_a_choice_option_is_a_combo_of_its_names():
+    s = state("fptl")
+    p = Panel(s)
+    spec = REGISTRY["fptl"].Options.spec("fptl_variant")
+    c = p.control("fptl_variant")
+    assert c.kind == "choice" and c.choices == spec.choices and c.value == spec.choices[0]
+    p.apply("fptl_variant", spec.choices[2])             # the combo sets a name
+    assert s.options.for_technique(REGISTRY["fptl"])[0].fptl_variant == 2
+    assert p.control("fptl_variant").value == spec.choices[2]
+    with pytest.raises(UserError, match="must be one of 0 "):
+        p.apply("fptl_variant", "no such variant")
+
+
 def test_panel_display_and_lights_controls():
     s = state("clustered")
     p = Panel(s)
