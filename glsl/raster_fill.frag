@@ -7,7 +7,8 @@
 //                quadrant (u_sample_pixel; gl_SampleID makes the pass run per sample), as a
 //                console aliases a full-resolution depth buffer as a 4xMSAA one.
 // define: RASTER_MSAA
-layout(binding = 0) uniform sampler2D g_position;
+#include "generated.glsl"
+layout(binding = G_POSITION_UNIT) uniform sampler2D g_position;
 uniform ivec2 u_size;
 uniform float u_near;
 uniform ivec2 u_sample_pixel[4];

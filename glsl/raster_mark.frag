@@ -26,7 +26,7 @@ layout(early_fragment_tests) in;
 layout(post_depth_coverage) in;     // gl_SampleMaskIn: the samples that passed the tests
 #endif
 
-layout(binding = 0) uniform sampler2D g_position;   // xyz view space, w linear depth (0 = sky)
+layout(binding = G_POSITION_UNIT) uniform sampler2D g_position;   // xyz view space, w linear depth (0 = sky)
 
 // Whether the scene point at `pixel` can lie in the light's volume along the proxy surface
 // at view depth `proxy_depth`: scene depth in the light's span (depth bounds test) and on

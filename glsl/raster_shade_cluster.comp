@@ -34,5 +34,5 @@ void main() {
         }
     }
     store_pixel(s);
-    write_wave_stats(s.evaluated, 1u);
+    write_wave_stats(s.evaluated, CASE_LIST);
 }

@@ -9,7 +9,8 @@
 //                     tile: reduced in shared memory first, one global atomic pair a group
 // define: TILE_DEPTH_GROUP
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(binding = 0) uniform sampler2D g_position;
+#include "generated.glsl"
+layout(binding = G_POSITION_UNIT) uniform sampler2D g_position;
 layout(std430, binding = B_RASTER_TILE_DEPTH) buffer TileDepth { uvec2 tile_depth[]; };
 uniform ivec2 u_size;
 uniform int u_tile;

@@ -163,7 +163,7 @@ void main() {
     uint wave_iterations = s.evaluated;    // the wave runs as long as its longest lane
 #endif
     store_pixel(s);
-    write_wave_stats(wave_iterations, 1u);
+    write_wave_stats(wave_iterations, CASE_LIST);
     if (own != 0u) {
         uint g = group_index();
         atomicAdd(wave_stats[g].lane_loops.x, own);

@@ -9,7 +9,7 @@
 #include "generated.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(binding = 0) uniform sampler2D g_position;
+layout(binding = G_POSITION_UNIT) uniform sampler2D g_position;
 layout(std430, binding = B_TILE_BITS) readonly buffer TileBits { uint tile_bits[]; };
 layout(std430, binding = B_LIGHT_DEPTH) readonly buffer LightDepth { vec2 light_depth[]; };
 layout(std430, binding = B_ZBIN_BITS) writeonly buffer Culled { uint zbin_bits[]; };
