@@ -62,6 +62,7 @@ class Limits:
     native_ballot: bool        # the ARB path's extensions (WAVE_NATIVE = WAVE_ARB compiles)
     native_wave: str = ""      # the selected path: "khr", "arb" or "" (the emulation only)
     subgroup_size: int = 0     # GL_SUBGROUP_SIZE_KHR; 0 without KHR (ARB tells shaders only)
+    max_work_groups: tuple[int, int, int] = (65535, 65535, 65535)   # GL's minimum, per axis
     # samples -> the driver's sample positions, queried on first use (sample_positions)
     _positions: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
@@ -143,6 +144,8 @@ def limits() -> Limits:
             native_ballot=set(NATIVE_WAVE_EXTENSIONS) <= exts,
             native_wave=native_wave_path(exts, *khr),
             subgroup_size=khr[0],
+            max_work_groups=tuple(int(n) for n in ctx.info.get(
+                "GL_MAX_COMPUTE_WORK_GROUP_COUNT", (65535,) * 3)),
         )
     return _LIMITS
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
+import moderngl
 import numpy as np
 
 from cpu_prep import frame as cpuframe, grid as gridmod, layouts
@@ -107,6 +108,12 @@ class StencilStep:
     func: str = "always"                  # "always" | "equal" | "notequal"
     ref: int = 0
     ops: tuple[str, str, str] = ("keep", "keep", "keep")
+
+
+# Draw's names for moderngl's depth functions and primitive modes
+DEPTH_FUNCS = {"less": "<", "less_equal": "<=", "greater": ">", "greater_equal": ">=",
+               "always": "1"}
+DRAW_MODES = {"triangles": moderngl.TRIANGLES, "triangle_strip": moderngl.TRIANGLE_STRIP}
 
 
 @dataclass(frozen=True)

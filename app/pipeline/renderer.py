@@ -30,15 +30,13 @@ from cpu_prep.limits import WINDOW_ALL, LimitError
 from . import features as feat, gl, rawgl
 from ..errors import UserError
 from .gbuffer import GBuffer, TEXTURE_UNITS
-from .passes import (FRAME_OUTPUTS, OUT_CELL, OUT_STATS, Buffer, Build, FrameInput, HostStep, Pass,
-                     Target, WAVE_DIM)
+from .passes import (DEPTH_FUNCS, DRAW_MODES, FRAME_OUTPUTS, OUT_CELL, OUT_STATS, Buffer, Build,
+                     FrameInput, HostStep, Pass, Target, WAVE_DIM)
 from .shaders import ProgramCache
+from .validate import check_steps
 
 DEBUG_SLOT = "debug_lights"    # pixel.glsl DEBUG_PIXEL: ids of the lights affecting one pixel
 DEBUG_MAX_IDS = 1 << 16
-DEPTH_FUNCS = {"less": "<", "less_equal": "<=", "greater": ">", "greater_equal": ">=",
-               "always": "1"}
-MODES = {"triangles": moderngl.TRIANGLES, "triangle_strip": moderngl.TRIANGLE_STRIP}
 
 
 @dataclass
@@ -221,8 +219,9 @@ class Renderer:
         technique (the first sample: compiles, host steps included) or its timed passes
         again.  -> (build, feature set, {"cpu_ms", "gpu_ms"})."""
         self.timer.take()
-        self._run_pass(self.gbuffer.pass_for(fin.camera), {"generated.glsl": feat.generated_glsl()},
-                       {}, {}, record=False)
+        virtual = {"generated.glsl": feat.generated_glsl()}
+        for p in self._checked([self.gbuffer.pass_for(fin.camera)], virtual, "frame"):
+            self._run_pass(p, virtual, {}, {}, record=False)
         self.gbuffer.bind_textures()
         try:
             build = technique.build(fin, opts)
@@ -248,25 +247,29 @@ class Renderer:
 
     def run(self, steps, virtual: dict | None = None, defines: dict | None = None,
             uniforms: dict | None = None, technique: str = "") -> None:
-        """Run passes and host steps in order (host steps may add steps after themselves).
-        Also the window's way to run its own passes over this frame's buffers."""
+        """Run passes and host steps in order (host steps may add steps after themselves),
+        each list checked whole before its first step runs (validate.py).  Also the
+        window's way to run its own passes over this frame's buffers."""
         virtual = virtual or {"generated.glsl": feat.generated_glsl()}
-        queue = list(steps)
+        queue = self._checked(steps, virtual, technique)
         while queue:
             step = queue.pop(0)
-            if step.figures and not self._frame.figures:
-                continue
             if isinstance(step, HostStep):
-                queue[:0] = self._run_host(step)
+                queue[:0] = self._checked(self._run_host(step), virtual, technique)
             else:
                 self._run_pass(step, virtual, defines or {}, uniforms or {}, technique)
 
+    def _checked(self, steps, virtual: dict, technique: str) -> list:
+        """The steps this frame runs (figures-only ones when it wants figures), checked
+        against what it has provided so far."""
+        f = self._frame
+        steps = [s for s in steps if f.figures or not getattr(s, "figures", False)]
+        check_steps(steps, f.provided, f.untimed_writes, virtual, technique,
+                    self.limits.max_work_groups)
+        return steps
+
     def _run_host(self, step: HostStep) -> list:
         t0 = time.perf_counter()
-        missing = [n for n in step.reads if n not in self._frame.provided]
-        if missing:
-            raise UserError(f"host step '{step.name}' reads {', '.join(missing)}, which nothing "
-                            f"in this frame provides")
         uploads, more = step.run({n: self.read(n) for n in step.reads})
         for name, array in uploads.items():
             self.upload(name, array)
@@ -278,19 +281,12 @@ class Renderer:
     def _run_pass(self, p: Pass, virtual: dict, defines: dict, uniforms: dict,
                   technique: str = "", record: bool = True) -> None:
         """Bind what the pass declares, compile (cached), set uniforms, run; a timed pass is
-        recorded (record=True) for the frame's later samples."""
+        recorded (record=True) for the frame's later samples.  The pass has been checked
+        (_checked): its reads are provided and its uniforms declared."""
         where = f"pass '{p.name}'" + (f" of {technique}" if technique else "")
         f = self._frame
-        for slot in p.reads:
-            name = p.buffer_of(slot)
-            if name not in f.provided:
-                raise UserError(f"{where} reads buffer '{name}', which nothing in this frame "
-                                f"provides (neither the build's uploads nor an earlier pass)")
         for slot, spec in p.writes.items():
             name = p.buffer_of(slot)
-            if p.timed and name in f.untimed_writes:
-                raise UserError(f"{where} is timed but writes '{name}', which an untimed step "
-                                f"wrote: later samples would lose that set-up")
             buf = self.buffer(name, spec.nbytes)
             if spec.cleared:
                 buf.clear()
@@ -331,6 +327,8 @@ class Renderer:
 
     @staticmethod
     def _set_uniforms(prog, uniforms) -> None:
+        """Set those the program kept: the checks found every pass uniform in its source, so
+        one missing here is one the driver dropped as unused (or a frame-wide one)."""
         for k, v in uniforms.items():
             if k in prog:
                 if isinstance(v, np.ndarray):
@@ -414,7 +412,7 @@ class Renderer:
         if count and d.instances and d.stencil:
             self._draw_stencil(prog, d, count)
         elif count and d.instances:
-            self._vertex_array(prog, d).render(MODES[d.mode], vertices=count, instances=d.instances)
+            self._vertex_array(prog, d).render(DRAW_MODES[d.mode], vertices=count, instances=d.instances)
         fbo.depth_mask = True
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE | moderngl.BLEND)
 
@@ -437,7 +435,7 @@ class Renderer:
                     ref = step.ref or (i % 255 + 1)
                     raw.glStencilFunc(rawgl.STENCIL_FUNCS[step.func], ref, 0xFF)
                     raw.glStencilOp(*(rawgl.STENCIL_OPS[o] for o in step.ops))
-                    vao.render(MODES[d.mode], vertices=count, instances=1)
+                    vao.render(DRAW_MODES[d.mode], vertices=count, instances=1)
         finally:
             raw.glStencilFunc(rawgl.STENCIL_FUNCS["always"], 0, 0xFF)
             raw.glStencilOp(*(rawgl.STENCIL_OPS["keep"],) * 3)
