@@ -5,9 +5,11 @@ from pathlib import Path
 
 import numpy as np
 
+from app.dump import mix
 from app.techniques import REGISTRY, with_role
+from cpu_prep.camera import look_at
 from scenes.geometry import box_mesh
-from scenes.model import Camera, Scene, make_lights
+from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_SPOT, Camera, Scene, make_lights
 
 _RENDERERS: dict = {}
 
@@ -31,7 +33,7 @@ def random_lights(rng, n: int, lo, hi, radius=(0.3, 6.0), spot_share: float = 0.
     lights["direction"] = d / np.linalg.norm(d, axis=1, keepdims=True)
     outer = rng.uniform(*outer_deg, n)
     inner = outer * rng.uniform(0.5, 1.0, n)
-    lights["type"][spot] = 1
+    lights["type"][spot] = LIGHT_SPOT
     lights["cos_outer"][spot] = np.cos(np.radians(outer[spot]))
     lights["cos_inner"][spot] = np.cos(np.radians(inner[spot]))
     return lights
@@ -41,7 +43,6 @@ def random_shapes(rng, n: int, lo, hi, radius=(0.2, 5.0), length=(0.0, 12.0), ex
                   shares=(0.25, 0.25, 0.25, 0.25), outer_deg=(0.5, 90.0)):
     """n lights of the four shapes (point, spot, capsule, box) in `shares`, each with its own
     random parameters: spot angles up to 90 and inner 0, capsules of length 0, flat boxes."""
-    from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_SPOT
     lights = random_lights(rng, n, lo, hi, radius, spot_share=0.0)
     kind = rng.choice(4, n, p=np.asarray(shares) / np.sum(shares))
     lights["type"] = kind
@@ -61,7 +62,6 @@ def affects64(P: np.ndarray, lights: np.ndarray, view_from_world: np.ndarray, re
     """(inside, near) (N_points, N_lights) bools in float64: whether each light's volume
     (DESIGN "Light model") holds each view-space point, and whether the point lies within
     `rel` of the volume's boundary (where float32 may decide either way)."""
-    from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_SPOT
     m = np.asarray(view_from_world, np.float64)
     rot = lambda v: np.asarray(v, np.float64) @ m[:3, :3].T
     unit = lambda v: v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
@@ -98,8 +98,50 @@ def affects64(P: np.ndarray, lights: np.ndarray, view_from_world: np.ndarray, re
     return inside, near
 
 
+def contract_figures(inside: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """contrib_count and contrib_hash (the dump contract's) of (pixels, lights) bools."""
+    ids = mix(np.arange(inside.shape[1]))
+    return inside.sum(1), np.bitwise_xor.reduce(np.where(inside, ids[None], 0).astype(np.uint32), axis=1)
+
+
 # The tests' default view: from 10 m in front of the boxes, looking down the floor.
 CAMERA = Camera((0.0, 3.0, 10.0), (0.0, 1.0, -20.0), near=0.1, far=200.0)
+
+
+def pixel_oracle(renderer, lights, camera=CAMERA):
+    """The light model in float64 (affects64) at the renderer's G-buffer positions, image
+    order: (count, hash, near a volume's boundary) per pixel, and inside (pixels, lights)."""
+    pos = renderer.gbuffer.read_position()[::-1].astype(np.float64)
+    h, w, _ = pos.shape
+    covered = pos[..., 3].reshape(-1, 1) > 0
+    view_from_world = look_at(camera.position, camera.target, camera.up)
+    inside, near = affects64(pos[..., :3].reshape(-1, 3), lights, view_from_world)
+    inside &= covered
+    count, hashes = contract_figures(inside)
+    return count.reshape(h, w), hashes.reshape(h, w), (near & covered).any(1).reshape(h, w), inside
+
+
+def npz_arrays(n: int = 3) -> dict:
+    """A lights_npz file's arrays (DESIGN "Contract: scene files"): n valid lights, the
+    second a spot, the others points; tests change or drop arrays to make bad files."""
+    types = np.zeros(n, np.uint8)
+    types[1:2] = LIGHT_SPOT
+    return {
+        "type": types,
+        "position": np.arange(3 * n, dtype=np.float32).reshape(n, 3),
+        "radius": np.full(n, 2.5, np.float32),
+        "color": np.full((n, 3), 0.5, np.float32),
+        "intensity": np.full(n, 4.0, np.float32),
+        "direction": np.tile(np.array([[0, 0, -3]], np.float32), (n, 1)),
+        "cos_inner": np.full(n, 0.95, np.float32),
+        "cos_outer": np.full(n, 0.9, np.float32),
+    }
+
+
+def write_npz(folder, arrays: dict, name: str = "lights.npz") -> str:
+    """`arrays` saved as folder/name; -> name, for a scene file's lights_npz."""
+    np.savez(Path(folder) / name, **arrays)
+    return name
 
 
 def make_scene(lights, meshes=None, size=(96, 64), camera=None, max_depth=150.0, name="test"):

@@ -21,6 +21,8 @@ import sys
 import numpy as np
 import pytest
 
+from tests.helpers import npz_arrays, write_npz
+
 ROOT = Path(__file__).resolve().parents[2]
 PYTHON = sys.executable
 
@@ -37,19 +39,6 @@ def good_scene() -> dict:
             {"type": "spot", "position": [2, 4, 0], "direction": [0, -1, 0], "radius": 10,
              "inner_angle_deg": 20, "outer_angle_deg": 30},
         ],
-    }
-
-
-def npz_arrays(n: int = 3) -> dict:
-    return {
-        "type": np.zeros(n, np.uint8),
-        "position": np.zeros((n, 3), np.float32),
-        "radius": np.full(n, 2.0, np.float32),
-        "color": np.ones((n, 3), np.float32),
-        "intensity": np.ones(n, np.float32),
-        "direction": np.tile(np.float32([0, -1, 0]), (n, 1)),
-        "cos_inner": np.ones(n, np.float32),
-        "cos_outer": np.ones(n, np.float32),
     }
 
 
@@ -127,7 +116,7 @@ def with_npz(change=None, raw: bytes | None = None, name="lights.npz", write=Tru
             a = npz_arrays()
             if change:
                 change(a)
-            np.savez(d / name, **a)
+            write_npz(d, a, name)
         s = good_scene()
         s["lights_npz"] = name
         p = d / "scene.json"
@@ -293,10 +282,8 @@ def test_good_scene_file_is_accepted(tmp_path):
     proc = _run(["--scene", str(p), "--technique", "brute", "--dump", str(tmp_path / "d.npz")], ROOT)
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "d.npz").is_file()
-    a = npz_arrays()
-    np.savez(tmp_path / "lights.npz", **a)
     s = good_scene()
-    s["lights_npz"] = "lights.npz"
+    s["lights_npz"] = write_npz(tmp_path, npz_arrays())
     (tmp_path / "s2.json").write_text(json.dumps(s))
     proc = _run(["--scene", str(tmp_path / "s2.json"), "--size", "16x8"], ROOT)
     assert proc.returncode == 0, proc.stderr

@@ -6,7 +6,10 @@ listing 4's logarithm for the slices, a division for the tiles, and Python loops
 scatter, listing 2 and the trees.  Slow; for test-sized frames only.
 
 The shape bounds themselves are cpu_prep.bounds' (tests/cpu_prep/test_bounds.py holds
-them to sampled volumes, and project_axis' fast path to listing 1's general form).
+them to sampled volumes, and project_axis' fast path to listing 1's general form), and a light
+in view space (its stored position, direction, box axis and culling sphere) is the cull
+kernel's (cpu_prep.lights._view_light): what the reference re-derives is what profiling
+changed, the cull's order, the sort, the pack, the binning and the builds.
 """
 from __future__ import annotations
 
@@ -16,7 +19,8 @@ import numba
 import numpy as np
 
 from cpu_prep import layouts
-from cpu_prep.bounds import grow, shape_bounds, spot_sphere
+from cpu_prep.bounds import shape_bounds
+from cpu_prep.lights import _view_light as view_light     # the cull kernel's, margins and all
 from cpu_prep.layouts import (LIGHT_COLOR_COS_INNER as COLOR, LIGHT_DIR_COS_OUTER as DIR,
                               LIGHT_EXTENT_LENGTH as EXT, LIGHT_ID_TYPE as ID_TYPE,
                               LIGHT_POS_RADIUS as POS, LIGHT_RIGHT as RIGHT, LIGHT_WORDS,
@@ -25,20 +29,6 @@ from cpu_prep.layouts import (LIGHT_COLOR_COS_INNER as COLOR, LIGHT_DIR_COS_OUTE
 from cpu_prep.limits import (NODE_COUNT_BITS, NODE_MAX_LIGHTS, PIXEL_MARGIN,
                              RADIUS_REL_MARGIN, SLICE_DEPTH_REL_MARGIN)
 from cpu_prep.tree import depth_first_tables
-from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_SPOT
-
-
-@numba.njit(cache=True)
-def _rotate(m, v):
-    x, y, z = float(v[0]), float(v[1]), float(v[2])
-    return (m[0, 0] * x + m[0, 1] * y + m[0, 2] * z, m[1, 0] * x + m[1, 1] * y + m[1, 2] * z,
-            m[2, 0] * x + m[2, 1] * y + m[2, 2] * z)
-
-
-@numba.njit(cache=True)
-def _unit(x, y, z):
-    inv = 1.0 / max(math.sqrt(x * x + y * y + z * z), 1e-30)
-    return x * inv, y * inv, z * inv
 
 
 @numba.njit(cache=True)
@@ -49,28 +39,7 @@ def _view_cull(lights, m, near, far, tan_x, tan_y, tan_rx, tan_ry, width, height
     k = 0
     for i in range(n):
         li = lights[i]
-        x, y, z = float(li.position[0]), float(li.position[1]), float(li.position[2])
-        px = np.float32(m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3])
-        py = np.float32(m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3])
-        pz = np.float32(m[2, 0] * x + m[2, 1] * y + m[2, 2] * z + m[2, 3])
-        x, y, z = _rotate(m, li.direction)
-        dx, dy, dz = _unit(x, y, z)
-        dx, dy, dz = np.float32(dx), np.float32(dy), np.float32(dz)
-        t = li.type
-        rx = ry = rz = np.float32(0.0)
-        cx, cy, cz, r = float(px), float(py), float(pz), float(li.radius)
-        if t == LIGHT_SPOT:
-            cx, cy, cz, r = spot_sphere(cx, cy, cz, float(dx), float(dy), float(dz), r, float(li.cos_outer))
-        elif t == LIGHT_CAPSULE:
-            r += 0.5 * float(li.length)
-        elif t == LIGHT_BOX:
-            ux, uy, uz = _rotate(m, li.up)
-            fx, fy, fz = float(dx), float(dy), float(dz)
-            x, y, z = _unit(fy * uz - fz * uy, fz * ux - fx * uz, fx * uy - fy * ux)
-            rx, ry, rz = np.float32(x), np.float32(y), np.float32(z)
-            e = li.extent
-            r = math.sqrt(float(e[0]) ** 2 + float(e[1]) ** 2 + float(e[2]) ** 2)
-        r = grow(r, cx, cy, cz)
+        px, py, pz, dx, dy, dz, rx, ry, rz, cx, cy, cz, r = view_light(li, m)
         depth = -cz
         if depth + r < near * (1 - RADIUS_REL_MARGIN) or depth - r > far * (1 + RADIUS_REL_MARGIN):
             continue
@@ -89,7 +58,7 @@ def _view_cull(lights, m, near, far, tan_x, tan_y, tan_rx, tan_ry, width, height
         rows[k, EXT + 3] = li.length
         rows[k, RIGHT], rows[k, RIGHT + 1], rows[k, RIGHT + 2], rows[k, RIGHT + 3] = rx, ry, rz, 0.0
         sphere[k, 0], sphere[k, 1], sphere[k, 2], sphere[k, 3] = cx, cy, cz, r
-        shape[k] = shape_bounds(t, float(px), float(py), float(pz), float(dx), float(dy), float(dz),
+        shape[k] = shape_bounds(li.type, float(px), float(py), float(pz), float(dx), float(dy), float(dz),
                                 float(rx), float(ry), float(rz), float(li.radius),
                                 float(li.cos_outer), float(li.length), float(li.extent[0]),
                                 float(li.extent[1]), float(li.extent[2]), cx, cy, cz, r,

@@ -9,6 +9,7 @@ import trimesh
 from scenes import LIGHT_DTYPE, SceneError, load_scene
 from scenes.model import MIN_ROUGHNESS
 from scenes.loader import MAX_LIGHTS, scene_from_dict
+from tests.helpers import npz_arrays, write_npz
 
 NPZ_KEYS = ("type", "position", "radius", "color", "intensity", "direction", "cos_inner", "cos_outer")
 
@@ -25,24 +26,6 @@ def good_dict():
              "inner_angle_deg": 20, "outer_angle_deg": 30, "color": [1, 1, 1], "intensity": 20},
         ],
     }
-
-
-def npz_arrays(n=3):
-    return {
-        "type": np.array([0, 1, 0][:n] + [0] * max(0, n - 3), np.uint8),
-        "position": np.arange(3 * n, dtype=np.float32).reshape(n, 3),
-        "radius": np.full(n, 2.5, np.float32),
-        "color": np.full((n, 3), 0.5, np.float32),
-        "intensity": np.full(n, 4.0, np.float32),
-        "direction": np.tile(np.array([[0, 0, -3]], np.float32), (n, 1)),
-        "cos_inner": np.full(n, 0.95, np.float32),
-        "cos_outer": np.full(n, 0.9, np.float32),
-    }
-
-
-def write_npz(tmp_path, arrays, name="lights.npz"):
-    np.savez(tmp_path / name, **arrays)
-    return name
 
 
 def with_mesh(d, tmp_path, mesh_name="m.obj", **extra):

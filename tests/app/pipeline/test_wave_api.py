@@ -21,7 +21,7 @@ void main() {
     uint v = (lane * 37u + 11u) % 97u;
     bool p = lane % 3u == 0u;
     uint o = lane * 24u;
-#if WAVE_NATIVE
+    // both paths: the emulation's wave* functions forward to its group* ones
     outv[o + 0] = waveAllMin(v);
     outv[o + 1] = waveAllMax(v);
     outv[o + 2] = waveActiveAllTrue(v > 1u) ? 1u : 0u;
@@ -29,6 +29,7 @@ void main() {
     outv[o + 4] = waveReadFirstLane(v);
     uvec4 b = waveBallot(p);
     outv[o + 5] = b.x; outv[o + 6] = b.y;
+#if WAVE_NATIVE
     outv[o + 7] = waveLaneCount();
     outv[o + 8] = waveLaneIndex();
     outv[o + 9] = waveAllBitOr(1u << (v % 32u));
@@ -37,13 +38,6 @@ void main() {
     for (uint k = 0u; k < 3u; ++k) acc += bitCount(waveAllBitOr(lane < 5u ? k << lane : 0u));
     outv[o + 10] = acc;
 #else
-    outv[o + 0] = groupAllMin(v);
-    outv[o + 1] = groupAllMax(v);
-    outv[o + 2] = groupActiveAllTrue(v > 1u) ? 1u : 0u;
-    outv[o + 3] = groupActiveAnyTrue(v == 11u) ? 1u : 0u;
-    outv[o + 4] = groupReadFirstLane(v);
-    uvec2 b = groupBallot(p);
-    outv[o + 5] = b.x; outv[o + 6] = b.y;
     outv[o + 7] = groupPrefixCountBits(p);
     outv[o + 8] = groupAllBitOr(1u << (lane % 32u));
     uvec4 r = groupReduce(v + 5u, v * 2u, lane, p ? 2u : 8u);

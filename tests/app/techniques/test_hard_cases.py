@@ -36,7 +36,7 @@ from cpu_prep import grid as gridmod, layouts, limits
 from cpu_prep.camera import frame_camera
 from cpu_prep.limits import NODE_MAX_LIGHTS, NODE_MAX_SKIP
 from scenes.geometry import box_mesh
-from scenes.model import Camera, Scene, make_lights
+from scenes.model import LIGHT_POINT, LIGHT_SPOT, Camera, Scene, make_lights
 from tests.helpers import assert_exact, floor_and_boxes, options, random_lights, render_on
 
 
@@ -140,7 +140,7 @@ class Frame:
         n = np.linalg.norm(d, axis=1, keepdims=True)
         d = np.where(n > 1e-3, d / np.maximum(n, 1e-30), [0.0, 0.0, -1.0])
         L["direction"] = self.dir_to_world(d)
-        L["type"][spot] = 1
+        L["type"][spot] = LIGHT_SPOT
         outer = rng.uniform(10.0, 80.0, k)
         L["cos_outer"][spot] = np.cos(np.radians(outer[spot]))
         L["cos_inner"][spot] = np.cos(np.radians(outer[spot] * 0.7))
@@ -201,7 +201,7 @@ def reference_counts(pos4, cam, lights):
     err = 4 * F32_EPS * (np.abs(P[pi]).max(1) + np.abs(L[li]).max(1)) + 8 * F32_EPS * dist
     sure = dist + err < r[li] * (1 - 8 * F32_EPS)
     maybe = dist - err < r[li] * (1 + 8 * F32_EPS)
-    spot = lights["type"][li] == 1
+    spot = lights["type"][li] == LIGHT_SPOT
     if spot.any():
         cos_o = lights["cos_outer"].astype(np.float64)[li]
         c = (d * D[li]).sum(-1) / np.maximum(dist, 1e-300)
@@ -267,7 +267,7 @@ def test_camera_inside_one_light(gl, seed, radius, offset, spot, outer):
         L["position"] = eye + unit(rng.normal(size=3)) * radius * offset
         L["radius"] = radius
         if spot:
-            L["type"] = 1
+            L["type"] = LIGHT_SPOT
             L["direction"] = unit(rng.normal(size=3))
             L["cos_outer"] = math.cos(math.radians(outer))
             L["cos_inner"] = math.cos(math.radians(outer * 0.5))
@@ -288,7 +288,7 @@ def test_camera_inside_many_lights(gl, seed, n):
         eye = np.array(f.scene.camera.position)
         L["position"] = eye + unit(rng.normal(size=(n, 3))) * (
             L["radius"] * rng.uniform(0, 0.95, n))[:, None]
-        L["radius"][:1], L["type"][:1] = 20.0, 0   # at least one point light reaches the floor
+        L["radius"][:1], L["type"][:1] = 20.0, LIGHT_POINT  # at least one point light reaches the floor
         L["position"][0] = eye
         vpos, _ = view_space(L, f.cam)
         assert (np.linalg.norm(vpos, axis=1) < L["radius"]).all(), "eye not inside every light"
@@ -318,7 +318,7 @@ def test_lights_straddling_near_plane(gl, seed, near, n, tile):
         L["position"] = np.column_stack([xy, -depth])
         L["radius"] = r
         spot = rng.random(n) < 0.3
-        L["type"][spot] = 1
+        L["type"][spot] = LIGHT_SPOT
         L["direction"] = unit(rng.normal(size=(n, 3)) + [0, 0, -1.5])
         L["cos_outer"][spot] = np.cos(np.radians(rng.uniform(5, 85, spot.sum())))
         L["cos_inner"][spot] = L["cos_outer"][spot]
@@ -340,13 +340,13 @@ def test_lights_behind_camera_reaching_forward(gl, seed, n):
         L["position"] = eye + back * behind[:, None] + lateral
         L["radius"] = behind + np.linalg.norm(lateral, axis=1) + rng.uniform(0.5, 15.0, n)
         spot = rng.random(n) < 0.5
-        L["type"][spot] = 1
+        L["type"][spot] = LIGHT_SPOT
         fwd = -back
         L["direction"][spot] = unit(fwd + rng.normal(size=(spot.sum(), 3)) * 0.3)
         L["cos_outer"][spot] = np.cos(np.radians(rng.uniform(10, 89, spot.sum())))
         L["cos_inner"][spot] = L["cos_outer"][spot]
         # one guaranteed reach: a point light 1 m behind the eye, radius 20
-        L["position"][0], L["radius"][0], L["type"][0] = eye + back * 1.0, 20.0, 0
+        L["position"][0], L["radius"][0], L["type"][0] = eye + back * 1.0, 20.0, LIGHT_POINT
         vpos, _ = view_space(L, f.cam)
         assert (vpos[:, 2] > 0).all(), "light centres must be behind the eye"
         f.check(L, where="behind the camera")
@@ -474,7 +474,7 @@ def test_lights_on_tile_boundaries(gl, seed, tile, depth, size):
         L["radius"] = radii
         L["direction"] = aims
         spot = rng.random(len(L)) < 0.3
-        L["type"][spot] = 1
+        L["type"][spot] = LIGHT_SPOT
         L["cos_outer"][spot] = np.cos(np.radians(rng.uniform(1.0, 89.0, spot.sum())))
         L["cos_inner"][spot] = L["cos_outer"][spot]
         f.check(L, opts, where=f"tile edges tile={tile} depth={depth} size={size}")
@@ -502,6 +502,29 @@ def _max_depth_for_boundary(cam, opts: dict, k: int, target: float) -> float | N
     return hi
 
 
+def lights_ending_on(rng, f, pixels, m: int = 24):
+    """Lights whose volumes end on the depth b of `pixels` (a mask of the frame's; b their
+    median depth), for the axis camera: m touching random ones of them along the view axis,
+    from in front and from behind, at r (1 +- a few ulp) (tie_radius), and 8 whose depth
+    range [c - r, c + r] ends on b.  -> (lights, b)."""
+    b = float(np.median(f.pos[..., 3][pixels]))
+    ys, xs = np.nonzero(pixels)
+    i = rng.integers(0, len(ys), m)
+    P = f.pos[ys[i], xs[i], :3].astype(np.float64)
+    r = rng.uniform(0.001, 0.3, m) * b
+    z = np.array([0.0, 0.0, 1.0])
+    sign = np.where(np.arange(m) % 2 == 0, 1.0, -1.0)          # in front / behind
+    delta = np.where(np.arange(m) % 4 == 0, -1e-4, rng.uniform(-4, 4, m) * F32_EPS)
+    A = make_lights(m)
+    A["position"], A["radius"] = tie_radius(P, P + sign[:, None] * z * r[:, None], delta)
+    B = make_lights(8)
+    rb = rng.uniform(0.001, 0.3, 8) * b
+    sb = np.where(np.arange(8) % 2 == 0, 1.0, -1.0)
+    B["position"] = np.column_stack([rng.uniform(-0.4, 0.4, (8, 2)) * b, -(b - sb * rb)])
+    B["radius"] = rb
+    return concat(A, B), b
+
+
 @hyp(8)
 @given(seed=SEEDS, slices=st.sampled_from([3, 5, 16, 32]), depth=st.floats(6.0, 800.0),
        pick=st.floats(0.0, 1.0))
@@ -521,23 +544,7 @@ def test_lights_on_depth_slice_boundaries(gl, seed, slices, depth, pick):
     with Frame(scene_of([wall(depth), floor], cam, size=size)) as f:
         wall_px = np.abs(f.pos[..., 3] - depth) < depth * 1e-4
         assert wall_px.sum() > 10
-        b = float(np.median(f.pos[..., 3][wall_px]))
-        ys, xs = np.nonzero(wall_px)
-        m = 24
-        i = rng.integers(0, len(ys), m)
-        P = f.pos[ys[i], xs[i], :3].astype(np.float64)
-        r = rng.uniform(0.001, 0.3, m) * b
-        z = np.array([0.0, 0.0, 1.0])
-        sign = np.where(np.arange(m) % 2 == 0, 1.0, -1.0)          # in front / behind
-        delta = np.where(np.arange(m) % 4 == 0, -1e-4, rng.uniform(-4, 4, m) * F32_EPS)
-        A = make_lights(m)
-        A["position"], A["radius"] = tie_radius(P, P + sign[:, None] * z * r[:, None], delta)
-        B = make_lights(8)                         # depth range [c - r, c + r] ends on b
-        rb = rng.uniform(0.001, 0.3, 8) * b
-        sb = np.where(np.arange(8) % 2 == 0, 1.0, -1.0)
-        B["position"] = np.column_stack([rng.uniform(-0.4, 0.4, (8, 2)) * b, -(b - sb * rb)])
-        B["radius"] = rb
-        L = concat(A, B)
+        L, b = lights_ending_on(rng, f, wall_px)
         ks = [k for k in range(2, slices) if _max_depth_for_boundary(fc, opts, k, b) is not None]
         assume(ks)     # e.g. 3 slices: no max_depth <= 1e5 puts a boundary past ~707 m
         k = ks[int(pick * len(ks) * 0.999)]
@@ -692,7 +699,7 @@ def test_spot_cones_pointing_at_camera(gl, seed, outer, edge):
         d = eye_v - C
         d[np.linalg.norm(d, axis=1) < 1e-6] = [0.0, 0.0, 1.0]
         L = make_lights(len(C))
-        L["type"] = 1
+        L["type"] = LIGHT_SPOT
         L["position"] = f.to_world(C)
         L["radius"] = r
         L["direction"] = f.dir_to_world(unit(d))
@@ -723,7 +730,7 @@ def _no_visible(kind: str, cam) -> np.ndarray:
         x = side * (t * depth * 1.2 + L["radius"] * math.sqrt(1 + t * t) * 1.2 + 0.5)
         L["position"] = np.column_stack([x, rng.uniform(-1, 1, n), -depth])
     elif kind == "spots_facing_away_behind":   # apex behind the eye, cone facing away,
-        L["type"] = 1                          # sphere alone would reach far in front
+        L["type"] = LIGHT_SPOT                 # sphere alone would reach far in front
         L["position"] = np.column_stack([rng.uniform(-1, 1, (n, 2)), rng.uniform(0.01, 1.0, n)])
         L["radius"] = rng.uniform(5.0, 30.0, n)
         L["direction"] = -fwd                  # (up to 44 degrees the bounding sphere is
