@@ -6,6 +6,14 @@ check writes the technique's image, the reference's and a difference image (diff
 marked), and names the first differing pixel with the lights that differ there: both frames
 are rendered again recording the ids of the lights their shading passes find affecting that
 pixel (Renderer.render(debug_pixel=...), glsl/pixel.glsl DEBUG_PIXEL).
+
+A frame a cap policy capped (meta stats cap_policy, capped_lights: cpu_prep.caps) is the one
+case where a technique differs from the reference on purpose.  It is never a pass and never
+a plain failure: the check renders the reference again with the dropped lights reaching
+nothing (caps.without: the same ids), and the technique must equal that frame at every
+pixel; then the result is an IntendedLoss, counted against the real reference (the pixels
+whose light set differs, the lights dropped).  Where it does not, the Mismatch is against
+that frame and names the lights missing or extra beyond the intended loss.
 """
 from __future__ import annotations
 
@@ -13,6 +21,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from cpu_prep import caps
 
 MARK = (255, 40, 40)          # differing pixels in the difference image
 FIRST = (255, 230, 0)         # the first differing pixel
@@ -47,17 +57,56 @@ class Mismatch:
         return s
 
 
+@dataclass
+class IntendedLoss:
+    """A capped frame that equals the reference but for the lights its cap policy dropped."""
+    technique: str
+    reference: str
+    policy: str
+    pixels: int                        # pixels whose light set differs from the reference's
+    total: int
+    lights: int                        # lights the policy dropped from the frame
+    contributions: int                 # (pixel, light) pairs lost: the reference's count less ours
+
+    def message(self) -> str:
+        return (f"intended loss: {self.pixels} pixels, {self.lights} lights dropped by "
+                f"{self.policy} ({self.technique} against {self.reference}: {self.pixels} of "
+                f"{self.total} pixels lose {self.contributions} light contributions; exact "
+                f"without the dropped lights)")
+
+
+def capped(result) -> tuple[str, int] | None:
+    """(policy, lights dropped) of a frame a cap policy capped, else None."""
+    stats = result.meta.get("stats") or {}
+    policy = stats.get("cap_policy", caps.NONE)
+    return None if policy == caps.NONE else (policy, int(stats.get("capped_lights", 0)))
+
+
 def _ids(ids, most: int = 12) -> str:
     ids = list(ids)
     return "[" + ", ".join(map(str, ids[:most])) + (f", ... {len(ids)} in all" if len(ids) > most else "") + "]"
 
 
 def check(result, reference, renderer=None, technique=None, reference_technique=None,
-          render_args: dict | None = None, out_dir=None) -> Mismatch | None:
+          render_args: dict | None = None, out_dir=None) -> Mismatch | IntendedLoss | None:
     """None when exact; else the Mismatch, explained with the lights that differ when the
     renderer and both techniques are given (render_args: frame, opts, lights, ... of the
     frame; opts are the technique's, the reference renders with its defaults) and with
-    images written to out_dir when given."""
+    images written to out_dir when given.  A capped frame (capped()) gives its IntendedLoss
+    when it equals the reference without the dropped lights (that frame rendered with the
+    renderer; without one, when no pixel has a light the reference lacks: a count above the
+    reference's), else the Mismatch against that frame."""
+    cap = capped(result)
+    if cap is not None:
+        return _check_capped(result, reference, cap, renderer, technique, reference_technique,
+                             render_args, out_dir)
+    return _compare(result, reference, renderer, technique, reference_technique, render_args,
+                    out_dir)
+
+
+def _compare(result, reference, renderer, technique, reference_technique, render_args,
+             out_dir) -> Mismatch | None:
+    """check() of a frame that should equal `reference` at every pixel."""
     mask = differing(result, reference)
     if not mask.any():
         return None
@@ -76,6 +125,34 @@ def check(result, reference, renderer=None, technique=None, reference_technique=
     if out_dir is not None:
         m.images = write_images(Path(out_dir), result, reference, mask, m.first)
     return m
+
+
+def _check_capped(result, reference, cap, renderer, technique, reference_technique,
+                  render_args, out_dir) -> Mismatch | IntendedLoss:
+    policy, dropped = cap
+    if renderer is not None and technique is not None and reference_technique is not None:
+        args = dict(render_args or {})
+        args.pop("opts", None)
+        frame = result.build.frame
+        args["lights"] = caps.without(frame.lights, result.build.data["capped_ids"],
+                                      frame.camera.view_from_world)
+        intended = renderer.render(reference_technique, **args)
+        m = _compare(result, intended, renderer, technique, reference_technique,
+                     dict(render_args or {}, lights=args["lights"]), out_dir)
+        if m is not None:
+            m.reference += f" without the {dropped} lights {policy} dropped"
+            return m
+    else:
+        over = result.contrib_count > reference.contrib_count
+        if over.any():
+            row, x = (int(v) for v in np.argwhere(over)[0])
+            return Mismatch(result.meta.get("technique", "?"), reference.meta.get("technique", "?"),
+                            int(over.sum()), int(over.size), (x, row),
+                            (int(result.contrib_count[row, x]), int(reference.contrib_count[row, x])))
+    lost = reference.contrib_count.astype(np.int64) - result.contrib_count.astype(np.int64)
+    return IntendedLoss(result.meta.get("technique", "?"), reference.meta.get("technique", "?"),
+                        policy, int(differing(result, reference).sum()), int(lost.size),
+                        dropped, int(lost.sum()))
 
 
 def write_images(out: Path, result, reference, mask: np.ndarray, first) -> dict[str, Path]:

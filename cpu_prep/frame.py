@@ -2,6 +2,7 @@
 cull, sort, bin, build, pack; upload is timed by the app).
 
     prepare_lights():  view transform + frustum cull -> depth sort -> GPU_LIGHT / GPU_BOUND
+    prepare_capped_lights():  the same with an engine's view-level light cap after the cull
     bin_cells():       conservative cell boxes -> CSR per-cell lists (depth-sorted)
 """
 from __future__ import annotations
@@ -12,13 +13,14 @@ import time
 
 import numpy as np
 
-from . import grid as gridmod, lights as lightsmod
+from . import caps, grid as gridmod, lights as lightsmod
 from .arena import Arena
 from .camera import FrameCamera
 from .lights import PreparedLights
 from .limits import check_buffer
 
-__all__ = ["StageTimes", "PreparedLights", "prepare_lights", "bin_cells", "check_buffer"]
+__all__ = ["StageTimes", "PreparedLights", "prepare_lights", "prepare_capped_lights", "bin_cells",
+           "check_buffer"]
 
 
 @dataclass
@@ -34,14 +36,25 @@ class StageTimes:
 
 def prepare_lights(scene_lights: np.ndarray, cam: FrameCamera, times: StageTimes,
                    sort_buckets: int = 0, arena: Arena | None = None) -> PreparedLights:
+    return prepare_capped_lights(scene_lights, cam, times, sort_buckets, arena)[0]
+
+
+def prepare_capped_lights(scene_lights: np.ndarray, cam: FrameCamera, times: StageTimes,
+                          sort_buckets: int = 0, arena: Arena | None = None,
+                          cap_policy: str = caps.NONE):
+    """(PreparedLights, dropped scene ids uint32): prepare_lights() with the cap policy
+    `cap_policy` (cpu_prep.caps) choosing among the visible lights before the sort, timed
+    with the cull; caps.NONE drops nothing."""
     with times.stage("cull"):
         keyed, depth = lightsmod.cull(scene_lights, cam, arena)
+        keyed, depth, dropped = caps.apply(cap_policy, scene_lights, cam.view_from_world,
+                                           keyed, depth)
     with times.stage("sort"):
         keys = lightsmod.sort_ids(keyed, depth, sort_buckets, arena)
     with times.stage("pack"):
         pl = lightsmod.pack(scene_lights, cam, keys, arena)
     check_buffer("light buffer", pl.gpu.nbytes)
-    return pl
+    return pl, dropped
 
 
 def bin_cells(pl: PreparedLights, cam: FrameCamera, grid: gridmod.Grid, times: StageTimes,

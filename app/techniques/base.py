@@ -33,10 +33,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from cpu_prep import frame as cpuframe, grid as gridmod, layouts, limits
+from cpu_prep import caps, frame as cpuframe, grid as gridmod, layouts, limits
 
 from ..pipeline.passes import Build, FrameInput, Pass, frame_outputs, image_groups
-from .options import TechniqueOptions
+from .options import TechniqueOptions, cap_policy
 
 ROLES = ("technique", "reference", "floor")
 
@@ -126,13 +126,22 @@ class Technique:
 
 # ---- steps and passes several techniques share ------------------------------------------
 
-def prepare(frame: FrameInput, sort_buckets: int = 0) -> Build:
-    """The steps every technique shares: cull, sort, pack the visible lights."""
+def prepare(frame: FrameInput, sort_buckets: int = 0, opts=None) -> Build:
+    """The steps every technique shares: cull, sort, pack the visible lights.  Options
+    with a cap policy (options.CapOptions, not none) drop lights after the cull, as that
+    engine does (cpu_prep.caps): the frame differs from brute on purpose, and its stats
+    say so (cap_policy, capped_lights; the dropped scene ids in data["capped_ids"], which
+    the exactness check reads)."""
     times = cpuframe.StageTimes()
-    pl = cpuframe.prepare_lights(frame.lights, frame.camera, times, sort_buckets, frame.arena)
+    policy = cap_policy(opts)
+    pl, dropped = cpuframe.prepare_capped_lights(frame.lights, frame.camera, times, sort_buckets,
+                                                 frame.arena, policy)
     b = Build(frame=frame, lights=pl, times=times)
     b.buffers["lights"] = pl.gpu
     b.stats["visible_lights"] = len(pl.gpu)
+    if policy != caps.NONE:
+        b.stats.update(cap_policy=policy, capped_lights=len(dropped))
+        b.data["capped_ids"] = dropped
     return b
 
 
@@ -150,7 +159,7 @@ def make_grid(frame: FrameInput, opts, slices: int) -> gridmod.Grid:
 
 def prepare_binned(frame: FrameInput, opts, slices: int, sort_buckets: int = 0):
     """prepare() plus the grid and the CSR binning of the lights over its cells."""
-    b = prepare(frame, sort_buckets)
+    b = prepare(frame, sort_buckets, opts)
     b.grid = make_grid(frame, opts, slices)
     offsets, entries = cpuframe.bin_cells(b.lights, frame.camera, b.grid, b.times, frame.arena)
     b.stats["cells"] = b.grid.cells

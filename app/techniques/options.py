@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import MISSING, dataclass, field, fields, replace
 import math
 
-from cpu_prep import limits, tree as treemod
+from cpu_prep import caps, limits, tree as treemod
 
 from ..errors import UserError
 
@@ -265,6 +265,21 @@ class ScalarizeOptions(TechniqueOptions):
                              study=(False, True))
 
 
+@dataclass(frozen=True)
+class CapOptions(TechniqueOptions):
+    # value k is cpu_prep.caps.NAMES[k]; each policy's budgets, drop order and source are
+    # written there (docs/research/accuracy_policies.md)
+    cap_policy: int = choice(caps.NONE, caps.NAMES,
+                             "an engine's light cap on the view's visible lights, the over-cap "
+                             "ones dropped in that engine's order (none: never drop; a capped "
+                             "frame differs from brute on purpose, and --check counts the loss)")
+
+
+def cap_policy(opts) -> str:
+    """The cap policy's name of a technique's options (caps.NONE when it takes none)."""
+    return opts.choice_name("cap_policy") if isinstance(opts, CapOptions) else caps.NONE
+
+
 def all_specs(option_classes) -> dict[str, OptionSpec]:
     """{name: spec} over several techniques' Options; one name, one declaration."""
     out: dict[str, OptionSpec] = {}
@@ -277,4 +292,5 @@ def all_specs(option_classes) -> dict[str, OptionSpec]:
 
 
 __all__ = ["option", "choice", "choice_list", "OptionSpec", "TechniqueOptions", "TileOptions", "SliceOptions",
-           "ListOptions", "TreeOptions", "WaveOptions", "ScalarizeOptions", "all_specs", "replace"]
+           "ListOptions", "TreeOptions", "WaveOptions", "ScalarizeOptions", "CapOptions", "cap_policy",
+           "all_specs", "replace"]

@@ -16,7 +16,7 @@ from ..pipeline.passes import Buffer, Pass
 from ..errors import UserError
 from .base import (Technique, add_all_lights, add_cell_lists, cell_head, grid_uniforms, make_grid,
                    prepare, shading_passes)
-from .options import TileOptions
+from .options import CapOptions, TileOptions
 
 OVERFLOW = 0xFFFFFFFF          # a tile's count when its list did not fit the pool
 
@@ -34,11 +34,11 @@ class Tiled(Technique, register_at=20):
     glsl = {"tiled_lists.glsl": layouts.glsl_defines({"TILE_OVERFLOW": OVERFLOW})}
 
     @dataclass(frozen=True)
-    class Options(TileOptions):
+    class Options(TileOptions, CapOptions):
         pass
 
     def build(self, frame, opts):
-        b = prepare(frame)
+        b = prepare(frame, opts=opts)
         b.buffers["bounds"] = b.lights.bounds
         b.grid = make_grid(frame, opts, 1)
         b.stats["cells"] = b.grid.cells

@@ -73,7 +73,7 @@ from .base import Technique, prepare
 from .bit_arrays import (VARIANTS, ShadingOptions, add_bit_words, attach_zbins, shading_steps,
                          tile_bit_maps, variant_flags)
 from .blocks import tile_boxes
-from .options import option
+from .options import CapOptions, option
 
 DEPTH_GROUP = 64              # zbin_tile_depth.comp: one 8x8 group a tile
 
@@ -89,14 +89,14 @@ class ZBin(Technique, register_at=60):
     views = Technique.views + ("tiles", "maps")
 
     @dataclass(frozen=True)
-    class Options(ShadingOptions):
+    class Options(ShadingOptions, CapOptions):
         tile_depth: bool = option(True, "cull each tile's bits against its min / max scene depth on "
                                         "the GPU (the slides' tiles are depth tested); off: the "
                                         "CPU's screen rectangles alone", study=(True, False))
 
     def build(self, frame, opts):
         opts = self.resolve_options(opts)
-        b = prepare(frame)
+        b = prepare(frame, opts=opts)
         masked, _ = variant_flags(opts.zbin_variant)
         n = len(b.lights)
         w, h = frame.size

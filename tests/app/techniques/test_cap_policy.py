@@ -1,0 +1,129 @@
+"""--cap-policy on the list techniques: a capped frame differs from brute on purpose, by
+exactly the lights its policy dropped; its meta says so, and the exactness check counts the
+loss (never a pass, never a plain failure).  `none` changes nothing."""
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.exactness import IntendedLoss, Mismatch, check
+from app.pipeline.renderer import Renderer
+from app.techniques import REGISTRY, with_role
+from app.techniques.options import CapOptions
+from cpu_prep import caps
+from tests.helpers import make_scene, random_lights
+
+ROOT = Path(__file__).resolve().parents[3]
+CAPPED = [n for n, t in REGISTRY.items() if issubclass(t.Options, CapOptions)]
+SIZE = (64, 36)
+
+
+@pytest.fixture(scope="module")
+def capped_scene():
+    rng = np.random.default_rng(21)
+    # 60 lights over the floor and boxes in view, large enough to light many pixels
+    return make_scene(random_lights(rng, 60, (-10, 0, -30), (10, 6, 5), radius=(2.0, 8.0)),
+                      size=SIZE)
+
+
+def test_the_list_techniques_take_the_cap_and_the_reference_does_not():
+    assert {"tiled", "clustered", "zbin", "fptl", "hybrid"} <= set(CAPPED)
+    assert with_role("reference").name not in CAPPED
+    assert "perfect" not in CAPPED
+
+
+def test_a_capped_frame_is_an_intended_loss_of_exactly_the_dropped_lights(gl, capped_scene):
+    ref_t = with_role("reference")
+    with Renderer(capped_scene) as r:
+        ref = r.render(ref_t)
+        for name in CAPPED:
+            t = REGISTRY[name]
+            opts = t.Options.make({"cap_policy": "urp-16"})
+            res = r.render(t, opts=opts)
+            stats = res.meta["stats"]
+            assert stats["cap_policy"] == "urp-16" and stats["visible_lights"] == 16, name
+            assert stats["capped_lights"] == len(res.build.data["capped_ids"]) > 0, name
+            assert res.meta["options"]["cap_policy"] == caps.NAMES.index("urp-16")
+            m = check(res, ref, r, t, ref_t, {"opts": opts})
+            assert isinstance(m, IntendedLoss), f"{name}: {m.message() if m else 'a pass'}"
+            # the dropped lights light pixels here: a counted loss, and only a loss
+            assert m.pixels > 0 and m.contributions >= m.pixels and m.lights == stats["capped_lights"]
+            assert (res.contrib_count <= ref.contrib_count).all(), name
+            assert m.message().startswith(f"intended loss: {m.pixels} pixels, {m.lights} lights "
+                                          f"dropped by urp-16")
+
+
+def test_no_cap_changes_nothing(gl, capped_scene):
+    ref_t = with_role("reference")
+    with Renderer(capped_scene) as r:
+        ref = r.render(ref_t)
+        for name in ("tiled", "clustered"):
+            res = r.render(REGISTRY[name], opts={"cap_policy": "none"})
+            assert "cap_policy" not in res.meta["stats"] and "capped_ids" not in res.build.data
+            assert check(res, ref) is None
+            # a policy over more lights than the frame has drops none: exact, still counted 0
+            res = r.render(REGISTRY[name], opts={"cap_policy": "filament-256"})
+            assert res.meta["stats"]["capped_lights"] == 0
+            m = check(res, ref, r, REGISTRY[name], ref_t, {"opts": {"cap_policy": "filament-256"}})
+            assert isinstance(m, IntendedLoss) and m.pixels == 0 and m.lights == 0
+
+
+class LosesMore(type(REGISTRY["tiled"])):
+    """tiled under a cap that also loses a kept light: a failure, not an intended loss."""
+    name = "loses-more"
+
+    def build(self, frame, opts):
+        b = super().build(frame, opts)
+        b.buffers["lights"] = b.buffers["lights"].copy()
+        b.buffers["lights"]["pos_radius"][0, 3] = 0.0         # the nearest kept light: no reach
+        return b
+
+
+def test_a_loss_beyond_the_cap_is_a_plain_failure(gl, capped_scene):
+    ref_t, t = with_role("reference"), LosesMore()
+    with Renderer(capped_scene) as r:
+        ref = r.render(ref_t)
+        opts = t.Options.make({"cap_policy": "urp-16"})
+        res = r.render(t, opts=opts)
+        m = check(res, ref, r, t, ref_t, {"opts": opts})
+    assert isinstance(m, Mismatch), m
+    assert "without the" in m.message() and "urp-16" in m.message()
+    assert m.missing and not m.extra
+
+
+def capture(*args):
+    return subprocess.run([sys.executable, "-m", "app.capture", *args], cwd=ROOT,
+                          capture_output=True, text=True, timeout=300)
+
+
+def test_capture_check_reports_the_intended_loss(tmp_path):
+    r = capture("--scene", "hangar", "--technique", "clustered", "--lights", "80", "--size",
+                "64x36", "--cap-policy", "urp-16", "--check", str(tmp_path / "chk"),
+                "--dump", str(tmp_path / "f.npz"))
+    assert r.returncode == 0, r.stderr
+    line = r.stderr.strip().splitlines()[-1]
+    assert line.startswith("intended loss: ") and "lights dropped by urp-16" in line, line
+    pixels = int(line.split("intended loss: ")[1].split(" pixels")[0])
+    assert pixels > 0 and "exact:" not in r.stderr and "not exact" not in r.stderr
+    from app.dump import read_dump
+    stats = read_dump(tmp_path / "f.npz")["meta"]["stats"]
+    assert stats["cap_policy"] == "urp-16" and stats["capped_lights"] > 0
+
+
+@pytest.mark.parametrize("args, says", [
+    (("--technique", "tiled", "--cap-policy", "godot-9"), "--cap-policy must be one of 0 none"),
+    (("--technique", "brute", "--cap-policy", "urp-16"), "--cap-policy is not an option"),
+])
+def test_bad_cap_policies_are_one_line_and_exit_2(args, says):
+    r = capture("--scene", "arena", "--lights", "8", "--size", "16x16", *args)
+    assert r.returncode == 2 and says in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+
+
+def test_every_policy_name_is_taken_on_the_command_line():
+    from app import cli
+    from app.capture import build_parser
+    for k, name in enumerate(caps.NAMES):
+        args = build_parser().parse_args(["--technique", "zbin", "--cap-policy", name])
+        assert cli.options_for(REGISTRY["zbin"], args).cap_policy == k
