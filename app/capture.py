@@ -10,7 +10,7 @@ view: tree, hybrid), --check DIR (the exactness check
 against the reference technique: on a difference, images in DIR, one line naming the first
 differing pixel and its lights, exit status 1; a frame a --cap-policy capped: one line
 "intended loss: N pixels, M lights dropped by POLICY" when it equals the reference without
-those lights, exit status 0) and --list (builtin scenes and techniques).
+those lights, exit status 3: counted, neither a pass (0) nor a failure (1)) and --list (builtin scenes and techniques).
 
 The CPU stage is built once before the measured frame: the first call of its numba kernels
 loads or compiles them, which the printed `cpu_ms` must not contain; that first build's time
@@ -44,7 +44,7 @@ OUTPUTS = (
     ("--maps", None, "heat maps of the technique's own structure (e.g. fptl's coarse and pruned "
                      "lists per tile, zbin's bit arrays), one PNG each"),
     ("--check", None, "compare with the reference technique; on a difference write images to "
-                      "DIR, name the first differing pixel, exit 1"),
+                      "DIR, name the first differing pixel, exit 1 (a --cap-policy's intended loss: exit 3)"),
 )
 
 
@@ -159,6 +159,9 @@ def check_suffixes(args) -> None:
             raise cli.UserError(f"{flag} {path}: the file must end in {suffix}")
 
 
+INTENDED_LOSS_EXIT = 3       # a script reading 0 as "exact" is never told a capped frame is
+
+
 def check_against_reference(renderer, technique, opts, result, args) -> None:
     from .exactness import IntendedLoss, check
     from .techniques import with_role
@@ -168,7 +171,7 @@ def check_against_reference(renderer, technique, opts, result, args) -> None:
               {"frame": args.frame, "frames": args.frames, "opts": opts}, args.check)
     if isinstance(m, IntendedLoss):       # a cap policy's loss: counted, neither pass nor failure
         print(m.message(), file=sys.stderr)
-        return
+        raise SystemExit(INTENDED_LOSS_EXIT)
     if m is not None:
         print(f"not exact: {m.message()}", file=sys.stderr)
         raise SystemExit(1)

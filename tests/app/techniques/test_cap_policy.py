@@ -102,7 +102,7 @@ def test_capture_check_reports_the_intended_loss(tmp_path):
     r = capture("--scene", "hangar", "--technique", "clustered", "--lights", "80", "--size",
                 "64x36", "--cap-policy", "urp-16", "--check", str(tmp_path / "chk"),
                 "--dump", str(tmp_path / "f.npz"))
-    assert r.returncode == 0, r.stderr
+    assert r.returncode == 3, r.stderr              # neither exact (0) nor a failure (1)
     line = r.stderr.strip().splitlines()[-1]
     assert line.startswith("intended loss: ") and "lights dropped by urp-16" in line, line
     pixels = int(line.split("intended loss: ")[1].split(" pixels")[0])
