@@ -57,8 +57,9 @@ def build_parser():
     for flag, suffix, text in OUTPUTS:
         p.add_argument(flag, metavar="DIR" if suffix is None else None, help=text)
     p.add_argument("--list", action="store_true", help="print builtin scenes and techniques")
-    from .window.launch import add_display_args
+    from .window.launch import add_display_args, add_motion_arg
     add_display_args(p)
+    add_motion_arg(p)
     cli.add_option_args(p)
     return p
 
@@ -86,7 +87,8 @@ def main(argv=None) -> None:
                                 f"path per wave); techniques with it: "
                                 f"{', '.join(with_view(REGISTRY, 'classes'))}")
     opts = cli.options_for(technique, args)
-    scene = cli.load_scene_args(args)
+    from .window.launch import load_scene_args
+    scene = load_scene_args(args)
     from .pipeline.renderer import Renderer
     from . import images, dump
     t0 = time.perf_counter()
@@ -96,6 +98,8 @@ def main(argv=None) -> None:
     warm_ms = (time.perf_counter() - warm) * 1e3
     result = renderer.render(technique, args.frame, opts, frames=args.frames)
     result.meta.update(scene=args.scene, lights=len(scene.lights), seed=args.seed)
+    if scene.motion is not None:             # the lights of this frame moved (scenes.motion)
+        result.meta["motion"] = dict(scene.motion.to_dict(), frame=args.frame, frames=args.frames)
     covered = result.depth > 0
     exposure = (images.auto_exposure(result.image, covered) if args.exposure == "auto"
                 else float(args.exposure))

@@ -38,6 +38,7 @@ from .errors import (FLOAT32_MAX, MAX_FAR_NEAR, MAX_LIGHTS, MAX_RADIUS, MAX_RESO
                      FieldChecker, SceneError, jtype, one_line, show, suggest, to_f32)
 from .geometry import box_mesh, max_depth_for
 from .gltf import GLTF_SUFFIXES, load_gltf
+from .motion import KINDS as MOTION_KINDS, MAX_SPEED, Motion, outside as motion_outside
 from .model import (LIGHT_BOX, LIGHT_CAPSULE, LIGHT_DTYPE, LIGHT_SPOT, LIGHT_TYPES as TYPE_NAMES,
                     Camera, Mesh, Scene, make_lights)
 
@@ -50,7 +51,8 @@ NPZ_VEC3 = ("position", "color", "direction", "up", "extent")
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)
 
 # The keys of each object of the contract, by kind where the kind decides.
-TOP_KEYS = ("resolution", "camera", "geometry", "lights", "lights_npz")
+TOP_KEYS = ("resolution", "camera", "geometry", "lights", "lights_npz", "motion")
+MOTION_KEYS = ("kind", "speed", "seed", "bounds")
 CAMERA_KEYS = ("position", "target", "up", "fov_y_deg", "near", "far")
 BOX_KEYS = ("min", "max")
 # A geometry entry's material (DESIGN "Contract: scene files"): albedo, and GGX specular when
@@ -419,8 +421,52 @@ def scene_from_dict(d, base_dir=None, source_name: str = "<scene>") -> Scene:
     if "lights_npz" in d:
         lights = np.concatenate([lights, _npz_lights(ctx, d["lights_npz"], len(lights))])
     name = Path(str(source_name)).stem or str(source_name)
+    motion = _motion(ctx, d["motion"], meshes, lights) if "motion" in d else None
     return Scene(name=name, resolution=resolution, camera=camera, meshes=meshes, lights=lights,
-                 path=[], max_depth=max_depth_for([camera], meshes))
+                 path=[], max_depth=max_depth_for([camera], meshes), motion=motion)
+
+
+def _motion(ctx: FieldChecker, v, meshes, lights) -> Motion:
+    """`motion` (scenes.motion): the lights bounce in `bounds` (default: the geometry's
+    box), which must lie within the geometry's box and hold every light's position."""
+    m = ctx.obj(v, "motion")
+    ctx.keys(m, "motion", MOTION_KEYS)
+    kind = ctx.req(m, "kind", "motion.kind")
+    if kind not in MOTION_KINDS:
+        ctx.fail("motion.kind", f"unknown motion {show(kind)} (expected one of: "
+                                f"{', '.join(MOTION_KINDS)})")
+    speed = ctx.num(ctx.req(m, "speed", "motion.speed"), "motion.speed", 0.0, MAX_SPEED)
+    seed = m.get("seed", 0)
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) \
+            or not 0 <= seed < 2 ** 63:
+        ctx.fail("motion.seed", f"must be a non-negative integer (got {show(seed)})")
+    if meshes:
+        v_all = np.concatenate([mesh.vertices for mesh in meshes]).astype(np.float64)
+        scene_lo, scene_hi = v_all.min(0), v_all.max(0)
+    elif "bounds" not in m:
+        ctx.fail("motion.bounds", "missing required key (the scene has no geometry whose box "
+                                  "the lights could bounce in)")
+    if "bounds" in m:
+        b = ctx.obj(m["bounds"], "motion.bounds")
+        ctx.keys(b, "motion.bounds", BOX_KEYS)
+        lo = np.array(ctx.vec3(ctx.req(b, "min", "motion.bounds.min"), "motion.bounds.min"))
+        hi = np.array(ctx.vec3(ctx.req(b, "max", "motion.bounds.max"), "motion.bounds.max"))
+        if (lo > hi).any():
+            ctx.fail("motion.bounds.min", f"must be <= bounds.max on every axis (got min "
+                                          f"{show(lo.tolist())} max {show(hi.tolist())})")
+        if meshes and ((lo < scene_lo).any() or (hi > scene_hi).any()):
+            ctx.fail("motion.bounds", f"the motion leaves the scene's bounds {show(scene_lo.tolist())}"
+                                      f"..{show(scene_hi.tolist())} (got {show(lo.tolist())}.."
+                                      f"{show(hi.tolist())})")
+    else:
+        lo, hi = scene_lo, scene_hi
+    bad = motion_outside(lights, lo, hi)
+    if len(bad):
+        i = int(bad[0])
+        ctx.fail("motion", f"light {i} starts outside the motion's bounds {show(lo.tolist())}.."
+                           f"{show(hi.tolist())}, so its motion would leave them (got position "
+                           f"{show(lights['position'][i].tolist())}; {len(bad)} lights outside)")
+    return Motion(str(kind), float(speed), int(seed), tuple(map(float, lo)), tuple(map(float, hi)))
 
 
 def _json_file(path: Path, src: str) -> Scene:

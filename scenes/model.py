@@ -104,6 +104,15 @@ class Scene:
     path: list[Camera] = field(default_factory=list)
     # Farthest view depth worth slicing (tree paper 4: "maximum depth from the scene extents").
     max_depth: float | None = None
+    # How the lights move along the path (scenes.motion.Motion; None: they stand still).
+    motion: object | None = None
+
+    def lights_at(self, frame: int, frames: int = 64) -> np.ndarray:
+        """The lights of frame `frame` of a `frames`-long loop: `self.lights` moved by
+        `self.motion` (a pure function of scene, frame and frames; `self.lights` itself
+        when nothing moves)."""
+        from .motion import lights_at
+        return lights_at(self.lights, self.motion, frame, frames)
 
     def camera_at(self, frame: int, frames: int = 64) -> Camera:
         """Camera of frame `frame` of a `frames`-long loop over `path` (frame 0 = self.camera)."""

@@ -71,12 +71,15 @@ def build_parser():
     p.add_argument("--techniques", help="comma-separated subset (default: every technique; the "
                    "reference always renders, for the exactness check)")
     p.add_argument("--threads", type=int, default=1, help="numba threads of the CPU stage")
+    from ..window.launch import add_motion_arg
+    add_motion_arg(p)
     cli.add_option_args(p)
     return p
 
 
 def path_main(argv) -> None:
     from scenes import BUILTIN_SCENES, load_scene
+    from scenes.motion import with_motion
     from ..techniques import REGISTRY, with_role
     from ..window.campath import load
     from ..window.options import WindowOptions
@@ -105,7 +108,8 @@ def path_main(argv) -> None:
     options = WindowOptions(cli.given_options(args))
     # each technique takes the option flags it declares and ignores the others (as the window)
     lights_n = args.lights if scene_name in BUILTIN_SCENES else None
-    scene = load_scene(scene_name, lights=lights_n, seed=args.seed, distribution=args.distribution)
+    scene = with_motion(load_scene(scene_name, lights=lights_n, seed=args.seed,
+                                   distribution=args.distribution), args.motion)
     size = tuple(args.size or (FULL.size if args.full else QUICK.size))
     threads = set_cpu_threads(args.threads)
     out = Path(args.out)
@@ -114,7 +118,8 @@ def path_main(argv) -> None:
     rows = run_path(scene, scene_name, path, size, order, names, options, args.repeat)
     write(rows, out, {"command": command, "scene": scene_name, "size": list(size),
                       "lights": int(len(scene.lights)), "path": str(args.path), "keys": len(path),
-                      "repeat": args.repeat, "cpu_threads": threads})
+                      "repeat": args.repeat, "cpu_threads": threads,
+                      "motion": scene.motion.to_dict() if scene.motion else None})
 
 
 def run_path(scene, scene_name, path, size, order, written, options, repeat, log=sys.stderr) -> list[dict]:
@@ -128,14 +133,16 @@ def run_path(scene, scene_name, path, size, order, written, options, repeat, log
         opts = {n: options.for_technique(REGISTRY[n])[0] for n in order}
         first = frame_camera(path.camera(0), *size)
         for n in order:                                  # warm-up: compilation, not measured
-            renderer.render(REGISTRY[n], 0, opts[n], readback=False, camera=first)
+            renderer.render(REGISTRY[n], 0, opts[n], len(path), readback=False, camera=first)
         for k in range(len(path)):
             fc = frame_camera(path.camera(k), *size)
             ref = None
             for n in order:
                 tech = REGISTRY[n]
                 w0 = time.perf_counter()
-                res = renderer.render(tech, k, opts[n], readback=True, camera=fc, samples=repeat)
+                # frame k of the path's len(path) frames: the lights at k (Scene.lights_at)
+                res = renderer.render(tech, k, opts[n], len(path), readback=True, camera=fc,
+                                      samples=repeat)
                 wall = (time.perf_counter() - w0) * 1e3 / repeat
                 if ref is None:
                     ref = res

@@ -157,10 +157,11 @@ class Renderer:
         return frame_camera(self.scene.camera_at(frame, frames), w, h)
 
     def frame_input(self, frame: int, frames: int, lights=None, camera=None) -> FrameInput:
-        """The CPU stage's input for a frame: the scene's lights (or `lights`), the path
-        camera of `frame` (or `camera`), the scene's max depth, this renderer's arena."""
+        """The CPU stage's input for a frame: the scene's lights at that frame (moved by
+        its motion: Scene.lights_at; or `lights`), the path camera of `frame` (or `camera`),
+        the scene's max depth, this renderer's arena."""
         cam = camera or self.camera(frame, frames)
-        lights = self.scene.lights if lights is None else lights
+        lights = self.scene.lights_at(frame, frames) if lights is None else lights
         return FrameInput(lights, cam, self.scene.max_depth or cam.far, self.arena,
                           self.limits.loop_budget, self.limits.loop_lanes, self.limits)
 

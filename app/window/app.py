@@ -22,6 +22,7 @@ import moderngl_window as mglw
 import numpy as np
 
 from cpu_prep.camera import frame_camera
+from scenes.motion import lights_at
 
 from ..errors import UserError
 from ..pipeline import gl
@@ -290,7 +291,9 @@ class LabWindow(mglw.WindowConfig):
             self.renderer.resize(size)
         cam = self.recorder.camera(self.cam)
         self.recorder.add(cam)
-        lights = self.lights.of(self.state)
+        # the lights of the path frame shown: they move while a path plays (scenes.motion)
+        lights = lights_at(self.lights.of(self.state), self.scene.motion, self.recorder.frame,
+                           self.args.path_frames)
         plan, c, fc, key = self._compose(cam, lights, size)
         tech, opts = plan.technique, plan.opts
         config = (tech.name, tuple(sorted(opts.as_dict().items())), LightSets.key(self.state), size)
@@ -344,7 +347,7 @@ class LabWindow(mglw.WindowConfig):
         s = self.state
         fc = frame_camera(cam, *size)
         key = (tuple(cam.position), tuple(cam.target), tuple(cam.up), cam.fov_y_deg,
-               LightSets.key(s), size)
+               LightSets.key(s), size, self.recorder.frame if self.scene.motion else 0)
         settled = self.scripted or self.composer.still_s(key) >= REF_SETTLE_S
         plan = self.composer.plan(s, key, settled)
         self._announce_slow(plan.renders(), lights, cam)

@@ -64,6 +64,21 @@ def add_display_args(p) -> None:
                        help=f"{s.help}; {lo_hi(s)}, default {s.default:g}".replace("%", "%%"))
 
 
+def add_motion_arg(p) -> None:
+    """--motion: the lights' motion (scenes.motion), shared with capture and the bench."""
+    from scenes.motion import MOTION_CHOICES
+    p.add_argument("--motion", choices=MOTION_CHOICES, default=None,
+                   help="the lights' motion along the camera path: 'bounce' (each light at its "
+                        "own horizontal velocity, bouncing off the scene's box: scenes.motion), "
+                        "'off'; default: the scene's own (a scene file's `motion`; builtins none)")
+
+
+def load_scene_args(args):
+    """The scene of the command line (app.cli.load_scene_args) with its --motion applied."""
+    from scenes.motion import with_motion
+    return with_motion(cli.load_scene_args(args), getattr(args, "motion", None))
+
+
 def build_parser():
     from ..techniques import REGISTRY
     from .panel import panel_keys
@@ -87,6 +102,7 @@ def build_parser():
     p.add_argument("--replay", metavar="PATH.json", help="play a recorded camera path, one key a "
                    "frame (P stops / resumes)")
     p.add_argument("--path", action="store_true", help="start playing the scene's camera path")
+    add_motion_arg(p)
     p.add_argument("--path-frames", type=_positive, default=600,
                    help="frames of one scene camera-path loop (capture --frame K --frames F = path frame K of F)")
     p.add_argument("--inspect", metavar="XxY", type=_point, dest="cursor",
@@ -171,7 +187,7 @@ def main(argv=None) -> None:
     from scenes import BUILTIN_SCENES
     given = cli.given_options(args)
     technique, candidates = start_candidates(args, given)
-    scene = cli.load_scene_args(args)
+    scene = load_scene_args(args)
     if args.replay:
         from .campath import load
         load(args.replay)                            # a bad file: one line before any window
