@@ -51,6 +51,16 @@ class Preset:
     growth_threads: tuple[int, ...] = (1, 2)
     growth_repeat: int = 1
     growth_cap_ms: float = 0.0
+    # temporal stability along a moving path (issue 21 item 4; app.bench.temporal): frames
+    # 0..temporal_frames-1 of a temporal_loop-frame loop of temporal_scene's path with its
+    # lights bouncing, every technique, cap policy and temporal_cutoffs level against the
+    # unbounded reference; temporal_frames < 2: none
+    temporal_frames: int = 0
+    temporal_loop: int = 600
+    temporal_scene: str = "arena"
+    temporal_lights: int = 2048
+    temporal_size: tuple[int, int] = (128, 72)
+    temporal_cutoffs: tuple[int, ...] = (256, 4096, 65536)
 
 
 QUICK = Preset(
@@ -61,7 +71,9 @@ QUICK = Preset(
     cpu_size=(1920, 1080), cpu_lights=(1024, 4096, 16384, 65536), cpu_repeat=5,
     # 8,192 doubling to 1,048,576, one build after a warm-up each; ~25 s on 2 idle cores,
     # raster's numpy proxies (~0.5 s at 128k) stopped by the cap
-    growth_lights=GROWTH_LIGHTS, growth_repeat=1, growth_cap_ms=500.0)
+    growth_lights=GROWTH_LIGHTS, growth_repeat=1, growth_cap_ms=500.0,
+    # 6 frames x 19 configurations at 128x72: ~15 s on 2 cores (shaders warm)
+    temporal_frames=6)
 
 FULL = Preset(
     name="full", size=(1920, 1080), scenes=("arena", "city", "hangar", "gallery", "corridor"),
@@ -70,7 +82,8 @@ FULL = Preset(
     cutoff_lights=16384, study_scene="arena", study_lights=32768, heat_scene="city",
     cpu_scene="arena", cpu_size=(1920, 1080),
     cpu_lights=(1024, 2048, 4096, 8192, 16384, 32768, 65536), cpu_repeat=9,
-    paper_frames=16, paper_sample=2, growth_lights=GROWTH_LIGHTS, growth_repeat=5)
+    paper_frames=16, paper_sample=2, growth_lights=GROWTH_LIGHTS, growth_repeat=5,
+    temporal_frames=16, temporal_lights=16384, temporal_size=(480, 270))
 
 # scripts/gpu_check.sh: what matters of --full on one real GPU in minutes: every technique,
 # two scenes (figure 7's two kinds of level), three light counts, exactness; measured against
@@ -79,7 +92,7 @@ FULL = Preset(
 GPU_CHECK = replace(
     FULL, name="gpu-check", scenes=("arena", "city"), lights=(8192, 32768, 65536), frames=2,
     cutoffs=(), cutoff_scenes=(), cpu_lights=(), option_studies=False, paper_size=None,
-    growth_lights=())
+    growth_lights=(), temporal_frames=0)
 
 PRESETS = {"quick": QUICK, "full": FULL, "gpu-check": GPU_CHECK}
 

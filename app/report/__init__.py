@@ -11,8 +11,8 @@ for whatever options were studied.  This package reads the results schema (app.r
 and never imports the benchmark.
 
 Modules: common (plotting and row helpers, roles, colours), spread (what counts as a
-finding), aggregate (path means, Pareto front), accuracy, path, cpu, options, maps, cutoff
-(one figure each), tables, gpu (the modelled GPU cost, its Pareto fronts, which figure to
+finding), aggregate (path means, Pareto front), accuracy, path, cpu, options, maps, cutoff,
+temporal (one figure each; temporal reads DIR/temporal.csv, app.bench.temporal), tables, gpu (the modelled GPU cost, its Pareto fronts, which figure to
 believe), validation (the model beside the papers' measurements).
 """
 from __future__ import annotations
@@ -33,7 +33,8 @@ from .gpu import believe_text, fig_gpu_pareto, fig_gpu_scenes, fig_measured
 from .maps import fig_classification, fig_heat, fig_own_maps
 from .notes import technique_notes
 from .options import fig_option, studied_options
-from .path import fig_path
+from .path import fig_path, fig_path_cpu
+from .temporal import CSV as TEMPORAL_CSV, EXPLANATION as TEMPORAL_EXPLANATION, fig_temporal
 from .tables import floor_table, summary_table
 from .validation import validation
 
@@ -68,6 +69,8 @@ def write_report(out: Path, rows: list[dict], maps: dict, info: dict) -> list[st
     section("Measured on a real GPU against modelled", *fig_measured(rows, out, colors, info))
     section("GPU lighting time along the camera path (tree paper figure 7)",
             *fig_path(rows, out, colors, roles))
+    trows = read_csv(out / TEMPORAL_CSV) if (out / TEMPORAL_CSV).exists() else []
+    section("The CPU stage's rebuild along the moving path", *fig_path_cpu(trows, out, colors, roles))
     ftable, ftext = floor_table(rows, roles)
     section(f"Shading time against the floor ({roles.floor})", None, ftext,
             f"Shading ms, mean over the path; in brackets the position between "
@@ -88,6 +91,8 @@ def write_report(out: Path, rows: list[dict], maps: dict, info: dict) -> list[st
             *fig_classification(rows, maps, out))
     section("The light cutoff: image error vs cost", *fig_cutoff(rows, out, colors, roles),
             CUTOFF_EXPLANATION)
+    section("Temporal stability along a moving path: temporal error and popping",
+            *fig_temporal(trows, out, colors, roles), TEMPORAL_EXPLANATION)
     sections.append("## Hardware-neutral figures (camera path, mean over frames)\n\n"
                     + summary_table(rows) + "\n")
     (out / "report.md").write_text("\n".join(_head(rows, info, roles)) + "\n" + "\n".join(sections))

@@ -1,7 +1,10 @@
 """Tree paper figure 7: GPU lighting time (culling passes + shading) per frame along the
 camera path, every technique, each scene and light count; the band is each frame's
-min-max over its samples."""
+min-max over its samples.  And the CPU stage's rebuild per frame along the moving path of
+the temporal series (fig_path_cpu)."""
 from __future__ import annotations
+
+import statistics
 
 from .common import log_axes, ms, order, panel_style, plt, save, sel, side_legend, times, DPI
 from .spread import Spread, below, lowest
@@ -81,3 +84,33 @@ def _finding(sc, n, cands: dict, floor: Spread | None, sub, roles) -> str:
               f"{ms(spread[worst][1])}), {steady} least ({ms(spread[steady][0])} to "
               f"{ms(spread[steady][1])})")
     return s + "."
+
+
+def fig_path_cpu(trows, out, colors, roles) -> tuple[str | None, list[str]]:
+    """The CPU stage's rebuild, every frame, along the moving path of the temporal series
+    (app.bench.temporal): each technique's CPU ms per frame, and the sentence that says it."""
+    rows = [r for r in trows if r.get("kind") == "technique"]
+    if not rows:
+        return None, []
+    fig, ax = plt().subplots(1, 1, dpi=DPI, figsize=(7.0, 3.2))
+    med = {}
+    for t in order(rows, "technique"):
+        tr = sorted(sel(rows, technique=t), key=lambda r: r["frame"])
+        y = [float(r["cpu_total_ms"]) for r in tr]
+        med[t] = (statistics.median(y), min(y), max(y))
+        ax.plot([int(r["frame"]) for r in tr], y, color=colors(t), lw=1.3, ms=3, label=t,
+                **colors.style(t))
+    r0 = rows[0]
+    where = (f"{r0['scene']}, {int(r0['lights'])} lights bouncing at {float(r0['motion_speed']):g} "
+             f"m/s, {int(r0['width'])}x{int(r0['height'])}")
+    log_axes(ax, x=False)
+    panel_style(ax, f"CPU stage per frame along the moving path ({where})", "path frame",
+                "CPU stage ms (cull ... upload)")
+    side_legend(ax)
+    dear = max(med, key=lambda t: med[t][0])
+    text = [f"The lights move, so the CPU stage rebuilds every frame from the frame's lights "
+            f"(cull, sort, bin, build, pack, upload; nothing is kept from the frame before): "
+            f"along the moving path ({where}) a frame's rebuild costs " + ", ".join(
+                f"{t} {ms(m[0])} ({ms(m[1])} to {ms(m[2])})" for t, m in med.items())
+            + f" (median over the frames, min to max); the dearest is {dear}."]
+    return save(fig, out, "cpu_moving_path.png"), text

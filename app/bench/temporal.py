@@ -1,0 +1,190 @@
+"""Temporal stability along a moving path (issue 21 item 4): `DIR/temporal.csv`.
+
+Consecutive frames 0..F-1 of the scene's camera path (a loop of `loop` frames, so the camera
+moves a little each frame) with its lights bouncing (scenes.motion, `--motion bounce`), each
+frame rendered by
+
+    every technique at its defaults            exact: the lab's guarantee
+    each cap policy (cpu_prep.caps)            on the first technique that takes one: a
+                                               policy drops the same lights whatever the
+                                               structure (exact against brute without them)
+    each light-cutoff level t = 1/c            the reference with the cutoff's radii
+                                               (app.bench.cutoff.cutoff_lights)
+    the unbounded reference                    every light, UNBOUNDED_FALLOFF (no window)
+
+and per frame k >= 1 and configuration T, against the unbounded reference R of the same
+frames:
+
+    temporal error   mean |dT - dR| over geometry pixels and channels, dX = X_k - X_(k-1),
+                     relative to R_k's mean radiance (temporal_error_pct, percent)
+    popping          pixels whose light set (contrib_hash) changed from k-1 to k while the
+                     exact set there did not (the reference at the scene's radii, brute):
+                     the set changed because a light crossed a cap or a cutoff, not because
+                     it moved into or out of its volume (popping_pixels)
+
+An exact technique's set is brute's at every pixel, so it never pops.  Each row also has the
+frame's CPU stage (cpu_total_ms: the rebuild every frame costs) and frame cost.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+import sys
+import time
+
+import numpy as np
+
+from ..report.temporal import CSV
+from ..results import write_csv
+from . import measure
+from .cutoff import cutoff_lights, unbounded_lights
+
+COLUMNS = ["study", "scene", "lights", "width", "height", "frame", "frames", "motion_speed",
+           "config", "kind", "technique", "role", "policy", "cutoff", "visible",
+           "temporal_error_pct", "popping_pixels", "changed_pixels", "covered_pixels",
+           "capped_lights", "cpu_total_ms", "frame_cost_ms", "wall_ms"]
+
+
+def configurations(cutoffs) -> list[dict]:
+    """Every configuration the series renders, the unbounded reference last."""
+    from cpu_prep import caps
+    from ..techniques import REGISTRY, with_role
+    from ..techniques.options import CapOptions
+    ref = with_role("reference")
+    out = [dict(config=n, kind="technique", technique=n, opts=t.Options(), policy=caps.NONE,
+                cutoff=0) for n, t in REGISTRY.items()]
+    capped = next((t for t in REGISTRY.values() if issubclass(t.Options, CapOptions)), None)
+    if capped is not None:
+        out += [dict(config=f"{p} ({capped.name})", kind="cap", technique=capped.name,
+                     opts=capped.Options.make({"cap_policy": p}), policy=p, cutoff=0)
+                for p in caps.NAMES if p != caps.NONE]
+    out += [dict(config=f"cutoff 1/{c}", kind="cutoff", technique=ref.name, opts=ref.Options(),
+                 policy=caps.NONE, cutoff=int(c)) for c in cutoffs]
+    out.append(dict(config="unbounded", kind="reference", technique=ref.name, opts=ref.Options(),
+                    policy=caps.NONE, cutoff=-1))
+    return out
+
+
+def run_temporal(scene, scene_name: str, size, frames: int, loop: int, cutoffs,
+                 log=sys.stderr) -> list[dict]:
+    """The series' rows: one per configuration and frame (frame 0 has no temporal figures)."""
+    from ..pipeline.renderer import Renderer
+    from ..techniques import REGISTRY, with_role
+    ref_name = with_role("reference").name
+    configs = configurations(cutoffs)
+    rows: list[dict] = []
+    prev: dict = {}
+    speed = float(scene.motion.speed) if scene.motion is not None else 0.0
+    t0 = time.perf_counter()
+    with Renderer(scene, tuple(size)) as r:
+        def render(c, k, readback=True):
+            lights = scene.lights_at(k, loop)
+            defines = None
+            if c["cutoff"] > 0:
+                lights = cutoff_lights(lights, 1.0 / c["cutoff"])
+            elif c["cutoff"] < 0:
+                lights, defines = unbounded_lights(lights, scene), {"UNBOUNDED_FALLOFF": 1}
+            return r.render(REGISTRY[c["technique"]], k, c["opts"], frames=loop, lights=lights,
+                            readback=readback, defines=defines)
+        for c in {c["technique"]: c for c in configs}.values():     # compilation, not measured
+            render(c, 0, readback=False)
+        for k in range(frames):
+            w0 = time.perf_counter()
+            res = {}
+            for c in configs:
+                s0 = time.perf_counter()
+                res[c["config"]] = (render(c, k), (time.perf_counter() - s0) * 1e3)
+            exact = res[ref_name][0]
+            unb = res["unbounded"][0]
+            covered = exact.depth > 0
+            for c in configs:
+                f, wall = res[c["config"]]
+                rows.append(_row(c, k, f, wall, prev.get(c["config"]), unb, prev.get("unbounded"),
+                                 exact, prev.get(ref_name), covered, scene_name, len(scene.lights),
+                                 size, loop, speed))
+            prev = {n: v[0] for n, v in res.items()}
+            log.write(f"[temporal {k + 1}/{frames} {time.perf_counter() - t0:6.1f}s] frame {k}: "
+                      f"{len(configs)} configurations in {time.perf_counter() - w0:.1f} s\n")
+            log.flush()
+    return rows
+
+
+def _row(c, k, f, wall, f_prev, unb, unb_prev, exact, exact_prev, covered, scene_name, n,
+         size, loop, speed) -> dict:
+    from ..techniques import REGISTRY
+    tech = REGISTRY[c["technique"]]
+    sample = measure.samples_of(f.meta)[0]
+    stats = f.meta["stats"]
+    row = {"study": "temporal", "scene": scene_name, "lights": n, "width": size[0],
+           "height": size[1], "frame": k, "frames": loop, "motion_speed": speed,
+           "config": c["config"], "kind": c["kind"], "technique": tech.name, "role": tech.role,
+           "policy": c["policy"], "cutoff": c["cutoff"], "visible": int(stats.get("visible_lights", 0)),
+           "capped_lights": int(stats.get("capped_lights", 0)),
+           "covered_pixels": int(covered.sum()),
+           "cpu_total_ms": float(sum(sample["cpu_ms"].values())),
+           "frame_cost_ms": measure.frame_cost(sample), "wall_ms": wall,
+           "temporal_error_pct": float("nan"), "popping_pixels": float("nan"),
+           "changed_pixels": float("nan")}
+    if f_prev is not None:
+        row.update(temporal_figures(f, f_prev, unb, unb_prev, exact, exact_prev, covered))
+        if c["kind"] == "reference":        # every light, no volume: its sets are no measure
+            row["popping_pixels"] = row["changed_pixels"] = float("nan")
+    return row
+
+
+def temporal_figures(f, f_prev, ref, ref_prev, exact, exact_prev, covered) -> dict:
+    """temporal_error_pct, popping_pixels and changed_pixels of frame f after f_prev (module
+    docstring), against the unbounded reference `ref` and the exact sets of `exact`."""
+    dt = f.image.astype(np.float64) - f_prev.image.astype(np.float64)
+    dr = ref.image.astype(np.float64) - ref_prev.image.astype(np.float64)
+    mean = float(ref.image[covered].astype(np.float64).mean()) if covered.any() else 0.0
+    err = float(np.abs(dt - dr)[covered].mean()) if covered.any() else 0.0
+    changed = f.contrib_hash != f_prev.contrib_hash
+    steady = exact.contrib_hash == exact_prev.contrib_hash
+    return {"temporal_error_pct": 100.0 * err / mean if mean > 0 else 100.0 * err,
+            "changed_pixels": int((changed & covered).sum()),
+            "popping_pixels": int((changed & steady & covered).sum())}
+
+
+def temporal_series(preset, out: Path, log=sys.stderr) -> list[dict]:
+    """The preset's series (presets.Preset.temporal_*) into out/temporal.csv; none when the
+    preset has no temporal frames (a stale file is removed, so no report shows it)."""
+    from scenes import load_scene
+    from scenes.motion import with_motion
+    out = Path(out)
+    path = out / CSV
+    if preset.temporal_frames < 2:
+        path.unlink(missing_ok=True)
+        return []
+    out.mkdir(parents=True, exist_ok=True)
+    scene = with_motion(load_scene(preset.temporal_scene, lights=preset.temporal_lights,
+                                   seed=preset.seed), "bounce")
+    rows = run_temporal(scene, preset.temporal_scene, preset.temporal_size, preset.temporal_frames,
+                        preset.temporal_loop, preset.temporal_cutoffs, log)
+    write_csv(rows, path, COLUMNS)
+    log.write(f"bench: wrote {path} ({len(rows)} rows)\n")
+    return rows
+
+
+def before_sweep(argv) -> None:
+    """`python -m app.bench [--quick|--full|--gpu-check] --out DIR ...`: the temporal series
+    of that preset into DIR, before the sweep writes the report that reads it (the sweep's
+    other flags do not change it).  Subcommands (cpu, --path) and --help run none."""
+    import argparse
+    from .path import wants_path
+    from .presets import PRESETS
+    if argv[:1] == ["cpu"] or wants_path(argv) or any(a in ("-h", "--help") for a in argv):
+        return
+    p = argparse.ArgumentParser(add_help=False)
+    p.add_argument("--out")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--full", action="store_true")
+    g.add_argument("--gpu-check", action="store_true")
+    args, _ = p.parse_known_args(argv)
+    if not args.out:
+        return                                   # the sweep's own parser says what is missing
+    name = "full" if args.full else "gpu-check" if args.gpu_check else "quick"
+    temporal_series(PRESETS[name], Path(args.out))
+
+
+__all__ = ["run_temporal", "temporal_series", "temporal_figures", "configurations",
+           "before_sweep", "COLUMNS", "CSV"]
