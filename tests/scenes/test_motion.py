@@ -114,3 +114,22 @@ def test_every_technique_is_exact_on_moving_frames(gl):
             assert_exact(res, f"moving frame {frame}")
             hashes.append(res["brute"].contrib_hash)
         assert (hashes[0] != hashes[1]).any(), "the lights did not move: test is void"
+
+
+
+def test_capture_renders_the_lights_of_its_frame(tmp_path):
+    """--motion bounce --frame K: frame K's lights, not the scene's (the same camera without
+    --motion gives other light sets), and the dump's meta says the motion and the frame."""
+    def capture(*motion):
+        dump = tmp_path / f"f{len(motion)}.npz"
+        p = subprocess.run([sys.executable, "-m", "app.capture", "--scene", "arena", "--lights", "512",
+                            "--size", "48x27", *motion, "--frame", "40", "--frames", "600",
+                            "--technique", "clustered", "--dump", str(dump)],
+                           cwd=ROOT, capture_output=True, text=True, timeout=120)
+        assert p.returncode == 0, p.stderr
+        d = np.load(dump)
+        return json.loads(str(d["meta"])), d["contrib_hash"]
+    meta, moving = capture("--motion", "bounce")
+    still_meta, still = capture()
+    assert meta["motion"]["kind"] == "bounce" and meta["motion"]["frame"] == 40
+    assert "motion" not in still_meta and (moving != still).any()
