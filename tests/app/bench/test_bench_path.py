@@ -73,3 +73,21 @@ def test_help_lists_the_subcommands():
     assert r.returncode == 0
     assert "python -m app.bench cpu" in r.stdout and "--path PATH.json" in r.stdout
     assert "--quick" in r.stdout                         # the sweep's own flags follow
+
+
+def test_the_lights_move_along_the_path_with_motion(gl, tmp_path):
+    """--motion bounce: frame k of the path renders the lights at k of len(path) frames
+    (scenes.motion); with the camera held still the light sets change, exactly."""
+    p = path_file(tmp_path)
+    d = json.loads(p.read_text())
+    d["keys"] = [dict(d["keys"][0], t=k) for k in range(3)]            # a camera that stands still
+    p.write_text(json.dumps(d))
+    out = tmp_path / "moving"
+    bench.main(["--path", str(p), "--out", str(out), "--size", "48x27", "--lights", "256",
+                "--techniques", "clustered", "--motion", "bounce"])
+    with open(out / "path.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert all(int(r["mismatch_pixels"]) == 0 for r in rows)
+    # a still camera over still lights gives one structure; here it changes frame to frame
+    assert len({(r["exact_pp"], r["evaluated_pp"]) for r in rows if r["technique"] == "clustered"}) > 1
+    assert json.loads((out / "path.json").read_text())["motion"]["kind"] == "bounce"
