@@ -61,6 +61,11 @@ class Preset:
     temporal_lights: int = 2048
     temporal_size: tuple[int, int] = (128, 72)
     temporal_cutoffs: tuple[int, ...] = (256, 4096, 65536)
+    # the engines' light caps (issue 21 item 5; app.bench.caps): every list technique at each
+    # cap policy that drops lights, in caps_scenes at caps_lights (the cutoff study's count,
+    # so the report's lead figure holds both); () none
+    caps_scenes: tuple[str, ...] = ()
+    caps_lights: int = 2048
 
 
 QUICK = Preset(
@@ -73,7 +78,9 @@ QUICK = Preset(
     # raster's numpy proxies (~0.5 s at 128k) stopped by the cap
     growth_lights=GROWTH_LIGHTS, growth_repeat=1, growth_cap_ms=500.0,
     # 6 frames x 19 configurations at 128x72: ~15 s on 2 cores (shaders warm)
-    temporal_frames=6)
+    temporal_frames=6,
+    # 6 list techniques x 7 policies (1,530 of 2,048 lights visible: every policy drops some)
+    caps_scenes=("arena",), caps_lights=2048)
 
 FULL = Preset(
     name="full", size=(1920, 1080), scenes=("arena", "city", "hangar", "gallery", "corridor"),
@@ -83,7 +90,8 @@ FULL = Preset(
     cpu_scene="arena", cpu_size=(1920, 1080),
     cpu_lights=(1024, 2048, 4096, 8192, 16384, 32768, 65536), cpu_repeat=9,
     paper_frames=16, paper_sample=2, growth_lights=GROWTH_LIGHTS, growth_repeat=5,
-    temporal_frames=16, temporal_lights=16384, temporal_size=(480, 270))
+    temporal_frames=16, temporal_lights=16384, temporal_size=(480, 270),
+    caps_scenes=("arena",), caps_lights=16384)
 
 # scripts/gpu_check.sh: what matters of --full on one real GPU in minutes: every technique,
 # two scenes (figure 7's two kinds of level), three light counts, exactness; measured against
@@ -92,7 +100,7 @@ FULL = Preset(
 GPU_CHECK = replace(
     FULL, name="gpu-check", scenes=("arena", "city"), lights=(8192, 32768, 65536), frames=2,
     cutoffs=(), cutoff_scenes=(), cpu_lights=(), option_studies=False, paper_size=None,
-    growth_lights=(), temporal_frames=0)
+    growth_lights=(), temporal_frames=0, caps_scenes=())
 
 PRESETS = {"quick": QUICK, "full": FULL, "gpu-check": GPU_CHECK}
 
@@ -118,11 +126,13 @@ def preset_from_args(args) -> Preset:
         if not scenes:
             raise UserError("--scenes names no scene")
         ch.update(scenes=scenes, study_scene=scenes[0], heat_scene=scenes[-1],
-                  cpu_scene=scenes[0], cutoff_scenes=scenes[:1], paper_size=None,
+                  cpu_scene=scenes[0], cutoff_scenes=scenes[:1], caps_scenes=scenes[:1],
+                  paper_size=None,
                   also_studies=False)
     if args.lights:
         lights = int_list(args.lights, "--lights")
-        ch.update(lights=lights, study_lights=max(lights), cutoff_lights=min(lights))
+        ch.update(lights=lights, study_lights=max(lights), cutoff_lights=min(lights),
+                  caps_lights=min(lights))
     if args.frames is not None:
         if args.frames < 1:
             raise UserError("--frames must be >= 1")
