@@ -40,6 +40,7 @@ from ..model import predict
 from ..results import CPU_PREFIX, STAGES, columns, option_studies, read_csv, stats, write_csv
 from ..techniques import REGISTRY, with_role
 from . import measure
+from .caps import CAPS, loss_cells, with_caps_jobs
 from .cpu import cpu_stage_samples, set_cpu_threads
 from .cutoff import cutoff_lights, unbounded_lights
 from .machine import machine_info
@@ -174,9 +175,9 @@ class Sweep:
         r.update(measure.option_cells(job.opts))
         r.update(measure.figure_cells(res))
         r["setup_ms"] = float(sum(res.meta.get("setup_ms", {}).values()))    # no cost: untimed
-        # the error of a cutoff job is against the unbounded reference, its exactness against
-        # the reference with the same lights
-        unbounded = job.study == "cutoff"
+        # the error of a cutoff or caps job is against the unbounded reference, its exactness
+        # against the reference with the same lights (a capped frame's: app.bench.caps)
+        unbounded = job.study in ("cutoff", CAPS)
         err_ref = self.reference_frame(renderer, job, -1 if unbounded else job.cutoff)
         r["error_ref"] = "unbounded" if unbounded else self.reference
         r["image_error"] = measure.image_error(res, err_ref)
@@ -187,6 +188,9 @@ class Sweep:
         else:
             ref = self.reference_frame(renderer, job, job.cutoff)
             r["mismatch_count"], r["mismatch_hash"] = measure.mismatches(res, ref)
+            if job.study == CAPS:
+                r.update(loss_cells(renderer, res, ref, r["stats"], dict(
+                    frame=job.frame, frames=self.p.frames, lights=self.lights_for(job), opts=job.opts)))
         r["floor_position_pct"] = float("nan")
         return r
 
@@ -216,7 +220,8 @@ class Sweep:
 
     def run(self) -> list[dict]:
         from ..pipeline.renderer import Renderer
-        jobs = plan(self.p, self.light_counts)
+        jobs = with_caps_jobs(plan(self.p, self.light_counts), self.p, self.light_counts,
+                              self.scene, self.log)
         total = len(jobs)
         studies = option_studies()
         self.log.write(f"bench: {self.p.name} preset, {total} configurations + CPU series; "
