@@ -14,6 +14,12 @@ nothing (caps.without: the same ids), and the technique must equal that frame at
 pixel; then the result is an IntendedLoss, counted against the real reference (the pixels
 whose light set differs, the lights dropped).  Where it does not, the Mismatch is against
 that frame and names the lights missing or extra beyond the intended loss.
+
+A frame with stochastic light culling (options stochastic, stochastic_seed, stochastic_frame:
+cpu_prep.stochastic) is exact against the reference rendered with the same draw: brute takes
+those options, and the same budget, seed and frame give the same per-light ranges.  A
+reference given with another draw (capture renders brute with its defaults) is rendered again
+with the frame's draw when the renderer is given.
 """
 from __future__ import annotations
 
@@ -23,6 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from cpu_prep import caps
+
+from .techniques.options import STOCHASTIC_NAMES
 
 MARK = (255, 40, 40)          # differing pixels in the difference image
 FIRST = (255, 230, 0)         # the first differing pixel
@@ -82,6 +90,12 @@ def capped(result) -> tuple[str, int] | None:
     return None if policy == caps.NONE else (policy, int(stats.get("capped_lights", 0)))
 
 
+def stochastic_draw(result) -> dict:
+    """{option: value} of a frame's stochastic draw (budget, seed, frame); {} when off."""
+    opts = result.meta.get("options") or {}
+    return {k: opts[k] for k in STOCHASTIC_NAMES if k in opts} if opts.get("stochastic") else {}
+
+
 def _ids(ids, most: int = 12) -> str:
     ids = list(ids)
     return "[" + ", ".join(map(str, ids[:most])) + (f", ... {len(ids)} in all" if len(ids) > most else "") + "]"
@@ -91,11 +105,16 @@ def check(result, reference, renderer=None, technique=None, reference_technique=
           render_args: dict | None = None, out_dir=None) -> Mismatch | IntendedLoss | None:
     """None when exact; else the Mismatch, explained with the lights that differ when the
     renderer and both techniques are given (render_args: frame, opts, lights, ... of the
-    frame; opts are the technique's, the reference renders with its defaults) and with
+    frame; opts are the technique's, the reference renders with its defaults but for the
+    frame's stochastic draw, stochastic_draw()) and with
     images written to out_dir when given.  A capped frame (capped()) gives its IntendedLoss
     when it equals the reference without the dropped lights (that frame rendered with the
     renderer; without one, when no pixel has a light the reference lacks: a count above the
     reference's), else the Mismatch against that frame."""
+    draw = stochastic_draw(result)
+    if draw != stochastic_draw(reference) and renderer is not None and reference_technique is not None:
+        args = {k: v for k, v in (render_args or {}).items() if k != "opts"}
+        reference = renderer.render(reference_technique, opts=dict(draw), **args)
     cap = capped(result)
     if cap is not None:
         return _check_capped(result, reference, cap, renderer, technique, reference_technique,
@@ -117,7 +136,7 @@ def _compare(result, reference, renderer, technique, reference_technique, render
     if renderer is not None and technique is not None and reference_technique is not None:
         args = dict(render_args or {})
         got = renderer.render(technique, readback=False, debug_pixel=(x, row), **args).debug_lights
-        args.pop("opts", None)
+        args["opts"] = stochastic_draw(result) or None     # the reference's: the same draw
         want = renderer.render(reference_technique, readback=False, debug_pixel=(x, row),
                                **args).debug_lights
         m.missing = sorted(set(want.tolist()) - set(got.tolist()))

@@ -33,10 +33,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from cpu_prep import caps, frame as cpuframe, grid as gridmod, layouts, limits
+from cpu_prep import (caps, frame as cpuframe, grid as gridmod, layouts, limits,
+                      stochastic as stochmod)
 
 from ..pipeline.passes import Build, FrameInput, Pass, frame_outputs, image_groups
-from .options import TechniqueOptions, cap_policy
+from .options import TechniqueOptions, cap_policy, stochastic
 
 ROLES = ("technique", "reference", "floor")
 
@@ -131,18 +132,43 @@ def prepare(frame: FrameInput, sort_buckets: int = 0, opts=None) -> Build:
     with a cap policy (options.CapOptions, not none) drop lights after the cull, as that
     engine does (cpu_prep.caps): the frame differs from brute on purpose, and its stats
     say so (cap_policy, capped_lights; the dropped scene ids in data["capped_ids"], which
-    the exactness check reads)."""
+    the exactness check reads).  Options with stochastic culling on (options.StochasticOptions)
+    draw each light's range first (stochastic_ranges), so every structure is built from it,
+    and write each light's alpha into its GPU record (right.w) for the shading's 1/p weight;
+    the stats say stochastic_t, _seed, _frame and _dark_lights (reaching nothing this frame)."""
     times = cpuframe.StageTimes()
     policy = cap_policy(opts)
-    pl, dropped = cpuframe.prepare_capped_lights(frame.lights, frame.camera, times, sort_buckets,
+    lights, alpha, drawn = frame.lights, None, stochastic(opts)
+    if drawn is not None:
+        with times.stage("cull"):          # the range draw: part of the cull step
+            lights, alpha, dark = stochastic_ranges(frame, *drawn)
+    pl, dropped = cpuframe.prepare_capped_lights(lights, frame.camera, times, sort_buckets,
                                                  frame.arena, policy)
+    if alpha is not None:
+        pl.gpu["right"][:, 3] = alpha[pl.ids]        # read by glsl/light_window.glsl lambert
     b = Build(frame=frame, lights=pl, times=times)
     b.buffers["lights"] = pl.gpu
     b.stats["visible_lights"] = len(pl.gpu)
+    if drawn is not None:
+        b.stats.update(stochastic_t=1.0 / drawn[0], stochastic_seed=drawn[1],
+                       stochastic_frame=drawn[2], stochastic_dark_lights=len(dark))
     if policy != caps.NONE:
         b.stats.update(cap_policy=policy, capped_lights=len(dropped))
         b.data["capped_ids"] = dropped
     return b
+
+
+def stochastic_ranges(frame: FrameInput, budget: int, seed: int, draw_frame: int):
+    """(lights, alpha, dark ids): the frame's lights with their stochastic ranges at budget
+    t = 1/budget for (seed, frame) (cpu_prep.stochastic); the lights that reach nothing this
+    frame culled with their ids kept (caps.without), so scene ids, hashes and draws stay."""
+    view = np.asarray(frame.camera.view_from_world, np.float64)
+    eye = np.linalg.inv(view)[:3, 3]
+    lights, alpha, dark = stochmod.stochastic_lights(frame.lights, 1.0 / budget, seed, draw_frame,
+                                                     eye, frame.camera.far)
+    if len(dark):
+        lights = caps.without(lights, dark, view)
+    return lights, alpha, dark
 
 
 def grid_uniforms(grid: gridmod.Grid) -> dict[str, object]:

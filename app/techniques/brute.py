@@ -6,6 +6,7 @@ import numpy as np
 
 from ..model import waves
 from .base import Technique, add_all_lights, prepare, shading_passes
+from .options import StochasticOptions
 
 
 class Brute(Technique, register_at=10):
@@ -14,8 +15,13 @@ class Brute(Technique, register_at=10):
     role = "reference"
     views = ("shaded", "heat", "split")      # no diff: it is the reference
 
+    # stochastic light culling: the same budget, seed and frame draw the same ranges here,
+    # so every technique is checked against brute under its own draw (app.exactness)
+    class Options(StochasticOptions):
+        pass
+
     def build(self, frame, opts):
-        return prepare(frame)
+        return prepare(frame, opts=opts)
 
     def passes(self, build, opts):
         return shading_passes(build, "shade_brute.comp", longest=len(build.lights))

@@ -17,7 +17,7 @@ import numpy as np
 from ..model import waves
 from .base import Technique, add_cell_lists, cell_head, entry_list, grid_uniforms, prepare_binned, shading_passes
 from .blocks import cell_ranges, list_buffers, list_reads
-from .options import CapOptions, ListOptions, ScalarizeOptions, SliceOptions, WaveOptions
+from .options import CapOptions, ListOptions, ScalarizeOptions, SliceOptions, StochasticOptions, WaveOptions
 
 
 class Clustered(Technique, register_at=30):
@@ -26,7 +26,8 @@ class Clustered(Technique, register_at=30):
     views = Technique.views + ("tiles", "slices")
 
     @dataclass(frozen=True)
-    class Options(SliceOptions, ListOptions, WaveOptions, ScalarizeOptions, CapOptions):
+    class Options(SliceOptions, ListOptions, WaveOptions, ScalarizeOptions, CapOptions,
+                  StochasticOptions):
         def ignored(self) -> dict[str, str]:
             """Only the scalarized walk uses wave operations (options.py's rule)."""
             out = dict(super().ignored())

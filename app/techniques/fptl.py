@@ -82,7 +82,7 @@ from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT, LIGH
 from ..model import waves
 from ..pipeline.passes import Buffer, HostStep, Pass
 from .base import Technique, add_all_lights, prepare, shading_passes
-from .options import CapOptions, choice, option
+from .options import CapOptions, StochasticOptions, choice, option
 
 TILE = 16                    # the chapter's tile: 64 invocations x 2x2 pixels
 LIST_CAP = 24                # pruned lights in a tile's 8 R10G10B10A2 blocks
@@ -250,7 +250,7 @@ class Fptl(Technique, register_at=70):
     glsl = {"fptl_structs.glsl": structs_glsl(), "fptl_format.glsl": format_glsl()}
 
     @dataclass(frozen=True)
-    class Options(CapOptions):
+    class Options(CapOptions, StochasticOptions):
         fptl_variant: int = choice("fine per tile", VARIANTS, "the lists: fine-pruned or coarse "
                                    "(AABBs only), per 16x16 tile (the chapter) or per 2.5D cell "
                                    "(16 depth slices)", study=True)

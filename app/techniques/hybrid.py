@@ -25,7 +25,8 @@ from cpu_prep import hybrid as hybridmod, layouts
 from ..model import waves
 from ..pipeline.passes import OUT_STATS, WAVE_DIM, WAVE_STATS, HostStep
 from .base import Technique, cell_head, entry_list, prepare_binned
-from .options import CapOptions, ListOptions, ScalarizeOptions, SliceOptions, TreeOptions, WaveOptions, option
+from .options import (CapOptions, ListOptions, ScalarizeOptions, SliceOptions, StochasticOptions, TreeOptions,
+                      WaveOptions, option)
 from .blocks import (add_shared_load, live_groups, one_tree_groups, study_notes, tree_buffers,
                      tree_passes)
 
@@ -40,7 +41,7 @@ class Hybrid(Technique, register_at=50):
 
     @dataclass(frozen=True)
     class Options(SliceOptions, ListOptions, TreeOptions, WaveOptions, ScalarizeOptions,
-                  CapOptions):
+                  CapOptions, StochasticOptions):
         radius_scale: float = option(1.0, "listing 2's cell.radius = scale x half the cell's "
                                           "depth extent (undefined in the paper)",
                                      lo=1e-3, hi=1e3, study=(0.5, 1.0, 2.0, 4.0))

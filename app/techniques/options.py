@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import MISSING, dataclass, field, fields, replace
 import math
 
-from cpu_prep import caps, limits, tree as treemod
+from cpu_prep import caps, limits, stochastic as stochmod, tree as treemod
 
 from ..errors import UserError
 
@@ -275,6 +275,41 @@ class CapOptions(TechniqueOptions):
                              "frame differs from brute on purpose, and --check counts the loss)")
 
 
+@dataclass(frozen=True)
+class StochasticOptions(TechniqueOptions):
+    # Tokuyoshi & Harada 2016 (cpu_prep/stochastic.py): the light's range drawn each frame,
+    # its contribution weighted by 1/p; brute takes it too, so every technique stays exact
+    # against brute under the same budget, seed and frame
+    stochastic: int = option(0, "stochastic light culling (Tokuyoshi & Harada 2016) at budget "
+                                "t = 1/N of the brightest light's peak (alpha_i = t I_max / I_i): "
+                                "each light's range drawn by Russian roulette, a kept light "
+                                "weighted by 1/p, unbiased against the unbounded falloff; box "
+                                "lights stay exact; 0: off (exact window falloff)",
+                             lo=0, hi=stochmod.MAX_BUDGET)
+    stochastic_seed: int = option(0, "seed of the stochastic ranges' draw (with --stochastic)",
+                                  lo=0, hi=2**31 - 1)
+    stochastic_frame: int = option(0, "frame of the stochastic ranges' draw (with --stochastic: "
+                                      "a new draw a frame, the same for a seed)", lo=0, hi=2**31 - 1)
+
+    def check_modes(self) -> None:
+        super().check_modes()
+        if self.stochastic and cap_policy(self) != caps.NONE:
+            raise UserError(f"--stochastic {self.stochastic} with --cap-policy "
+                            f"{cap_policy(self)}: not offered together (a capped frame's "
+                            f"check renders brute without the dropped lights, which moves "
+                            f"the stochastic budget's brightest light)")
+
+
+def stochastic(opts) -> tuple[int, int, int] | None:
+    """(budget N, seed, frame) of options with stochastic culling on, else None."""
+    if isinstance(opts, StochasticOptions) and opts.stochastic:
+        return opts.stochastic, opts.stochastic_seed, opts.stochastic_frame
+    return None
+
+
+STOCHASTIC_NAMES = tuple(f.name for f in fields(StochasticOptions))
+
+
 def cap_policy(opts) -> str:
     """The cap policy's name of a technique's options (caps.NONE when it takes none)."""
     return opts.choice_name("cap_policy") if isinstance(opts, CapOptions) else caps.NONE
@@ -293,4 +328,5 @@ def all_specs(option_classes) -> dict[str, OptionSpec]:
 
 __all__ = ["option", "choice", "choice_list", "OptionSpec", "TechniqueOptions", "TileOptions", "SliceOptions",
            "ListOptions", "TreeOptions", "WaveOptions", "ScalarizeOptions", "CapOptions", "cap_policy",
+           "StochasticOptions", "stochastic", "STOCHASTIC_NAMES",
            "all_specs", "replace"]

@@ -27,6 +27,7 @@ from ..errors import UserError
 from ..model import waves
 from ..pipeline.passes import Buffer, HostStep, Pass, image_groups
 from .base import Technique, prepare, shading_passes, windows
+from .options import StochasticOptions
 
 
 def bands(counts: np.ndarray, max_band_bytes: int) -> list[tuple[int, int, int]]:
@@ -54,8 +55,11 @@ class Perfect(Technique, register_at=90):
     role = "floor"
     max_band_bytes = MAX_STORAGE_BYTES     # one band's entries: one storage block
 
+    class Options(StochasticOptions):
+        pass
+
     def build(self, frame, opts):
-        return prepare(frame)
+        return prepare(frame, opts=opts)
 
     def passes(self, build, opts):
         w, h = build.frame.size

@@ -27,7 +27,7 @@ from cpu_prep import frame as cpuframe, grid as gridmod, layouts, limits, raster
 from ..pipeline.gbuffer import column_major
 from ..pipeline.passes import Buffer, Draw, HostStep, Pass, StencilStep, Target, image_groups
 from .base import Technique, grid_uniforms, prepare, shading_passes
-from .options import choice, option
+from .options import StochasticOptions, choice, option
 from .bit_arrays import (ShadingOptions, add_bit_words, attach_zbins, shading_steps, tile_bit_maps,
                          tile_uniforms, variant_flags)
 from .blocks import tile_boxes
@@ -72,7 +72,7 @@ class Raster(Technique, register_at=80):
     glsl = {"raster_structs.glsl": STRUCTS_GLSL}
 
     @dataclass(frozen=True)
-    class Options(ShadingOptions):          # zbin's shading loop's options (not its tile_depth)
+    class Options(ShadingOptions, StochasticOptions):          # zbin's shading loop's options (not its tile_depth)
         raster_variant: int = choice("atomic", VARIANTS, "the slides' tile rasterizer table "
                                      "(MSAA at half resolution, compaction over the wave)",
                                      study=True, also_study=(CONTENTION_SCENE,))
@@ -110,7 +110,7 @@ class Raster(Technique, register_at=80):
 
     def build(self, frame, opts):
         opts = self.resolve_options(opts)
-        b = prepare(frame)
+        b = prepare(frame, opts=opts)
         n = len(b.lights)
         w, h = frame.size
         slices = opts.cluster_slices if opts.cluster else 1

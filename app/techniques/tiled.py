@@ -16,7 +16,7 @@ from ..pipeline.passes import Buffer, Pass
 from ..errors import UserError
 from .base import (Technique, add_all_lights, add_cell_lists, cell_head, grid_uniforms, make_grid,
                    prepare, shading_passes)
-from .options import CapOptions, TileOptions
+from .options import CapOptions, StochasticOptions, TileOptions
 
 OVERFLOW = 0xFFFFFFFF          # a tile's count when its list did not fit the pool
 
@@ -34,7 +34,7 @@ class Tiled(Technique, register_at=20):
     glsl = {"tiled_lists.glsl": layouts.glsl_defines({"TILE_OVERFLOW": OVERFLOW})}
 
     @dataclass(frozen=True)
-    class Options(TileOptions, CapOptions):
+    class Options(TileOptions, CapOptions, StochasticOptions):
         pass
 
     def build(self, frame, opts):

@@ -20,7 +20,7 @@ from ..pipeline.passes import WAVE_DIM
 from .base import Technique, cell_head, entry_list, prepare_binned
 from .blocks import (SHARED_TREE_NODES, add_shared_load, cell_ranges, live_groups, live_pixels,
                      one_tree_groups, study_notes, tree_buffers, tree_passes)
-from .options import CapOptions, ListOptions, TileOptions, TreeOptions, option
+from .options import CapOptions, ListOptions, StochasticOptions, TileOptions, TreeOptions, option
 
 class Tree(Technique, register_at=40):
     name = "tree"
@@ -28,7 +28,7 @@ class Tree(Technique, register_at=40):
     views = Technique.views + ("tiles", "classes")
 
     @dataclass(frozen=True)
-    class Options(TileOptions, ListOptions, TreeOptions, CapOptions):
+    class Options(TileOptions, ListOptions, TreeOptions, CapOptions, StochasticOptions):
         shared_tree: bool = option(True, "a group whose pixels all read one tree of at "
                                          f"most {SHARED_TREE_NODES} nodes loads it into shared "
                                          "memory once and traverses it there (tree paper 3.4); "

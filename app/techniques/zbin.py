@@ -73,7 +73,7 @@ from .base import Technique, prepare
 from .bit_arrays import (VARIANTS, ShadingOptions, add_bit_words, attach_zbins, shading_steps,
                          tile_bit_maps, variant_flags)
 from .blocks import tile_boxes
-from .options import CapOptions, option
+from .options import CapOptions, StochasticOptions, option
 
 DEPTH_GROUP = 64              # zbin_tile_depth.comp: one 8x8 group a tile
 
@@ -89,7 +89,7 @@ class ZBin(Technique, register_at=60):
     views = Technique.views + ("tiles", "maps")
 
     @dataclass(frozen=True)
-    class Options(ShadingOptions, CapOptions):
+    class Options(ShadingOptions, CapOptions, StochasticOptions):
         tile_depth: bool = option(True, "cull each tile's bits against its min / max scene depth on "
                                         "the GPU (the slides' tiles are depth tested); off: the "
                                         "CPU's screen rectangles alone", study=(True, False))
