@@ -17,15 +17,16 @@ arrays to upload and further steps to run (the perfect culler plans its bands th
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Mapping
+from typing import TYPE_CHECKING, Callable, Mapping
 
-import moderngl
 import numpy as np
 
 from cpu_prep import frame as cpuframe, grid as gridmod, layouts
 from cpu_prep.arena import Arena
 from cpu_prep.camera import FrameCamera
-from . import gl
+
+if TYPE_CHECKING:                 # the CPU stage's users (bench cpu) load no GL
+    from .gl import Limits
 
 # The frame's outputs, written by every technique's shading pass and read back by capture,
 # the benchmark and the window: per pixel (GL row order) and per 8x8 group.
@@ -48,12 +49,13 @@ class FrameInput:
     arena: Arena | None = None
     loop_budget: int | None = None   # the driver's loop limit per invocation (None: none)
     loop_lanes: int = 1              # ... shared by this many lanes in lockstep (gl.Limits)
-    context_limits: gl.Limits | None = None   # the renderer's; None: the process's, on use
+    context_limits: Limits | None = None   # the renderer's; None: the process's, on use
 
     @property
-    def limits(self) -> gl.Limits:
+    def limits(self) -> Limits:
         """The GL limits the frame renders under (e.g. sample_positions for MSAA culling);
         a CPU-only frame reads them, and so makes the context, only if it asks."""
+        from . import gl
         return self.context_limits or gl.limits()
 
     @property
@@ -110,10 +112,11 @@ class StencilStep:
     ops: tuple[str, str, str] = ("keep", "keep", "keep")
 
 
-# Draw's names for moderngl's depth functions and primitive modes
+# Draw's names for moderngl's depth functions and primitive modes (GL enums, which
+# moderngl's constants are)
 DEPTH_FUNCS = {"less": "<", "less_equal": "<=", "greater": ">", "greater_equal": ">=",
                "always": "1"}
-DRAW_MODES = {"triangles": moderngl.TRIANGLES, "triangle_strip": moderngl.TRIANGLE_STRIP}
+DRAW_MODES = {"triangles": 0x0004, "triangle_strip": 0x0005}     # GL_TRIANGLES, GL_TRIANGLE_STRIP
 
 
 @dataclass(frozen=True)

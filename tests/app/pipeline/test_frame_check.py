@@ -117,3 +117,10 @@ def test_declarator_names():
     assert declarator_names("vec3 u_a, u_b[4]") == ["u_a", "u_b"]
     assert declarator_names("highp float u_c = 1.0") == ["u_c"]
     assert declarator_names("sampler2D g_albedo") == ["g_albedo"]
+
+
+def test_draw_modes_are_moderngls():
+    """passes.py names the GL enums itself, so the CPU stage's users load no moderngl."""
+    import moderngl
+    from app.pipeline.passes import DRAW_MODES
+    assert DRAW_MODES == {"triangles": moderngl.TRIANGLES, "triangle_strip": moderngl.TRIANGLE_STRIP}
