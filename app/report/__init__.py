@@ -13,7 +13,9 @@ and never imports the benchmark.
 Modules: common (plotting and row helpers, roles, colours), spread (what counts as a
 finding), aggregate (path means, Pareto front), accuracy, path, cpu, options, maps, cutoff,
 temporal (one figure each; temporal reads DIR/temporal.csv, app.bench.temporal), tables, gpu (the modelled GPU cost, its Pareto fronts, which figure to
-believe), validation (the model beside the papers' measurements).
+believe), validation (the model beside the papers' measurements), tradeoff (the lead
+figure: image and temporal error against frame cost over cutoffs, cap policies and
+stochastic culling).
 """
 from __future__ import annotations
 
@@ -36,6 +38,7 @@ from .options import fig_option, studied_options
 from .path import fig_path, fig_path_cpu
 from .temporal import CSV as TEMPORAL_CSV, EXPLANATION as TEMPORAL_EXPLANATION, fig_temporal
 from .tables import floor_table, summary_table
+from .tradeoff import EXPLANATION as TRADEOFF_EXPLANATION, fig_tradeoff
 from .validation import validation
 
 
@@ -59,6 +62,9 @@ def write_report(out: Path, rows: list[dict], maps: dict, info: dict) -> list[st
             body += ["", extra]
         sections.append("\n".join(body) + "\n")
 
+    trows = read_csv(out / TEMPORAL_CSV) if (out / TEMPORAL_CSV).exists() else []
+    section("The whole accuracy trade-off: image error against frame cost",
+            *fig_tradeoff(rows, trows, out, colors, roles), TRADEOFF_EXPLANATION)
     section("What accuracy costs: culling waste vs frame cost", *fig_accuracy(rows, out, colors, roles))
     section("Modelled GPU cost at 1920x1080, per scene and GPU (app/model)",
             *fig_gpu_scenes(rows, out, colors, roles))
@@ -69,7 +75,6 @@ def write_report(out: Path, rows: list[dict], maps: dict, info: dict) -> list[st
     section("Measured on a real GPU against modelled", *fig_measured(rows, out, colors, info))
     section("GPU lighting time along the camera path (tree paper figure 7)",
             *fig_path(rows, out, colors, roles))
-    trows = read_csv(out / TEMPORAL_CSV) if (out / TEMPORAL_CSV).exists() else []
     section("The CPU stage's rebuild along the moving path", *fig_path_cpu(trows, out, colors, roles))
     ftable, ftext = floor_table(rows, roles)
     section(f"Shading time against the floor ({roles.floor})", None, ftext,
