@@ -485,9 +485,4 @@ class Renderer:
         self.gbuffer.release()
 
 
-def sample_positions(samples: int) -> list[tuple[float, float]]:
-    """Kept for callers not yet on `frame.limits.sample_positions(samples)` (gl.Limits)."""
-    return list(gl.limits().sample_positions(samples))
-
-
-__all__ = ["Renderer", "FrameResult", "Buffer", "TEXTURE_UNITS", "sample_positions"]
+__all__ = ["Renderer", "FrameResult", "Buffer", "TEXTURE_UNITS"]

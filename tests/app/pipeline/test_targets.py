@@ -8,7 +8,7 @@ import pytest
 
 from app.pipeline import features, gl as glmod
 from app.pipeline.passes import Buffer, Draw, Pass, StencilStep, Target
-from app.pipeline.renderer import Renderer, sample_positions
+from app.pipeline.renderer import Renderer
 from scenes.model import make_lights
 from tests.helpers import make_scene
 
@@ -103,7 +103,6 @@ def test_sample_positions_one_per_quadrant(gl):
     pos = glmod.limits().sample_positions(4)
     assert len(pos) == 4 and all(0.0 <= a < 1.0 and 0.0 <= b < 1.0 for a, b in pos)
     assert len({(int(a * 2), int(b * 2)) for a, b in pos}) == 4
-    assert sample_positions(4) == list(pos)          # the renderer's old name, until raster moves
 
 
 def test_frame_input_carries_the_renderers_limits(gl):
