@@ -237,7 +237,7 @@ def _notes(scene: str, g, roles) -> list[str]:
     """The skipped cap policies, what each cap loses, and the unbounded reference's cost."""
     pts, text = g["points"], []
     if g["skipped"]:
-        vis = mean(p.row["visible"] for p in pts if p.kind in ("radii", "cap"))
+        vis = mean(p.row["visible"] for p in pts if p.kind == "radii")      # before any cap
         text.append(f"{scene}: cap policies {', '.join(g['skipped'])} drop none of the "
                     f"{vis:.0f} visible lights (every budget holds them): not measured, they "
                     f"are the scene's radii.")

@@ -111,6 +111,7 @@ def test_figure_written_with_a_temporal_panel(tmp_path):
     assert {p.label: p.temporal for p in g["points"] if p.temporal == p.temporal} == \
         {"tiled, urp-16": 4.0, "tiled, scene radii": 0.5}
     assert "exact on the lights it kept" in "\n".join(text)
+    assert "drop none of the 200 visible lights" in "\n".join(text)
     joined = "\n".join(text)
     assert "temporal error" in joined and "FLIP" in joined and "relative RMSE" in joined
     assert "urp-16 400 of 2304" in joined
