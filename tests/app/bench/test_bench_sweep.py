@@ -6,6 +6,7 @@ import re
 import pytest
 
 from app import bench, report
+from app.bench.caps import CAPS
 from app.results import CPU_PREFIX, columns, option_studies, read_csv
 from app.techniques import REGISTRY, with_role
 from app.techniques.base import Technique
@@ -13,7 +14,8 @@ from app.techniques.base import Technique
 TINY = ["--quick", "--size", "64x36", "--scenes", "arena", "--frames", "1", "--lights", "256",
         "--repeat", "1", "--cpu-lights", "256", "--cpu-size", "96x54"]
 # the CPU series at another resolution than the rendered one: the cpu_<option> rows run too
-FIXED_PLOTS = ("accuracy_cost.png", "gpu_path.png", "cpu_stages.png", "heatmaps.png", "cutoff.png")
+FIXED_PLOTS = ("accuracy_cost.png", "gpu_path.png", "cpu_stages.png", "heatmaps.png", "cutoff.png",
+               "tradeoff.png")
 
 
 @pytest.fixture(scope="module")
@@ -32,7 +34,7 @@ def test_results_columns_and_rows(sweep):
         assert got == set(REGISTRY), f"{study}: {sorted(got)} != {sorted(REGISTRY)}"
     studies = option_studies()
     assert studies, "no option declares study values"
-    assert {r["study"] for r in rows} == {"path", "cutoff", "cpu"} | set(studies) | \
+    assert {r["study"] for r in rows} == {"path", "cutoff", "cpu", CAPS} | set(studies) | \
         {CPU_PREFIX + s for s in studies}
     for name, (spec, techs) in studies.items():
         for study in (name, CPU_PREFIX + name):
