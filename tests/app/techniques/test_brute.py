@@ -3,36 +3,9 @@ light-volume boundaries; the dump arrays' orientation (row 0 = top)."""
 import numpy as np
 import pytest
 
-from app.dump import mix
 from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY
-from cpu_prep.camera import look_at
-from tests.helpers import make_scene, random_lights
-
-
-def oracle(scene, renderer, lights):
-    """(count, hash, near_boundary) per pixel, image order, in float64."""
-    pos = renderer.gbuffer.read_position()[::-1].astype(np.float64)     # image order
-    h, w, _ = pos.shape
-    P = pos[..., :3].reshape(-1, 1, 3)
-    m = look_at(scene.camera.position, scene.camera.target, scene.camera.up)
-    L = lights["position"].astype(np.float64) @ m[:3, :3].T + m[:3, 3]
-    D = lights["direction"].astype(np.float64) @ m[:3, :3].T
-    D /= np.linalg.norm(D, axis=1, keepdims=True)
-    v = P - L[None]
-    dist = np.linalg.norm(v, axis=2)
-    r = lights["radius"].astype(np.float64)[None]
-    cos_o = lights["cos_outer"].astype(np.float64)[None]
-    spot = (lights["type"] == 1)[None]
-    along = np.einsum("pij,ij->pi", v, D) / np.maximum(dist, 1e-30)
-    inside = (dist < r) & (~spot | (along > cos_o))
-    near = (np.abs(dist - r) < 1e-4 * r) | (spot & (np.abs(along - cos_o) < 1e-4))
-    valid = pos[..., 3].reshape(-1) > 0
-    inside &= valid[:, None]
-    ids = mix(np.arange(len(lights)))
-    count = inside.sum(1)
-    hashes = np.bitwise_xor.reduce(np.where(inside, ids[None], 0).astype(np.uint32), axis=1)
-    return count.reshape(h, w), hashes.reshape(h, w), (near & valid[:, None]).any(1).reshape(h, w)
+from tests.helpers import make_scene, pixel_oracle, random_lights
 
 
 @pytest.mark.parametrize("size", [(96, 64), (1, 1), (333, 217)])
@@ -41,7 +14,7 @@ def test_brute_matches_float64_oracle(gl, rng, size):
     scene = make_scene(lights, size=size)
     with Renderer(scene) as r:
         res = r.render(REGISTRY["brute"])
-        count, hashes, near = oracle(scene, r, lights)
+        count, hashes, near, _ = pixel_oracle(r, lights, scene.camera)
     ok = ~near
     assert res.contrib_count.shape == (size[1], size[0])
     assert np.array_equal(res.contrib_count[ok], count[ok])

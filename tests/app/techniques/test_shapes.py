@@ -8,28 +8,12 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from app.dump import mix
 from app.pipeline import features
 from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY
 from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_SPOT, LIGHT_TYPES, Camera
-from tests.helpers import CAMERA, affects64, assert_exact, make_scene, random_shapes, render_all, render_on
+from tests.helpers import CAMERA, affects64, assert_exact, make_scene, pixel_oracle, random_shapes, render_all, render_on
 
-
-
-def oracle(renderer, lights, camera=CAMERA):
-    """(count, hash, near boundary) per pixel, image order, from affects64."""
-    from cpu_prep.camera import look_at
-    pos = renderer.gbuffer.read_position()[::-1].astype(np.float64)
-    h, w, _ = pos.shape
-    inside, near = affects64(pos[..., :3].reshape(-1, 3), lights,
-                             look_at(camera.position, camera.target, camera.up))
-    valid = pos[..., 3].reshape(-1) > 0
-    inside &= valid[:, None]
-    ids = mix(np.arange(len(lights)))
-    count = inside.sum(1)
-    hashes = np.bitwise_xor.reduce(np.where(inside, ids[None], 0).astype(np.uint32), axis=1)
-    return count.reshape(h, w), hashes.reshape(h, w), (near & valid[:, None]).any(1).reshape(h, w), inside
 
 
 def test_brute_matches_the_float64_light_model_for_every_shape(gl):
@@ -37,7 +21,7 @@ def test_brute_matches_the_float64_light_model_for_every_shape(gl):
     lights = random_shapes(rng, 240, (-14, -1, -34), (14, 7, 6))
     with Renderer(make_scene(lights, size=(96, 64))) as r:
         res = r.render(REGISTRY["brute"])
-        count, hashes, near, inside = oracle(r, lights)
+        count, hashes, near, inside = pixel_oracle(r, lights)
     ok = ~near
     assert ok.mean() > 0.8
     assert np.array_equal(res.contrib_count[ok], count[ok])
@@ -77,7 +61,7 @@ def test_eye_inside_and_shapes_across_the_near_plane(gl, kind):
     scene = make_scene(lights, size=(64, 40))
     with Renderer(scene) as r:
         res = render_on(r)
-        count, hashes, nb, _ = oracle(r, lights)
+        count, hashes, nb, _ = pixel_oracle(r, lights)
     assert_exact(res, f"{LIGHT_TYPES[kind]} around the eye")
     ok = ~nb
     assert np.array_equal(res["brute"].contrib_count[ok], count[ok])

@@ -172,26 +172,11 @@ def test_lights_on_zbin_boundaries(gl, seed):
     range ends exactly on it, small lights on its pixels: the z-bin variants exact, brute
     against the float64 reference."""
     from tests.app.techniques.test_hard_cases import (F32_EPS, Frame, axis_camera, concat,
-                                                      scene_of, tie_radius, wall)
+                                                      lights_ending_on, scene_of, wall)
     rng = np.random.default_rng(seed)
     with Frame(scene_of([wall(13.7)], axis_camera(fov=60.0, near=0.1, far=1e4), size=(32, 24))) as f:
-        px = f.pos[..., 3] > 0
-        b = float(np.median(f.pos[..., 3][px]))
-        ys, xs = np.nonzero(px)
-        m = 24
-        i = rng.integers(0, len(ys), m)
-        P = f.pos[ys[i], xs[i], :3].astype(np.float64)
-        r = rng.uniform(0.001, 0.3, m) * b
-        sign = np.where(np.arange(m) % 2 == 0, 1.0, -1.0)
-        delta = np.where(np.arange(m) % 4 == 0, -1e-4, rng.uniform(-4, 4, m) * F32_EPS)
-        A = make_lights(m)
-        A["position"], A["radius"] = tie_radius(P, P + sign[:, None] * np.array([0, 0, 1.0]) * r[:, None], delta)
-        B = make_lights(8)                              # depth ranges ending on the wall
-        rb = rng.uniform(0.001, 0.3, 8) * b
-        B["position"] = np.column_stack([rng.uniform(-0.4, 0.4, (8, 2)) * b,
-                                         -(b - np.where(np.arange(8) % 2 == 0, 1.0, -1.0) * rb)])
-        B["radius"] = rb
-        L = concat(A, B, f.anchors(rng, 6, radius=(0.05, 0.5)))   # anchors: surely lit
+        L, b = lights_ending_on(rng, f, f.pos[..., 3] > 0)
+        L = concat(L, f.anchors(rng, 6, radius=(0.05, 0.5)))     # anchors: surely lit
         bins, k = 8096, 600
         for ulps in (-3, -1, 0, 1, 3):
             f.scene.max_depth = b * bins / k * (1 + ulps * F32_EPS)
