@@ -39,7 +39,14 @@ Studies (column `study`):
                 values, over the techniques that declare it, on the study scene (frame 0)
     <option>@<scene>  the same in a scene of its own (OptionSpec.also_study), read by the
                 technique's notes (raster_variant@contention)
-    cutoff      the light cutoff against an unbounded reference, every technique
+    cutoff      the light cutoff against an unbounded reference, every technique (with
+                stochastic culling's budgets where the preset asks: app.bench.cutoff)
+    caps        the list techniques under each engine cap policy that drops lights in
+                the caps scene (app.bench.caps): cost, image error, the intended loss
+    temporal    consecutive frames of a path with moving lights (app.bench.temporal):
+                temporal error and popping against the unbounded reference
+    growth      the CPU stage alone from 8,192 doubling to 1,048,576 lights, one and two
+                threads, each build's buffer bytes in stats (app.bench.cpu --growth)
     cpu         the CPU stage alone (technique.build + upload) at the CPU series' resolution
     cpu_<option> the CPU stage alone over an option study's values at the CPU series'
                 resolution (only when it differs from the rendered one); never to be added
