@@ -126,8 +126,8 @@ def preset_from_args(args) -> Preset:
         if not scenes:
             raise UserError("--scenes names no scene")
         ch.update(scenes=scenes, study_scene=scenes[0], heat_scene=scenes[-1],
-                  cpu_scene=scenes[0], cutoff_scenes=scenes[:1], caps_scenes=scenes[:1],
-                  paper_size=None,
+                  cpu_scene=scenes[0], cutoff_scenes=scenes[:1],
+                  caps_scenes=scenes[:1] if preset.caps_scenes else (), paper_size=None,
                   also_studies=False)
     if args.lights:
         lights = int_list(args.lights, "--lights")

@@ -96,3 +96,18 @@ def test_rows_lose_pixels_and_image_where_capped(series):
         a, b = (by[(t, pol)] for t in RENDERED)
         assert json.loads(a["stats"])["lost_pixels"] == json.loads(b["stats"])["lost_pixels"]
         assert a["image_error"] == pytest.approx(b["image_error"], rel=1e-4)
+
+
+def test_presets_wire_the_series():
+    """quick and full run it in the arena at the cutoff study's light count, gpu-check not;
+    --scenes and --lights narrow it as they narrow the cutoff study."""
+    from argparse import Namespace
+    from app.bench.presets import FULL, GPU_CHECK, preset_from_args
+    for p in (QUICK, FULL):
+        assert p.caps_scenes == ("arena",) and p.caps_lights == p.cutoff_lights
+    assert GPU_CHECK.caps_scenes == ()
+    blank = dict(full=False, gpu_check=False, size=None, scenes=None, lights=None, frames=None,
+                 repeat=None, cpu_lights=None, cpu_size=None, threads=None)
+    p = preset_from_args(Namespace(**dict(blank, scenes="city,arena", lights="512,1024")))
+    assert p.caps_scenes == ("city",) and p.caps_lights == 512
+    assert preset_from_args(Namespace(**dict(blank, gpu_check=True, scenes="city"))).caps_scenes == ()
