@@ -1,8 +1,25 @@
 """The light cutoff rule: each light's radius from the threshold where its unbounded falloff
-becomes negligible, and the unbounded reference's lights (the `cutoff` study)."""
+becomes negligible, and the unbounded reference's lights (the `cutoff` study).  Beside the
+cutoff levels the study runs stochastic light culling (cpu_prep.stochastic) at a few budgets
+t = 1/N, which share the cutoff's parameter: at xi = 1 its range is the cutoff's radius."""
 from __future__ import annotations
 
 import numpy as np
+
+from ..techniques.options import stochastic
+
+# stochastic culling in the cutoff study: budgets N (t = 1/N), one draw (seed 0, frame 0),
+# two list techniques (the quick report's few extra configurations: 2 cutoff scenes x 2
+# budgets x 2 techniques, ~7 s on 2 cores at 320x180 with 2,048 lights, most of it the
+# reference's frame of each draw, which their exactness needs; brute timed as well: ~20 s more)
+STOCHASTIC_BUDGETS = (256, 4096)
+STOCHASTIC_TECHNIQUES = ("tiled", "clustered")
+
+
+def stochastic_draw(opts) -> tuple:
+    """(budget, seed, frame) of options with stochastic culling on, else (): what a
+    reference frame of the same draw is keyed by."""
+    return stochastic(opts) or ()
 
 
 def light_intensity(lights: np.ndarray) -> np.ndarray:

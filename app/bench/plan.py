@@ -12,6 +12,7 @@ from typing import Callable
 from ..results import option_studies
 from ..techniques import REGISTRY, with_role
 from ..techniques.options import TechniqueOptions
+from .cutoff import STOCHASTIC_BUDGETS, STOCHASTIC_TECHNIQUES
 from .presets import Preset
 
 
@@ -24,10 +25,13 @@ class Job:
     technique: str                # a REGISTRY id
     opts: TechniqueOptions        # that technique's own Options
     cutoff: int = 0               # 0: the scene's own radii; -1: unbounded reference; t = 1/cutoff
+                                  # (a stochastic job of the cutoff study: 0, opts.stochastic N)
 
     def describe(self) -> str:
         if self.study == "cutoff":
-            extra = "unbounded" if self.cutoff < 0 else f"t=1/{self.cutoff}"
+            budget = getattr(self.opts, "stochastic", 0)
+            extra = "unbounded" if self.cutoff < 0 else f"stochastic t=1/{budget}" if budget \
+                else f"t=1/{self.cutoff}"
         elif self.study.split("@")[0] in self.opts.as_dict():
             name = self.study.split("@")[0]
             extra = f"{name}={getattr(self.opts, name)}"
@@ -70,6 +74,8 @@ def plan(p: Preset, light_counts: Callable[[str, tuple], tuple[int, ...]]) -> li
             jobs.append(Job("cutoff", scene, n, 0, ref, default[ref], cutoff=-1))
             for c in p.cutoffs:
                 jobs += [Job("cutoff", scene, n, 0, t, default[t], cutoff=c) for t in names]
+            jobs += [Job("cutoff", scene, n, 0, t, default[t].with_(stochastic=c))
+                     for c in STOCHASTIC_BUDGETS for t in STOCHASTIC_TECHNIQUES if t in default]
     # studies that also run in a scene of their own (OptionSpec.also_study), rendered last
     for study, (spec, techs) in (option_studies().items() if p.option_studies and p.also_studies
                                  else ()):

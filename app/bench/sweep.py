@@ -39,10 +39,11 @@ from .. import cli
 from ..model import predict
 from ..results import CPU_PREFIX, STAGES, columns, option_studies, read_csv, stats, write_csv
 from ..techniques import REGISTRY, with_role
+from ..techniques.options import STOCHASTIC_NAMES
 from . import measure
 from .caps import CAPS, loss_cells, with_caps_jobs
 from .cpu import cpu_stage_samples, set_cpu_threads
-from .cutoff import cutoff_lights, unbounded_lights
+from .cutoff import cutoff_lights, stochastic_draw, unbounded_lights
 from .machine import machine_info
 from .plan import Job, plan, study_scene
 from .presets import Preset, preset_from_args
@@ -59,7 +60,8 @@ class Sweep:
         self.rows: list[dict] = []
         self.maps: dict[str, np.ndarray] = {}
         self.warm: set = set()
-        self.refs: dict = {}          # (scene, lights, frame, cutoff) -> the reference's FrameResult
+        # (scene, lights, frame, cutoff, stochastic draw) -> the reference's FrameResult
+        self.refs: dict = {}
         self.light_sets: dict = {}    # (scene, lights, cutoff) -> light array
         self.scenes: dict = {}
         self.reference = with_role("reference").name
@@ -107,11 +109,14 @@ class Sweep:
                                samples=samples)
 
     def reference_frame(self, renderer, job: Job, cutoff: int):
-        """The reference's frame for the job's scene, lights, frame and `cutoff`."""
-        key = (job.scene, job.lights, job.frame, cutoff)
+        """The reference's frame for the job's scene, lights, frame and `cutoff` (and the
+        job's stochastic draw, but for the unbounded reference)."""
+        draw = stochastic_draw(job.opts) if cutoff >= 0 else ()
+        key = (job.scene, job.lights, job.frame, cutoff, draw)
         if key not in self.refs:
             ref = REGISTRY[self.reference]
-            ref_job = replace(job, technique=ref.name, opts=ref.Options(), cutoff=cutoff)
+            opts = ref.Options.make(dict(zip(STOCHASTIC_NAMES, draw)))
+            ref_job = replace(job, technique=ref.name, opts=opts, cutoff=cutoff)
             self.refs[key] = self.render(renderer, ref_job, True)
         return self.refs[key]
 
@@ -129,7 +134,8 @@ class Sweep:
         self.warm.add(key)
         heavy = measure.evaluated_per_pixel(res) > self.p.heavy_eval_pp
         if job.technique == self.reference:
-            self.refs[(job.scene, job.lights, job.frame, job.cutoff)] = res
+            ref_key = (job.scene, job.lights, job.frame, job.cutoff, stochastic_draw(job.opts))
+            self.refs[ref_key] = res
         want = self.p.heavy_repeat if heavy else \
             self.p.repeat if job.study in ("path", "cutoff") else self.p.study_repeat
         row = self.row(job, res, renderer)
@@ -296,9 +302,9 @@ class Sweep:
         p = self.p
         studies = {study_scene(p, spec) for spec, _ in option_studies().values()}
         for key in list(self.refs):
-            scene, n, frame, cut = key
+            scene, n, frame, cut, draw = key
             keep = (scene == job.scene and n == job.lights and frame == job.frame) or \
-                   (scene in studies and frame == 0 and cut == 0 and
+                   (scene in studies and frame == 0 and cut == 0 and not draw and
                     n == self.light_counts(scene, (p.study_lights,))[0])
             if not keep:
                 del self.refs[key]
