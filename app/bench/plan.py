@@ -32,6 +32,8 @@ class Job:
             budget = getattr(self.opts, "stochastic", 0)
             extra = "unbounded" if self.cutoff < 0 else f"stochastic t=1/{budget}" if budget \
                 else f"t=1/{self.cutoff}"
+        elif self.study == "caps":
+            extra = self.opts.choice_name("cap_policy")
         elif self.study.split("@")[0] in self.opts.as_dict():
             name = self.study.split("@")[0]
             extra = f"{name}={getattr(self.opts, name)}"

@@ -42,7 +42,7 @@ from ..techniques import REGISTRY, with_role
 from ..techniques.options import STOCHASTIC_NAMES
 from . import measure
 from .caps import CAPS, loss_cells, with_caps_jobs
-from .cpu import cpu_stage_samples, set_cpu_threads
+from .cpu import cpu_stage_samples, preset_growth, set_cpu_threads
 from .cutoff import cutoff_lights, stochastic_draw, unbounded_lights
 from .machine import machine_info
 from .plan import Job, plan, study_scene
@@ -254,6 +254,7 @@ class Sweep:
         measure.fill_floor_positions(self.rows, self.reference, self.floor)
         self.paper_series()
         self.cpu_series()
+        self.rows += preset_growth(self.p, self.progress)      # issue 23 item 4 (none: ())
         return self.rows
 
     # ---- the papers' settings, modelled only ------------------------------------------------
@@ -420,6 +421,9 @@ def sweep_main(argv) -> None:
                    help="override: timing samples per configuration (option studies included)")
     p.add_argument("--cpu-lights", help="override: light counts of the CPU series")
     p.add_argument("--cpu-size", type=cli.parse_size, help="override: WxH of the CPU series")
+    p.add_argument("--growth-lights", help="override: light counts of the CPU stage's growth "
+                                           "series (quick and full: 8,192 doubling to 1,048,576; "
+                                           "0: none)")
     p.add_argument("--threads", type=int, help="numba threads of the CPU stage (default 1, "
                                                "as the paper's figure 4; 0: numba's default)")
     p.add_argument("--papers", action=argparse.BooleanOptionalAction, default=None,

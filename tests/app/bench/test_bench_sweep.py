@@ -7,12 +7,13 @@ import pytest
 
 from app import bench, report
 from app.bench.caps import CAPS
+from app.bench.cpu import GROWTH
 from app.results import CPU_PREFIX, columns, option_studies, read_csv
 from app.techniques import REGISTRY, with_role
 from app.techniques.base import Technique
 
 TINY = ["--quick", "--size", "64x36", "--scenes", "arena", "--frames", "1", "--lights", "256",
-        "--repeat", "1", "--cpu-lights", "256", "--cpu-size", "96x54"]
+        "--repeat", "1", "--cpu-lights", "256", "--cpu-size", "96x54", "--growth-lights", "256,512"]
 # the CPU series at another resolution than the rendered one: the cpu_<option> rows run too
 FIXED_PLOTS = ("accuracy_cost.png", "gpu_path.png", "cpu_stages.png", "heatmaps.png", "cutoff.png",
                "tradeoff.png")
@@ -34,7 +35,7 @@ def test_results_columns_and_rows(sweep):
         assert got == set(REGISTRY), f"{study}: {sorted(got)} != {sorted(REGISTRY)}"
     studies = option_studies()
     assert studies, "no option declares study values"
-    assert {r["study"] for r in rows} == {"path", "cutoff", "cpu", CAPS} | set(studies) | \
+    assert {r["study"] for r in rows} == {"path", "cutoff", "cpu", CAPS, GROWTH} | set(studies) | \
         {CPU_PREFIX + s for s in studies}
     for name, (spec, techs) in studies.items():
         for study in (name, CPU_PREFIX + name):
@@ -51,7 +52,8 @@ def test_results_columns_and_rows(sweep):
 def test_exactness_waste_and_cost(sweep):
     _, rows = sweep
     ref, floor = with_role("reference").name, with_role("floor").name
-    rendered = [r for r in rows if not r["study"].startswith(CPU_PREFIX) and r["study"] != "cpu"]
+    rendered = [r for r in rows if not r["study"].startswith(CPU_PREFIX)
+                and r["study"] not in ("cpu", GROWTH)]
     assert rendered
     for r in rendered:
         where = f"{r['study']} {r['technique']} cutoff {r['cutoff']}"
