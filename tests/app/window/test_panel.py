@@ -157,7 +157,8 @@ def test_hud_text_and_view_notes():
     tree, ignored = opts.for_technique(REGISTRY["tree"])
     assert type(tree) is REGISTRY["tree"].Options and tree.tile == 32 and ignored == ()
     brute, ignored = opts.for_technique(REGISTRY["brute"])
-    assert brute.as_dict() == {} and ignored == ("lights_per_leaf", "tile")
+    # brute takes neither: its own options (stochastic culling's) stay at their defaults
+    assert brute == REGISTRY["brute"].Options() and ignored == ("lights_per_leaf", "tile")
     assert opts.hud_line(REGISTRY["tree"]) == "options: --tile 32  --lights-per-leaf 2"
     line = opts.hud_line(REGISTRY["brute"])
     assert line == "options: defaults   (not taken by brute: --tile 32  --lights-per-leaf 2)"

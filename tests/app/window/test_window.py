@@ -264,7 +264,7 @@ def test_options_per_technique():
     assert tree["technique"] == "tree" and tree["ignored_options"] == []
     assert tree["options"]["tile"] == 32 and tree["options"]["lights_per_leaf"] == 2
     assert tree["grid"] == {"tile": 32, "tiles": [5, 3], "slices": 1}
-    assert brute["technique"] == "brute" and brute["options"] == {}
+    assert brute["technique"] == "brute" and brute["options"] == REGISTRY["brute"].Options().as_dict()
     assert brute["ignored_options"] == ["lights_per_leaf", "tile"] and brute["grid"] is None
     assert clustered["options"]["tile"] == 32 and clustered["ignored_options"] == ["lights_per_leaf"]
     assert clustered["grid"]["tile"] == 32 and clustered["grid"]["slices"] > 1
