@@ -168,6 +168,15 @@ def _index(ctx: FieldChecker, v, field: str, items: list, what: str) -> int:
     return v
 
 
+def _nodes_naming(ctx: FieldChecker, walk, nodes: list, key: str, items: list, what: str):
+    """(node, its world matrix, the index it names, that item's field, the item) for every
+    node of `walk` that names one of `items` by `key` (a node's "mesh" or "camera")."""
+    for n, world in walk:
+        if key in nodes[n]:
+            i = _index(ctx, nodes[n][key], f"nodes[{n}].{key}", items, what)
+            yield n, world, i, f"{what}[{i}]", ctx.obj(items[i], f"{what}[{i}]")
+
+
 def _count(ctx: FieldChecker, v, field: str, lo: int = 0) -> int:
     if isinstance(v, bool) or not isinstance(v, int) or v < lo:
         ctx.fail(field, f"must be an integer >= {lo} (got {show(v)})")
@@ -429,12 +438,7 @@ def _geometry(ctx: FieldChecker, h: dict, buffers: list[bytes], walk, notes: lis
     index = {}            # (mesh, primitive) -> its row in prims, NO_SURFACE, or None (empty)
     instances = []        # (row in prims, node world matrix, node)
     skipped = 0
-    for n, world in walk:
-        if "mesh" not in nodes[n]:
-            continue
-        mi = _index(ctx, nodes[n]["mesh"], f"nodes[{n}].mesh", gltf_meshes, "meshes")
-        fm = f"meshes[{mi}]"
-        m = ctx.obj(gltf_meshes[mi], fm)
+    for n, world, mi, fm, m in _nodes_naming(ctx, walk, nodes, "mesh", gltf_meshes, "meshes"):
         for j, p in enumerate(ctx.arr(ctx.req(m, "primitives", fm + ".primitives"), fm + ".primitives")):
             if (mi, j) not in index:
                 row = _primitive(ctx, h, buffers, p, f"{fm}.primitives[{j}]")
@@ -619,12 +623,7 @@ def _camera(ctx: FieldChecker, h: dict, walk, meshes: list[Mesh], lights: np.nda
     nodes = h.get("nodes", [])
     cameras = ctx.arr(h.get("cameras", []), "cameras")
     ortho = 0
-    for n, world in walk:
-        if "camera" not in nodes[n]:
-            continue
-        k = _index(ctx, nodes[n]["camera"], f"nodes[{n}].camera", cameras, "cameras")
-        fc = f"cameras[{k}]"
-        cam = ctx.obj(cameras[k], fc)
+    for n, world, k, fc, cam in _nodes_naming(ctx, walk, nodes, "camera", cameras, "cameras"):
         t = ctx.req(cam, "type", fc + ".type")
         if t == "orthographic":
             ortho += 1
