@@ -211,7 +211,15 @@ def _rivals(rs) -> str:
 
 
 def _panel(ax, pts, metric: str, colors, reference) -> None:
-    """One panel: every point with its cost's min-max, the front, the choices labelled."""
+    """One panel: every point with its cost's min-max, the front, the choices labelled (a
+    metric no point of this scene has, e.g. the temporal series' in another scene: a note)."""
+    pts = [p for p in pts if p.cost.med > 0]          # log axes: a cost of 0 has no place
+    if not pts:
+        ax.text(0.5, 0.5, f"no {METRICS[metric][0]} in this scene", ha="center", va="center",
+                transform=ax.transAxes, fontsize=9, color="0.4")
+        ax.set_xticks([])
+        ax.set_yticks([])
+        return
     y = lambda p: max(p.err(metric), 1e-7)           # log axes: an error of 0 drawn at 1e-7
     for p in pts:
         c = colors(p.technique)

@@ -117,3 +117,15 @@ def test_figure_written_with_a_temporal_panel(tmp_path):
     assert "urp-16 400 of 2304" in joined
     # no rows of either study: no figure
     assert fig_tradeoff([r for r in rows if r["study"] == "path"], [], tmp_path, colors, ROLES) == (None, [])
+
+
+def test_a_scene_without_temporal_rows_gets_a_note_not_a_panel(tmp_path):
+    """The temporal series runs in one scene; the cutoff study in two: the other scene's
+    temporal panel says it has none (an empty log axis stopped the report)."""
+    rows = rows_set() + [dict(r, scene="city") for r in rows_set()]
+    trows = [{"scene": "arena", "lights": 256.0, "kind": "technique", "technique": "tiled",
+              "policy": "none", "cutoff": 0.0, "temporal_error_pct": 0.5}]
+    colors = Colors([r["technique"] for r in rows], ROLES)
+    png, text = fig_tradeoff(rows, trows, tmp_path, colors, ROLES)
+    assert png == "tradeoff.png" and (tmp_path / png).stat().st_size > 10_000
+    assert any("city" in t for t in text)
