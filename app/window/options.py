@@ -72,7 +72,12 @@ class WindowOptions:
         """'options: --tile 32' (the given flags this technique takes, and the panel's
         changes) and the ignored ones."""
         opts, ignored = self.for_technique(technique)
-        shown = lambda keys, src: "  ".join(f"{flag(k)} {describe(src[k])}" for k in keys)
+        specs = {s.name: s for s in technique.Options.specs()}
+
+        def value(k, v) -> str:      # a choice by its name, quoted as a shell would take it
+            s = specs.get(k)
+            return f'"{s.label(s.check(v))}"' if s is not None and s.choices else describe(v)
+        shown = lambda keys, src: "  ".join(f"{flag(k)} {value(k, src[k])}" for k in keys)
         taken = {k: v for k, v in self.given.items() if k not in ignored}
         taken.update(self.changed.get(technique.name, {}))
         text = "options: " + (shown(taken, taken) if taken else "defaults")

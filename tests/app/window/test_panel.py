@@ -70,6 +70,8 @@ def test_a_choice_option_is_a_combo_of_its_names():
     assert p.control("fptl_variant").value == spec.choices[2]
     with pytest.raises(UserError, match="must be one of 0 "):
         p.apply("fptl_variant", "no such variant")
+    assert s.options.hud_line(REGISTRY["fptl"]) == f'options: --fptl-variant "{spec.choices[2]}"'
+
 
 
 def test_panel_display_and_lights_controls():
