@@ -54,6 +54,9 @@ def frame_figures(c, state, *, lights: int, size, recorder, cam, reference: str)
         **c.sums, "lit": c.extra["lit"],
         "cpu_ms": _ms(m["cpu_ms"]), "gpu_ms": _ms(m["gpu_ms"]), "setup_ms": _ms(m["setup_ms"]),
         "options": m["options"], "ignored_options": list(ignored),
+        # a cap policy's frame differs from brute on purpose: the HUD says by how much
+        "capped": ({"policy": m["stats"]["cap_policy"], "lights": int(m["stats"]["capped_lights"])}
+                   if "cap_policy" in m["stats"] else None),
         "grid": c.overlay.as_dict(),
         "exposure": round(float(c.exposure), 6), "exposure_auto": state.exposure_auto,
         "ambient": state.ambient, "heat_max": heat_top(state, c.sums, c.split),

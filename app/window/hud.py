@@ -28,7 +28,8 @@ def hud_lines(f: dict, *, position: str, role: str, software: bool, playing: boo
         f"{f['technique']}{tag} ({position})   view: {f['view']}   "
         f"{f['size'][0]}x{f['size'][1]}" + ("   path" if playing else "") + (f"   {status}" if status else ""),
         f"lights {f['lights']}   visible {f['visible_lights']}   "
-        f"evaluated/px {f['evaluated_per_pixel']:.2f}   exact/px {f['exact_per_pixel']:.2f}",
+        f"evaluated/px {f['evaluated_per_pixel']:.2f}   exact/px {f['exact_per_pixel']:.2f}"
+        + capped_text(f.get("capped")),
         f"CPU {sum(cpu.values()):.1f} ms: " + "  ".join(f"{k} {v:.1f}" for k, v in cpu.items()),
         f"GPU {sum(gpu.values()):.1f} ms{wall}: " + "  ".join(f"{k} {v:.1f}" for k, v in gpu.items()),
     ]
@@ -48,6 +49,13 @@ def hud_lines(f: dict, *, position: str, role: str, software: bool, playing: boo
     if message:
         lines.append(message)
     return lines
+
+
+def capped_text(capped) -> str:
+    """'   capped: 496 lights dropped by urp-16 (not exact, on purpose)', or '' without a cap."""
+    if not capped:
+        return ""
+    return f"   capped: {capped['lights']} lights dropped by {capped['policy']} (not exact, on purpose)"
 
 
 def title(f: dict) -> str:

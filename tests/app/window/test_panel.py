@@ -175,6 +175,10 @@ def test_hud_text_and_view_notes():
                       exposure=exposure_text(4.0, True, 0.02))
     assert lines[0].startswith("brute [reference] (1/6)   view: heat")
     assert line in lines and "exposure auto x4 (EV +2.0)   ambient 0.02 (display only)" in lines
+    assert "capped" not in lines[1]
+    capped = hud_lines(dict(f, capped={"policy": "urp-16", "lights": 15}), position="1/6",
+                       role="technique", software=True, playing=False, options=line, note=None)
+    assert capped[1].endswith("capped: 15 lights dropped by urp-16 (not exact, on purpose)")
 
 
 def test_one_heat_definition_and_exposure():
