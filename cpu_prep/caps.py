@@ -129,11 +129,12 @@ def apply(policy: str, scene_lights: np.ndarray, view_from_world: np.ndarray,
     return keyed[kept], depth[kept], np.sort(ids[~kept]).astype(np.uint32)
 
 
-def without(scene_lights: np.ndarray, ids: np.ndarray, view_from_world: np.ndarray) -> np.ndarray:
-    """A copy of the scene's lights in which the lights `ids` reach nothing and are culled
-    (no volume, behind the eye), every id unchanged: the frame a capped technique is exact
-    against (app.exactness)."""
-    out = scene_lights.copy()
+def without(scene_lights: np.ndarray, ids: np.ndarray, view_from_world: np.ndarray,
+            copy: bool = True) -> np.ndarray:
+    """A copy of the scene's lights (copy=False: the array itself, which the caller owns) in
+    which the lights `ids` reach nothing and are culled (no volume, behind the eye), every
+    id unchanged: the frame a capped technique is exact against (app.exactness)."""
+    out = scene_lights.copy() if copy else scene_lights
     ids = np.asarray(ids, np.int64)
     world_from_view = np.linalg.inv(np.asarray(view_from_world, np.float64))
     behind = world_from_view @ np.array([0.0, 0.0, 1.0e3, 1.0])   # view -z is forward

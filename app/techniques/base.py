@@ -167,7 +167,7 @@ def stochastic_ranges(frame: FrameInput, budget: int, seed: int, draw_frame: int
     lights, alpha, dark = stochmod.stochastic_lights(frame.lights, 1.0 / budget, seed, draw_frame,
                                                      eye, frame.camera.far)
     if len(dark):
-        lights = caps.without(lights, dark, view)
+        lights = caps.without(lights, dark, view, copy=False)    # stochastic_lights' own copy
     return lights, alpha, dark
 
 
