@@ -18,6 +18,7 @@ the number they always have.
 from __future__ import annotations
 
 from dataclasses import MISSING, dataclass, field, fields, replace
+from typing import ClassVar
 import math
 
 from cpu_prep import caps, limits, stochastic as stochmod, tree as treemod
@@ -272,7 +273,18 @@ class CapOptions(TechniqueOptions):
     cap_policy: int = choice(caps.NONE, caps.NAMES,
                              "an engine's light cap on the view's visible lights, the over-cap "
                              "ones dropped in that engine's order (none: never drop; a capped "
-                             "frame differs from brute on purpose, and --check counts the loss)")
+                             "frame differs from brute on purpose, and --check counts the loss; "
+                             "hdrp-fptl-*: per 16x16 tile, fptl only)")
+    # a technique whose own list build applies the per-tile policies (caps.TILE_NAMES) says so
+    tile_caps: ClassVar[bool] = False
+
+    def check_modes(self) -> None:
+        super().check_modes()
+        policy = cap_policy(self)
+        if caps.per_tile(policy) and not self.tile_caps:
+            raise UserError(f"--cap-policy {policy} caps each 16x16 tile's fine-pruned list "
+                            f"(HDRP FPTL): only fptl's list build takes it; this technique "
+                            f"takes the view's caps ({', '.join(n for n in caps.NAMES if not caps.per_tile(n))})")
 
 
 @dataclass(frozen=True)
