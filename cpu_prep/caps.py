@@ -13,8 +13,12 @@ which lights of a group over its budget go first:
     "nearest"  the nearest to the camera are kept: Euclidean distance from the eye to the
                light's position (its centre; a spot's apex), ties broken by scene id
 
-The per-tile caps (HDRP FPTL 24 / 63 lights a 16x16 tile and category) act inside a tile's
-list build and are not here.
+    "hdrp-key" HDRP's light sort key (per_tile policies): the lowest keys are kept
+
+A per_tile policy (HDRP FPTL: 24 or 63 lights of each category in a 16x16 tile's fine-pruned
+list) drops nothing from the view: it acts inside fptl's per-tile list build
+(app/techniques/fptl.py, glsl/fptl_lists.comp), and tile_keep() here is its CPU statement,
+from which the exactness check computes the lights each tile must keep (app/tile_caps.py).
 """
 from __future__ import annotations
 
@@ -25,7 +29,7 @@ import numpy as np
 from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT
 
 NONE = "none"
-SCENE_ORDER, NEAREST = "scene", "nearest"
+SCENE_ORDER, NEAREST, HDRP_KEY = "scene", "nearest", "hdrp-key"
 ALL_TYPES = (LIGHT_POINT, LIGHT_SPOT, LIGHT_CAPSULE, LIGHT_BOX)
 
 
@@ -33,12 +37,51 @@ ALL_TYPES = (LIGHT_POINT, LIGHT_SPOT, LIGHT_CAPSULE, LIGHT_BOX)
 class Policy:
     name: str
     budgets: tuple[tuple[tuple[int, ...], int], ...]   # ((light types, most kept), ...)
-    order: str                                          # SCENE_ORDER | NEAREST
+    order: str                                          # SCENE_ORDER | NEAREST | HDRP_KEY
     source: str                                         # where the engine does it
+    per_tile: bool = False                              # budgets per 16x16 tile (fptl only)
 
     def __post_init__(self) -> None:
-        if self.order not in (SCENE_ORDER, NEAREST) or any(n < 1 for _, n in self.budgets):
+        if self.order not in (SCENE_ORDER, NEAREST, HDRP_KEY) or any(n < 1 for _, n in self.budgets) \
+                or (self.order == HDRP_KEY) != self.per_tile:
             raise ValueError(f"cap policy {self.name}: order {self.order!r}, budgets {self.budgets}")
+
+
+# HDRP's classification of the lab's shapes (HDRenderPipeline.EvaluateGPULightType, LightLoop.cs):
+# (LightCategory, GPULightType, LightVolumeType) with the enums of LightLoop.cs.hlsl and
+# LightDefinitions.cs: Punctual 0 / Area 1; Point 1, Spot 2, ProjectorBox 4, Tube 5; Cone 0,
+# Sphere 1, Box 2.  A point is a Point (sphere volume), a spot a cone Spot, a box HDRP's
+# box-shaped spot (ProjectorBox, box volume), a capsule HDRP's tube area light (box volume).
+HDRP_CLASS = {LIGHT_POINT: (0, 1, 1), LIGHT_SPOT: (0, 2, 0), LIGHT_BOX: (0, 4, 2),
+              LIGHT_CAPSULE: (1, 5, 2)}
+HDRP_PUNCTUAL, HDRP_AREA = (LIGHT_POINT, LIGHT_SPOT, LIGHT_BOX), (LIGHT_CAPSULE,)
+assert {HDRP_CLASS[t][0] for t in HDRP_PUNCTUAL} == {0} and HDRP_CLASS[LIGHT_CAPSULE][0] == 1
+_HDRP_CLASS_KEY = np.array([(c << 10 | g << 5 | v) for c, g, v in
+                            (HDRP_CLASS[t] for t in range(len(ALL_TYPES)))], np.uint64)
+
+
+def hdrp_sort_key(types: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """(N,) uint64 keys ordered as HDRP's PackLightSortKey (HDGpuLightsBuilder.cs):
+    isDirectional << 31 | isOffscreen << 30 | category << 26 | GPU light type << 21 |
+    volume type << 16 | visibleLights index.  The lab has no directional light and culls to
+    the frustum (never off screen), so those bits are constant; the index is the scene id
+    (the lab's stand-in for Unity's cull order), kept whole in the low 32 bits where HDRP
+    packs 16, so that no two lights share a key past 65,536."""
+    cls = _HDRP_CLASS_KEY[np.asarray(types, np.intp)]
+    return cls << np.uint64(32) | np.asarray(ids, np.uint64)
+
+
+def _fptl(n: int, era: str) -> Policy:
+    # HDRP FPTL (lightlistbuild.compute, TileLightListGen): the 16x16 tile's fine-pruned list,
+    # sorted by light index (SORTLIST: the lights are in sort-key order), is written per
+    # category with nrLightsFinalClamped = min(count, SHADEROPTIONS_FPTLMAX_LIGHT_COUNT): the
+    # lowest sort keys of each category are kept, the rest silently dropped.  Env and decal
+    # categories have no lab counterpart.  The coarse list's own cap (64,
+    # LIGHT_LIST_MAX_COARSE_ENTRIES, atomic arrival order) is not modelled: the lab's coarse
+    # test is its own (docs/research/accuracy_policies.md 1.1).
+    return Policy(f"hdrp-fptl-{n}", ((HDRP_PUNCTUAL, n), (HDRP_AREA, n)), HDRP_KEY,
+                  f"HDRP FPTL {n} lights a tile and category, {era} (lightlistbuild.compute)",
+                  per_tile=True)
 
 
 def _urp(n: int, tier: str) -> Policy:
@@ -86,8 +129,16 @@ POLICIES: dict[str, Policy] = {p.name: p for p in (
     _urp(256, "desktop"),
     _urp(32, "mobile, OpenGL Core, GLES3"),
     _urp(16, "low-end mobile, GLES <= 3.0"),
+    _fptl(24, "LIGHT_LIST_MAX_PRUNED_ENTRIES before HDRP 13.1"),
+    _fptl(63, "ShaderOptions.FPTLMaxLightCount = FPTLMaxLightSizes.High since HDRP 13.1"),
 )}
 NAMES = tuple(POLICIES)
+TILE_NAMES = tuple(n for n, p in POLICIES.items() if p.per_tile)
+
+
+def per_tile(policy: str) -> bool:
+    """Whether `policy` caps each tile's list (fptl's build) rather than the view's lights."""
+    return POLICIES[policy].per_tile
 
 
 def camera_distance(positions: np.ndarray, view_from_world: np.ndarray) -> np.ndarray:
@@ -100,8 +151,10 @@ def camera_distance(positions: np.ndarray, view_from_world: np.ndarray) -> np.nd
 
 def keep(policy: str, ids: np.ndarray, types: np.ndarray, distance: np.ndarray) -> np.ndarray:
     """(N,) bool: which of the visible lights (scene ids, types, camera distances, in any
-    order) `policy` keeps."""
+    order) `policy` keeps.  A per-tile policy keeps every light of the view."""
     p = POLICIES[policy]
+    if p.per_tile:
+        return np.ones(len(ids), bool)
     ids = np.asarray(ids, np.int64)
     out = np.ones(len(ids), bool)
     for group, budget in p.budgets:
@@ -122,11 +175,36 @@ def apply(policy: str, scene_lights: np.ndarray, view_from_world: np.ndarray,
     (keyed, depth) of the kept ones, in their order, and the dropped scene ids (uint32,
     ascending)."""
     ids = (np.asarray(keyed) & np.uint64(0xFFFFFFFF)).astype(np.int64)
-    if policy == NONE or not len(ids):
+    if policy == NONE or per_tile(policy) or not len(ids):
         return keyed, depth, np.zeros(0, np.uint32)
     rows = scene_lights[ids]
     kept = keep(policy, ids, rows["type"], camera_distance(rows["position"], view_from_world))
     return keyed[kept], depth[kept], np.sort(ids[~kept]).astype(np.uint32)
+
+
+def tile_keep(policy: str, tiles: np.ndarray, types: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """(N,) bool over a frame's (tile, light) list entries, each entry once: which ones the
+    per-tile `policy` keeps, the `budget` lowest sort keys (hdrp_sort_key) of each budget's
+    group in each tile."""
+    p = POLICIES[policy]
+    if not p.per_tile:
+        raise ValueError(f"cap policy {policy} is not per tile")
+    tiles, types = np.asarray(tiles, np.int64), np.asarray(types, np.intp)
+    group = np.full(len(types), -1, np.int64)
+    for g, (members, _) in enumerate(p.budgets):
+        group[np.isin(types, members)] = g
+    if (group < 0).any():
+        raise ValueError(f"cap policy {policy}: a light type outside its budgets")
+    budget = np.array([n for _, n in p.budgets], np.int64)
+    order = np.lexsort((hdrp_sort_key(types, ids), group, tiles))
+    t, g = tiles[order], group[order]
+    k = np.arange(len(order))
+    start = np.ones(len(order), bool)
+    start[1:] = (t[1:] != t[:-1]) | (g[1:] != g[:-1])
+    rank = k - np.maximum.accumulate(np.where(start, k, 0))
+    out = np.empty(len(order), bool)
+    out[order] = rank < budget[g]
+    return out
 
 
 def without(scene_lights: np.ndarray, ids: np.ndarray, view_from_world: np.ndarray,
@@ -145,4 +223,5 @@ def without(scene_lights: np.ndarray, ids: np.ndarray, view_from_world: np.ndarr
     return out
 
 
-__all__ = ["NONE", "NAMES", "POLICIES", "Policy", "keep", "apply", "without", "camera_distance"]
+__all__ = ["NONE", "NAMES", "TILE_NAMES", "POLICIES", "Policy", "per_tile", "keep", "apply", "tile_keep",
+           "hdrp_sort_key", "HDRP_CLASS", "without", "camera_distance"]
