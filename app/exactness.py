@@ -15,6 +15,13 @@ pixel; then the result is an IntendedLoss, counted against the real reference (t
 whose light set differs, the lights dropped).  Where it does not, the Mismatch is against
 that frame and names the lights missing or extra beyond the intended loss.
 
+A per-tile cap (HDRP FPTL, hdrp-fptl-*: caps.per_tile) drops a light from some tiles and
+keeps it in others, so no one reference frame holds it.  The check computes on the CPU what
+each pixel must keep (app.tile_caps: the exact per-pixel lists of the floor technique,
+themselves checked against the reference, less the (tile, light) entries caps.tile_keep
+drops by HDRP's sort keys) and holds the frame to that at every pixel; the IntendedLoss then
+also counts the tile list entries dropped and the tiles that dropped one.
+
 A frame with stochastic light culling (options stochastic, stochastic_seed, stochastic_frame:
 cpu_prep.stochastic) is exact against the reference rendered with the same draw: brute takes
 those options, and the same budget, seed and frame give the same per-light ranges.  A
@@ -73,14 +80,19 @@ class IntendedLoss:
     policy: str
     pixels: int                        # pixels whose light set differs from the reference's
     total: int
-    lights: int                        # lights the policy dropped from the frame
+    lights: int                        # lights the policy dropped from the frame (per tile:
+                                       # from some tile)
     contributions: int                 # (pixel, light) pairs lost: the reference's count less ours
+    entries: int | None = None         # per-tile caps: (tile, light) list entries dropped
+    tiles: int | None = None           # ... tiles that dropped one
 
     def message(self) -> str:
+        where = ("exact without the dropped lights" if self.entries is None else
+                 f"per tile: {self.entries} list entries dropped in {self.tiles} tiles, exact "
+                 f"but for them")
         return (f"intended loss: {self.pixels} pixels, {self.lights} lights dropped by "
                 f"{self.policy} ({self.technique} against {self.reference}: {self.pixels} of "
-                f"{self.total} pixels lose {self.contributions} light contributions; exact "
-                f"without the dropped lights)")
+                f"{self.total} pixels lose {self.contributions} light contributions; {where})")
 
 
 def capped(result) -> tuple[str, int] | None:
@@ -149,6 +161,9 @@ def _compare(result, reference, renderer, technique, reference_technique, render
 def _check_capped(result, reference, cap, renderer, technique, reference_technique,
                   render_args, out_dir) -> Mismatch | IntendedLoss:
     policy, dropped = cap
+    if caps.per_tile(policy) and renderer is not None and technique is not None:
+        return _check_tile_capped(result, reference, policy, renderer, technique, render_args,
+                                  out_dir)
     if renderer is not None and technique is not None and reference_technique is not None:
         args = dict(render_args or {})
         args.pop("opts", None)
@@ -172,6 +187,56 @@ def _check_capped(result, reference, cap, renderer, technique, reference_techniq
     return IntendedLoss(result.meta.get("technique", "?"), reference.meta.get("technique", "?"),
                         policy, int(differing(result, reference).sum()), int(lost.size),
                         dropped, int(lost.sum()))
+
+
+def _check_tile_capped(result, reference, policy, renderer, technique, render_args,
+                       out_dir) -> Mismatch | IntendedLoss:
+    """check() of a per-tile capped frame (module docstring): against the CPU's expected
+    figures (app.tile_caps), after those figures' full lists are checked against the
+    reference."""
+    from . import tile_caps
+    exp = tile_caps.expected(renderer, result, dict(render_args or {}), stochastic_draw(result))
+    floor = _figures_mismatch("perfect's per-pixel lists", reference.meta.get("technique", "?"),
+                              exp.full_count, exp.full_hash, reference)
+    if floor is not None:                   # the lists the expectation is built on are wrong
+        return floor
+    name = result.meta.get("technique", "?")
+    m = _figures_mismatch(name, f"{reference.meta.get('technique', '?')} less the {exp.entries} "
+                          f"tile entries {policy} drops (CPU)", result.contrib_count,
+                          result.contrib_hash, None, exp.count, exp.hash)
+    if m is not None:
+        x, row = m.first
+        h, w = exp.count.shape
+        got = renderer.render(technique, readback=False, debug_pixel=(x, row),
+                              **dict(render_args or {})).debug_lights
+        want = exp.kept_ids(x, row, h, w)
+        m.missing = sorted(set(want) - set(got.tolist()))
+        m.extra = sorted(set(got.tolist()) - set(want))
+        if out_dir is not None:
+            m.images = write_images(Path(out_dir), result, reference, _differs(result, exp), m.first)
+        return m
+    lost = reference.contrib_count.astype(np.int64) - result.contrib_count.astype(np.int64)
+    return IntendedLoss(name, reference.meta.get("technique", "?"), policy,
+                        int(differing(result, reference).sum()), int(lost.size), exp.lights,
+                        int(lost.sum()), entries=exp.entries, tiles=exp.tiles)
+
+
+def _differs(result, exp) -> np.ndarray:
+    return (result.contrib_count != exp.count) | (result.contrib_hash != exp.hash)
+
+
+def _figures_mismatch(name, against, count, hashes, reference, want_count=None,
+                      want_hash=None) -> Mismatch | None:
+    """A Mismatch (no lights named yet) where (count, hashes) differ from the reference's
+    figures (or want_count, want_hash), else None."""
+    if reference is not None:
+        want_count, want_hash = reference.contrib_count, reference.contrib_hash
+    mask = (count != want_count) | (hashes != want_hash)
+    if not mask.any():
+        return None
+    row, x = (int(v) for v in np.argwhere(mask)[0])
+    return Mismatch(name, against, int(mask.sum()), int(mask.size), (x, row),
+                    (int(count[row, x]), int(want_count[row, x])))
 
 
 def write_images(out: Path, result, reference, mask: np.ndarray, first) -> dict[str, Path]:

@@ -22,7 +22,12 @@
 // shades), which the statistics and the next scan window read.  On a driver with a loop
 // limit a dispatch scans the class positions [u_scan.x, u_scan.y) and carries each cell's
 // state over from the previous one (fptl.scan_windows).
-// define: FPTL_PRUNE
+// FPTL_TILE_CAP 1 (a per-tile cap policy, HDRP FPTL: cpu_prep.caps): after (e)'s OR
+// reduction, a light past its category's budget in the cell is taken out of the cell's mask
+// before positions are given: its rank among that category's lights found so far in the
+// cell, in scan order, which the CPU made HDRP's sort-key order (fptl.class_order), so each
+// category keeps its lowest sort keys, as lightlistbuild.compute's per-category clamp does.
+// define: FPTL_PRUNE FPTL_TILE_CAP
 #include "generated.glsl"
 #include "fptl_structs.glsl"
 #include "pixel.glsl"
@@ -34,6 +39,11 @@ layout(std430, binding = B_FPTL_CELLS) buffer Cells { FptlCell fptl_cells[]; };
 layout(std430, binding = B_FPTL_SPILL_HEADS) writeonly buffer Heads { uvec2 fptl_spill_heads[]; };
 layout(std430, binding = B_FPTL_SPILL) writeonly buffer Spill { uint fptl_spill[]; };
 layout(std430, binding = B_FPTL_COUNTER) coherent buffer Counter { uint fptl_spill_used; };
+// FPTL_TILE_CAP: per cell, the lights of each category (budget group) its pruning found,
+// kept or dropped (the next scan window's state and the statistics); a bit per light
+// (lights[] index) dropped from some cell
+layout(std430, binding = B_FPTL_CATEGORY_SEEN) buffer Seen { uvec2 fptl_category_seen[]; };
+layout(std430, binding = B_FPTL_DROPPED) buffer Dropped { uint fptl_dropped[]; };
 
 uniform uvec2 u_scan;          // class positions this dispatch scans
 uniform uint u_scan_index;
@@ -42,6 +52,8 @@ uniform uint u_spill_capacity;
 // unroll (llvmpipe compiles at the first dispatch; unrolled, 16 cells take seconds)
 uniform uint u_slices;
 uniform uint u_two;
+uniform uvec2 u_tile_cap;        // FPTL_TILE_CAP: the budget of category 0 and of category 1
+uniform uint u_cap_group_types;  // ... bit t: light type t is in category 1
 
 #define S u_slices
 
@@ -58,6 +70,12 @@ shared uint s_flags[FPTL_SLICES];
 shared uint s_words[FPTL_SLICES * int(FPTL_LIST_WORDS)];
 shared uint s_coarse;
 shared uint s_spilling;
+#if FPTL_TILE_CAP
+shared uint s_seen[2 * FPTL_SLICES];          // per cell and category: found so far
+shared uint s_seen_start[2 * FPTL_SLICES];    // ... at this dispatch's start
+shared uint s_drop[2 * FPTL_SLICES];          // the batch's lights each cell drops
+shared uint s_group1[2];                      // the batch's lights of category 1
+#endif
 
 PixelState g_px[4];            // this invocation's 2x2 pixels
 uint g_slice[4];
@@ -92,11 +110,50 @@ void or_mask(uint c, uvec2 m) {
     if (m.y != 0u) atomicOr(s_mask[2u * c + 1u], m.y);
 }
 
+#if FPTL_TILE_CAP
+// The per-tile cap on the batch's OR-reduced masks: a light whose rank in its category
+// (lights found before it in the cell, this batch's lower bits included) reaches the
+// category's budget leaves the cell's mask, and is marked dropped (scan 1; scan 2 repeats
+// the same decisions from the same state).
+void cap_batch(uint m, uint mode) {
+    uint me = lane();
+    uvec2 g1 = uvec2(s_group1[0], s_group1[1]);
+    uint g = me < m && has_bit(g1, me) ? 1u : 0u;
+    for (uint c = 0u; c < S; ++c) {
+        uvec2 bits = uvec2(s_mask[2u * c], s_mask[2u * c + 1u]);
+        if (me < m && has_bit(bits, me)) {
+            uvec2 same = g == 1u ? bits & g1 : bits & ~g1;
+            if (s_seen[2u * c + g] + bits_below(same, me) >= u_tile_cap[g]) {
+                atomicOr(s_drop[2u * c + (me >> 5u)], 1u << (me & 31u));
+                uint l = s_batch_light[me];
+                if (mode == 0u) atomicOr(fptl_dropped[l >> 5u], 1u << (l & 31u));
+            }
+        }
+    }
+    barrier();
+    if (me < S) {
+        uvec2 bits = uvec2(s_mask[2u * me], s_mask[2u * me + 1u]);
+        s_seen[2u * me] += bitCount(bits.x & ~g1.x) + bitCount(bits.y & ~g1.y);
+        s_seen[2u * me + 1u] += bitCount(bits.x & g1.x) + bitCount(bits.y & g1.y);
+        s_mask[2u * me] = bits.x & ~s_drop[2u * me];
+        s_mask[2u * me + 1u] = bits.y & ~s_drop[2u * me + 1u];
+    }
+    barrier();
+}
+#endif
+
 // Steps (d)-(e) for the first m lights of the batch.  mode 0: write list positions < 24 and
 // count; mode 1: write the spill positions reserved after mode 0.
 void flush(uint m, uint mode) {
     uint me = lane();
     if (me < S) { s_mask[2u * me] = 0u; s_mask[2u * me + 1u] = 0u; }
+#if FPTL_TILE_CAP
+    if (me < S) { s_drop[2u * me] = 0u; s_drop[2u * me + 1u] = 0u; }
+    if (me < 2u) s_group1[me] = 0u;
+    barrier();
+    if (me < m && ((u_cap_group_types >> lights[s_batch_light[me]].id_type.y) & 1u) != 0u)
+        atomicOr(s_group1[me >> 5u], 1u << (me & 31u));
+#endif
     barrier();
 #if FPTL_PRUNE
     uvec2 m0 = uvec2(0u), m1 = uvec2(0u), m2 = uvec2(0u), m3 = uvec2(0u);
@@ -122,6 +179,9 @@ void flush(uint m, uint mode) {
     }
 #endif
     barrier();
+#if FPTL_TILE_CAP
+    cap_batch(m, mode);
+#endif
     uint light = me < m ? s_batch_light[me] : 0u;
     for (uint c = 0u; c < S; ++c) {
         uvec2 bits = uvec2(s_mask[2u * c], s_mask[2u * c + 1u]);
@@ -236,6 +296,13 @@ void main() {
         s_start[me] = c.pruned;
         s_flags[me] = c.flags;
     }
+#if FPTL_TILE_CAP
+    if (me < S) {
+        uvec2 seen = first ? uvec2(0u) : fptl_category_seen[first_cell + me];
+        s_seen[2u * me] = s_seen_start[2u * me] = seen.x;
+        s_seen[2u * me + 1u] = s_seen_start[2u * me + 1u] = seen.y;
+    }
+#endif
     if (me == 0u) {
         s_coarse = first ? 0u : fptl_cells[first_cell].coarse;
         s_spilling = 0u;
@@ -262,6 +329,12 @@ void main() {
             barrier();
             if (s_spilling == 0u) break;
             if (me < S) s_pruned[me] = s_start[me];
+#if FPTL_TILE_CAP
+            if (me < S) {
+                s_seen[2u * me] = s_seen_start[2u * me];
+                s_seen[2u * me + 1u] = s_seen_start[2u * me + 1u];
+            }
+#endif
             barrier();
         }
         if (!empty) scan(mode, dmin, dmax);
@@ -282,6 +355,9 @@ void main() {
     }
     // the records, for the statistics (and the next scan window's state); shading never
     // reads them
+#if FPTL_TILE_CAP
+    if (me < S) fptl_category_seen[first_cell + me] = uvec2(s_seen[2u * me], s_seen[2u * me + 1u]);
+#endif
     if (me < S)
         fptl_cells[first_cell + me] = FptlCell(s_coarse, s_pruned[me],
                                                s_flags[me] | (s_coarse > FPTL_BATCH ? FPTL_COARSE_OVER : 0u)

@@ -31,6 +31,20 @@ per 2.5D cell (16 depth slices, listing 4; the chapter's "negates the need for c
 (on by default) shades with the chapter's per-type loops; off, one loop whose light code
 branches on each light's type: what the sort by shape buys.
 
+Cap policies (`cap_policy`): the view caps every list technique takes (prepare: the lights
+are dropped before any structure), and HDRP FPTL's per-tile caps, hdrp-fptl-24 / -63
+(cpu_prep.caps per_tile), which only this build applies: with fine pruning per tile (the
+variant HDRP runs), each tile keeps the lowest HDRP sort keys of each category (punctual:
+point, spot, box; area: capsule) up to the budget, as lightlistbuild.compute's per-category
+clamp.  For it the class order within a shape is the scene id (HDRP's key) instead of the
+depth, so that scan order is key order; fptl_lists.comp drops a light past its category's
+budget from the cell's mask before it gets a position
+                                  -> fptl_category_seen[cell] (lights found per category)
+                                  -> fptl_dropped (a bit per light dropped from some tile)
+and the stats say capped_lights (lights dropped from some tile), capped_entries (tile list
+entries dropped), capped_tiles; the exactness check holds the frame to brute less exactly
+the entries the CPU's tile_keep drops (app/tile_caps.py).
+
 Shading reads the lists as the chapter stores them: 32 B a tile at 10-bit indices, the
 length the sum of the blocks' 2-bit counts; a list's two other states, spilled and pool
 full, are count patterns no plain list has (an empty block 0 before full blocks:
@@ -73,16 +87,18 @@ Where the lab departs from the chapter, and why (nothing is ever dropped silentl
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
-from cpu_prep import grid as gridmod, layouts, limits
+from cpu_prep import caps, grid as gridmod, layouts, limits
 from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT, LIGHT_TYPES
 
 from ..model import waves
 from ..pipeline.passes import Buffer, HostStep, Pass
+from ..errors import UserError
 from .base import Technique, add_all_lights, prepare, shading_passes
-from .options import CapOptions, StochasticOptions, choice, option
+from .options import CapOptions, StochasticOptions, cap_policy, choice, option
 
 TILE = 16                    # the chapter's tile: 64 invocations x 2x2 pixels
 LIST_CAP = 24                # pruned lights in a tile's 8 R10G10B10A2 blocks
@@ -139,6 +155,13 @@ FPTL_CELL = np.dtype([
 ])
 STRUCTS = {"FptlAabb": FPTL_AABB, "FptlCell": FPTL_CELL}
 SPILL_HEAD = np.dtype((np.uint32, 2))      # (first, count) in fptl_spill
+CATEGORY_SEEN = np.dtype((np.uint32, 2))   # per cell: lights found of category 0 and 1
+
+# A per-tile cap's scan order must be HDRP's key order within each category: the loop order
+# restricted to a category's shapes ascends in HDRP's GPU light type (point, spot, box)
+for _group in (caps.HDRP_PUNCTUAL, caps.HDRP_AREA):
+    _gpu = [caps.HDRP_CLASS[t][1] for t in LOOP_ORDER if t in _group]
+    assert _gpu == sorted(_gpu), "fptl's loop order is not HDRP's key order in a category"
 
 
 def structs_glsl() -> str:
@@ -195,10 +218,23 @@ def list_words(bits: int) -> int:
     return head_words(bits) + LIST_CAP // (32 // bits)
 
 
-def class_order(types: np.ndarray) -> np.ndarray:
+def class_order(types: np.ndarray, ids: np.ndarray | None = None) -> np.ndarray:
     """Positions of the (depth-sorted) lights sorted by shape class (step 1(b)), and within
-    the sphere/capsule class points first: the shading's loop order; stable."""
-    return np.argsort(_LOOP_RANK[np.asarray(types, np.intp)], kind="stable").astype(np.uint32)
+    the sphere/capsule class points first: the shading's loop order; stable.  With `ids`
+    (a per-tile cap), by scene id within a shape: HDRP's sort-key order."""
+    rank = _LOOP_RANK[np.asarray(types, np.intp)]
+    if ids is not None:
+        return np.lexsort((np.asarray(ids), rank)).astype(np.uint32)
+    return np.argsort(rank, kind="stable").astype(np.uint32)
+
+
+def tile_cap_uniforms(policy: str) -> dict:
+    """fptl_lists.comp's per-tile cap: the budgets of categories 0 and 1 and the light types
+    of category 1 (bit t), from the policy's two budget groups."""
+    budgets = caps.POLICIES[policy].budgets
+    assert len(budgets) == 2 and sorted(t for g, _ in budgets for t in g) == sorted(caps.ALL_TYPES)
+    return {"u_tile_cap": (budgets[0][1], budgets[1][1]),
+            "u_cap_group_types": sum(1 << int(t) for t in budgets[1][0])}
 
 
 def spill_bound(counts: np.ndarray) -> int:
@@ -258,6 +294,15 @@ class Fptl(Technique, register_at=70):
                                         "loops, each compiled for one light shape; off: one loop "
                                         "whose light code branches on the type", study=(True, False),
                                   study_scene="corridor")     # all four shapes mixed
+        tile_caps: ClassVar[bool] = True       # the hdrp-fptl-* policies act in this build
+
+        def check_modes(self) -> None:
+            super().check_modes()
+            policy = cap_policy(self)
+            if caps.per_tile(policy) and self.fptl_variant != 0:
+                raise UserError(f"--cap-policy {policy} caps the fine-pruned per-tile lists (HDRP "
+                                f"FPTL): it takes --fptl-variant \"{VARIANTS[0]}\", not "
+                                f"\"{VARIANTS[self.fptl_variant]}\"")
 
     def build(self, frame, opts):
         opts = self.resolve_options(opts)
@@ -268,15 +313,16 @@ class Fptl(Technique, register_at=70):
         b.grid = gridmod.make_grid(frame.camera, TILE, CELL_SLICES if cells else 1,
                                    frame.max_depth, limits.DEFAULT_NEAR_SLICE_DEPTH)
         g = b.grid
+        tile_cap = caps.per_tile(cap_policy(opts))
         with b.times.stage("sort"):
-            b.buffers["fptl_order"] = class_order(b.lights.type)
+            b.buffers["fptl_order"] = class_order(b.lights.type, b.lights.ids if tile_cap else None)
         # spill pool: an upper bound from the CPU's conservative rectangles
         with b.times.stage("bin"):
             need = spill_bound(list_bounds(b.lights, frame.camera, g, fine))
         capacity = int(min(need, SPILL_MAX_ENTRIES))
         bits = index_bits(n)
         classes = np.bincount(_CLASS_LUT[b.lights.type.astype(np.intp)], minlength=3)
-        b.data.update(spill_capacity=capacity, scans=scan_windows(frame, n))
+        b.data.update(spill_capacity=capacity, scans=scan_windows(frame, n), tile_cap=tile_cap)
         b.stats.update(variant=opts.choice_name("fptl_variant"), tile=TILE, slices=g.slices,
                        tiles=g.tiles_x * g.tiles_y, cells=g.cells, index_bits=bits,
                        list_bytes_per_cell=list_words(bits) * 4, spill_capacity=capacity,
@@ -293,6 +339,10 @@ class Fptl(Technique, register_at=70):
         scans = build.data["scans"]
         capacity = build.data["spill_capacity"]
         common = {"FPTL_SLICES": g.slices, "FPTL_INDEX_BITS": bits}
+        tile_cap = build.data["tile_cap"]
+        cap_writes = {"fptl_category_seen": Buffer(g.cells * CATEGORY_SEEN.itemsize, CATEGORY_SEEN),
+                      "fptl_dropped": Buffer(4 * max(1, -(-n // 32)), cleared=True)} if tile_cap else {}
+        cap_u = tile_cap_uniforms(cap_policy(opts)) if tile_cap else {}
         grid_u = {"u_fptl_tiles_x": g.tiles_x, "u_slice_scale": float(g.slice_scale),
                   "u_slice_bias": float(g.slice_bias), "u_cells": g.cells, "u_scans": len(scans)}
         aabb = Pass("light_aabb", "fptl_aabb.comp", reads=("lights", "bounds", "fptl_order"),
@@ -308,12 +358,18 @@ class Fptl(Technique, register_at=70):
                               "fptl_spill_heads": Buffer(len(scans) * g.cells * SPILL_HEAD.itemsize,
                                                          SPILL_HEAD),
                               "fptl_spill": Buffer(capacity * 4),
-                              "fptl_counter": Buffer(16, cleared=k == 0)},
+                              "fptl_counter": Buffer(16, cleared=k == 0),
+                              **{name: Buffer(buf.nbytes, buf.struct, cleared=buf.cleared and k == 0)
+                                 for name, buf in cap_writes.items()}},
                       groups=(g.tiles_x, g.tiles_y, 1),
-                      defines=dict(common, FPTL_PRUNE=int(fine)),
+                      defines=dict(common, FPTL_PRUNE=int(fine), FPTL_TILE_CAP=int(tile_cap)),
                       uniforms=dict(grid_u, u_scan=(lo, hi), u_scan_index=k,
-                                    u_spill_capacity=capacity, u_slices=g.slices, u_two=2))
+                                    u_spill_capacity=capacity, u_slices=g.slices, u_two=2, **cap_u))
                  for k, (lo, hi) in enumerate(scans)]
+        if tile_cap:     # not figures only: the frame's cap stats are what the HUD and check read
+            lists.append(HostStep("fptl tile cap", tuple(cap_writes),
+                                  lambda got: _tile_cap_stats(build, opts, got["fptl_category_seen"],
+                                                              got["fptl_dropped"])))
         # a pixel meets at most every visible light (its list, or every light when flagged);
         # shading reads the lists' words (their state in band), never the cells' records
         # per 2.5D cell, lanes of one vector walk different lists, in one loop per shape and
@@ -493,6 +549,20 @@ def _add_runs(prog, lanes, list_id: int, first, count, step: int, shapes, type_l
         n = cum[first + count] - cum[first]
         prog.add(lanes, step=step + int(_LOOP_RANK[t]), lights=(list_id, start, n, False))
         start = start + n
+
+
+def _tile_cap_stats(build, opts, seen: np.ndarray, dropped: np.ndarray):
+    """A per-tile cap's stats from what fptl_lists.comp counted: capped_lights (lights dropped
+    from some tile; their scene ids in data["capped_ids"]), capped_entries (tile list entries
+    dropped), capped_tiles (tiles that dropped one)."""
+    cap = np.array(tile_cap_uniforms(cap_policy(opts))["u_tile_cap"], np.int64)
+    over = np.maximum(np.asarray(seen).reshape(-1, 2).astype(np.int64) - cap, 0)
+    bits = np.unpackbits(np.asarray(dropped, np.uint32).view(np.uint8), bitorder="little")
+    ids = np.sort(build.lights.ids[np.nonzero(bits[:len(build.lights)])[0]]).astype(np.uint32)
+    build.data["capped_ids"] = ids
+    build.stats.update(capped_lights=len(ids), capped_entries=int(over.sum()),
+                       capped_tiles=int((over.sum(1) > 0).sum()))
+    return {}, []
 
 
 def read_counts(build, cells: np.ndarray) -> dict[str, np.ndarray]:
