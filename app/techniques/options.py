@@ -312,6 +312,17 @@ class StochasticOptions(TechniqueOptions):
                             f"the stochastic budget's brightest light)")
 
 
+@dataclass(frozen=True)
+class FeatureVariantOptions(TechniqueOptions):
+    # app/techniques/variants.py: HDRP's deferred feature variants, one program per tile mask
+    feature_variants: bool = option(False, "per-tile feature variants (HDRP): each tile classified "
+                                           "by the light shapes of its lists, specular or matte "
+                                           "(hybrid: list / tree cells), then shaded by that "
+                                           "mask's own program, dispatched indirectly over its "
+                                           "tiles", study=(False, True), study_scene="corridor",
+                                    also_study=("city",))
+
+
 def stochastic(opts) -> tuple[int, int, int] | None:
     """(budget N, seed, frame) of options with stochastic culling on, else None."""
     if isinstance(opts, StochasticOptions) and opts.stochastic:
@@ -340,5 +351,5 @@ def all_specs(option_classes) -> dict[str, OptionSpec]:
 
 __all__ = ["option", "choice", "choice_list", "OptionSpec", "TechniqueOptions", "TileOptions", "SliceOptions",
            "ListOptions", "TreeOptions", "WaveOptions", "ScalarizeOptions", "CapOptions", "cap_policy",
-           "StochasticOptions", "stochastic", "STOCHASTIC_NAMES",
+           "StochasticOptions", "stochastic", "STOCHASTIC_NAMES", "FeatureVariantOptions",
            "all_specs", "replace"]
