@@ -12,15 +12,7 @@ layout(std430, binding = B_DUP_LIGHTS) readonly buffer DupLights { GpuLight dup_
 #define LIST_LIGHT(k) lights[entries[k]]
 #endif
 
-uniform ivec2 u_tiles;        // tiles in x and y
-uniform int u_tile;           // tile size in pixels
-#include "slices.glsl"
-
-uint cell_of(PixelState s) {
-    ivec2 t = s.pixel / u_tile;
-    uint sl = u_slices > 1 ? slice_of(s.depth) : 0u;
-    return (uint(t.y) * uint(u_tiles.x) + uint(t.x)) * uint(u_slices) + sl;   // tile-major (cpu_prep.grid)
-}
+#include "cells.glsl"
 
 // The entries [first, first + count) that fall in this dispatch's window (pixel.glsl).
 void evaluate_list(inout PixelState s, uint first, uint count) {

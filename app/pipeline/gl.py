@@ -63,6 +63,9 @@ class Limits:
     native_wave: str = ""      # the selected path: "khr", "arb" or "" (the emulation only)
     subgroup_size: int = 0     # GL_SUBGROUP_SIZE_KHR; 0 without KHR (ARB tells shaders only)
     max_work_groups: tuple[int, int, int] = (65535, 65535, 65535)   # GL's minimum, per axis
+    # glDispatchComputeIndirect (core since 4.3) as moderngl offers it (run_indirect, 5.9+):
+    # without it feature variants fall back to the general shading program
+    indirect_dispatch: bool = True
     # samples -> the driver's sample positions, queried on first use (sample_positions)
     _positions: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
@@ -146,6 +149,7 @@ def limits() -> Limits:
             subgroup_size=khr[0],
             max_work_groups=tuple(int(n) for n in ctx.info.get(
                 "GL_MAX_COMPUTE_WORK_GROUP_COUNT", (65535,) * 3)),
+            indirect_dispatch=hasattr(moderngl.ComputeShader, "run_indirect"),
         )
     return _LIMITS
 

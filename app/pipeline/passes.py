@@ -11,6 +11,13 @@ numbers the buffers a pass declares, per program, and defines `B_<SLOT>` for eac
 that binds a buffer its pass did not declare fails to compile with one line naming the
 pass, the buffer and the file.
 
+A compute pass may dispatch indirectly (`indirect`): its group counts are read at dispatch
+time from a buffer an earlier pass wrote (glDispatchComputeIndirect), e.g. one feature
+variant's tiles counted on the GPU (app/techniques/variants.py); `groups` is then the most
+it may dispatch, which the frame graph checks against the driver's limit.  A pass may also
+bring generated files of its own (`virtual`, over the frame's), e.g. the features.glsl of
+its variant.
+
 A HostStep runs on the CPU between passes (untimed): it reads buffers back and returns
 arrays to upload and further steps to run (the perfect culler plans its bands this way).
 """
@@ -50,6 +57,7 @@ class FrameInput:
     loop_budget: int | None = None   # the driver's loop limit per invocation (None: none)
     loop_lanes: int = 1              # ... shared by this many lanes in lockstep (gl.Limits)
     context_limits: Limits | None = None   # the renderer's; None: the process's, on use
+    specular: bool = False           # some surface of the scene is specular (features.py)
 
     @property
     def limits(self) -> Limits:
@@ -166,6 +174,10 @@ class Pass:
     native_wave: bool = False                      # ask for native subgroup ops (WAVE_NATIVE)
     sources: Mapping[str, str] = field(default_factory=dict)
     figures: bool = False                          # only counts figures (see HostStep)
+    # (buffer, byte offset) of three uint group counts (DispatchIndirectCommand) read at
+    # dispatch time; `groups` is then the most it can dispatch
+    indirect: tuple[str, int] | None = None
+    virtual: Mapping[str, str] = field(default_factory=dict)   # generated files over the frame's
 
     def __post_init__(self):
         if (self.groups is None) == (self.draw is None):
@@ -174,6 +186,8 @@ class Pass:
         if clash:
             raise ValueError(f"pass '{self.name}': {sorted(clash)} both read and written: "
                              f"declare a read-modify-write buffer in writes only")
+        if self.indirect is not None and self.draw is not None:
+            raise ValueError(f"pass '{self.name}': only a compute pass dispatches indirectly")
 
     @property
     def kind(self) -> str:
@@ -184,6 +198,10 @@ class Pass:
 
     def buffer_of(self, slot: str) -> str:
         return self.sources.get(slot, slot)
+
+    def files(self, virtual: Mapping[str, str]) -> dict[str, str]:
+        """The generated files this pass compiles with: the frame's, then its own."""
+        return dict(virtual, **self.virtual) if self.virtual else dict(virtual)
 
 
 @dataclass(frozen=True)

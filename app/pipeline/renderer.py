@@ -163,7 +163,8 @@ class Renderer:
         cam = camera or self.camera(frame, frames)
         lights = self.scene.lights_at(frame, frames) if lights is None else lights
         return FrameInput(lights, cam, self.scene.max_depth or cam.far, self.arena,
-                          self.limits.loop_budget, self.limits.loop_lanes, self.limits)
+                          self.limits.loop_budget, self.limits.loop_lanes, self.limits,
+                          self.gbuffer.specular)
 
     def render(self, technique, frame: int = 0, opts=None, frames: int = 64,
                lights: np.ndarray | None = None, readback: bool = True, camera=None,
@@ -238,7 +239,9 @@ class Renderer:
         virtual = dict(feat.virtual_files(features), **getattr(technique, "glsl", {}))
         env = (virtual, dict(defines or {}), frame_uniforms)
         if first:
-            self.run(technique.passes(build, opts), *env, technique=technique.name)
+            # a build made on the GPU (app/gpu_build) brings its passes, ending in the technique's
+            steps = build.data.get("build_steps") or technique.passes(build, opts)
+            self.run(steps, *env, technique=technique.name)
         else:
             for p in self._frame.timed:
                 self._run_pass(p, *env, technique.name)
@@ -308,9 +311,11 @@ class Renderer:
             self.buffers[DEBUG_SLOT].bind_to_storage_buffer(bindings[DEBUG_SLOT])
             optional["DEBUG_PIXEL"] = 1
             uniforms = dict(uniforms, u_debug_pixel=f.debug_pixel)
+        virtual = p.files(virtual)
         if p.kind == "compute":
             prog = self.programs.compute(p.shader, dict(p.defines), virtual, (), bindings, optional, where)
-            work = lambda: prog.run(*p.groups)
+            work = (lambda: prog.run(*p.groups)) if p.indirect is None else \
+                (lambda: prog.run_indirect(self.buffers[p.indirect[0]], p.indirect[1]))
         else:
             prog = self.programs.program(*p.shader, dict(p.defines), virtual, bindings, optional, where)
             work = lambda: self._draw(prog, p.draw)

@@ -13,6 +13,9 @@ at fault, before any of it runs.
   generated files resolved, every #if branch read).  The driver may still drop one that a
   define leaves unused (a CELLS_ONLY frame, a light-type feature): that one is skipped, but
   a name no source declares is a misspelling, never a silent skip.
+- indirect dispatch (Pass.indirect): its argument buffer is provided before the pass, its
+  offset a multiple of 4 with three uint counts inside the buffer, and the pass's `groups`
+  (the most it may dispatch) within the driver's limit.
 - dispatch windows (u_window = [lo, hi) of each pixel's light sequence, techniques.base
   .windows): the windowed dispatches of one pass start at 0, each takes up where the last
   stopped, and the last runs to WINDOW_ALL, so no light of a sequence is skipped.
@@ -46,13 +49,16 @@ def check_steps(steps, provided, untimed_writes=(), virtual=None, technique: str
     """Check a list of steps against the buffers the frame has `provided` so far (and the
     ones `untimed_writes` wrote); raise GraphError before anything runs."""
     have, untimed, windows = set(provided), set(untimed_writes), {}
+    sizes = {n: v[0] for n, v in provided.items()} if isinstance(provided, dict) else {}
     for k, step in enumerate(steps):
         where = where_of(step, k, technique)
         check_shape(step, where, max_groups)
         check_reads(step, where, have)
         if isinstance(step, Pass):
-            check_uniforms(step, where, virtual or {})
+            check_indirect(step, where, have, sizes)
+            check_uniforms(step, where, step.files(virtual or {}))
             check_writes(step, where, have, untimed)
+            sizes.update({step.buffer_of(s): b.nbytes for s, b in step.writes.items()})
             check_window(step, where, windows)
     if windows:
         lo, where = next(iter(windows.values()))
@@ -127,6 +133,23 @@ def check_reads(step, where: str, have: set) -> None:
     if missing:
         raise GraphError(f"{where} reads buffer '{missing[0]}', which nothing in this frame "
                          f"provides before it (neither the build's uploads nor an earlier pass)")
+
+
+def check_indirect(p: Pass, where: str, have: set, sizes: dict) -> None:
+    """An indirect pass's arguments: a provided buffer, a 4-aligned offset, 12 bytes there."""
+    if p.indirect is None:
+        return
+    try:
+        name, offset = p.indirect
+        offset = int(offset)
+    except (TypeError, ValueError):
+        raise GraphError(f"{where}: indirect {p.indirect!r} is not (buffer, byte offset)") from None
+    if name not in have:
+        raise GraphError(f"{where} dispatches indirectly from buffer '{name}', which nothing in "
+                         f"this frame provides before it")
+    if offset < 0 or offset % 4 or (name in sizes and offset + 12 > sizes[name]):
+        raise GraphError(f"{where}: indirect offset {offset} of '{name}' is not a multiple of 4 "
+                         f"with 12 bytes of group counts inside its {sizes.get(name, '?')} bytes")
 
 
 def check_writes(p: Pass, where: str, have: set, untimed: set) -> None:

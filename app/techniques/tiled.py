@@ -16,7 +16,8 @@ from ..pipeline.passes import Buffer, Pass
 from ..errors import UserError
 from .base import (Technique, add_all_lights, add_cell_lists, cell_head, grid_uniforms, make_grid,
                    prepare, shading_passes)
-from .options import CapOptions, StochasticOptions, TileOptions
+from .options import CapOptions, FeatureVariantOptions, StochasticOptions, TileOptions
+from . import variants
 
 OVERFLOW = 0xFFFFFFFF          # a tile's count when its list did not fit the pool
 
@@ -34,7 +35,7 @@ class Tiled(Technique, register_at=20):
     glsl = {"tiled_lists.glsl": layouts.glsl_defines({"TILE_OVERFLOW": OVERFLOW})}
 
     @dataclass(frozen=True)
-    class Options(TileOptions, CapOptions, StochasticOptions):
+    class Options(TileOptions, CapOptions, StochasticOptions, FeatureVariantOptions):
         pass
 
     def build(self, frame, opts):
@@ -62,8 +63,10 @@ class Tiled(Technique, register_at=20):
             uniforms={"u_tile": g.tile, "u_capacity": pool_entries(build),
                       "u_tan_half": (cam.tan_half_x, cam.tan_half_y)})
         # a tile's list holds at most every light (an overflowed tile shades every light)
-        return [cull] + shading_passes(build, "shade_tiled.comp", ("ranges", "entries"), n,
-                                       defines={"LIGHTS_DUPLICATED": 0}, uniforms=grid_uniforms(g))
+        shade = shading_passes(build, "shade_tiled.comp", ("ranges", "entries"), n,
+                               defines={"LIGHTS_DUPLICATED": 0}, uniforms=grid_uniforms(g))
+        return variants.with_variants(build, opts, [cull] + shade,
+                                      variants.CellSource(variants.CELL_LISTS, ("ranges", "entries")))
 
     def cull_figures(self, frame, width):
         """tile_cull.comp: per tile one 16x16 group; the depth reduction, then every light's
@@ -82,12 +85,12 @@ class Tiled(Technique, register_at=20):
                  line(g.cells * per * texels, 16))
         tests = int(busy.sum() + filled.sum()) * per * rounds
         cull = (tests, int(busy.sum() + filled.sum()) * n, tests, line(tests, 16))
-        return {"tile_cull": waves.analytic(
+        return variants.figures_if_on(frame, width, variants.list_scans, {"tile_cull": waves.analytic(
             width, g.cells * per, {"depth": depth, "cull_test": cull},
             {"g_position": int(pixels.sum()) * 16, "bounds": n * 16, "entries": hits * 4,
              "ranges": g.cells * 8},
             barriers=g.cells * (3 + 3 * rounds), atomics=int(busy.sum()),
-            shared_atomics=2 * int(covered.sum()) + hits)}
+            shared_atomics=2 * int(covered.sum()) + hits)})
 
     def wave_program(self, frame, width):
         prog = waves.Program(frame, width)
