@@ -17,6 +17,7 @@ import numpy as np
 from ..model import waves
 from .base import Technique, add_cell_lists, cell_head, entry_list, grid_uniforms, prepare_binned, shading_passes
 from .blocks import cell_ranges, list_buffers, list_reads
+from .gpu_build import BuildOptions, build_lists, on_gpu
 from .options import CapOptions, ListOptions, ScalarizeOptions, SliceOptions, StochasticOptions, WaveOptions
 
 
@@ -27,7 +28,7 @@ class Clustered(Technique, register_at=30):
 
     @dataclass(frozen=True)
     class Options(SliceOptions, ListOptions, WaveOptions, ScalarizeOptions, CapOptions,
-                  StochasticOptions):
+                  StochasticOptions, BuildOptions):
         def ignored(self) -> dict[str, str]:
             """Only the scalarized walk uses wave operations (options.py's rule)."""
             out = dict(super().ignored())
@@ -36,6 +37,8 @@ class Clustered(Technique, register_at=30):
             return out
 
     def build(self, frame, opts):
+        if on_gpu(opts):
+            return build_lists(frame, opts, opts.slices, lambda b: self.passes(b, opts))
         b, offsets, entries = prepare_binned(frame, opts, opts.slices)
         with b.times.stage("pack"):
             list_buffers(b, offsets, entries, opts.duplicated)
