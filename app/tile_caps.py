@@ -51,7 +51,9 @@ def pixel_entries(renderer, render_args: dict, draw: dict):
     args = {k: v for k, v in render_args.items() if k != "opts"}
     res = renderer.render(floor, opts=dict(draw) or None, **args)
     pixels, ids, first = [], [], 0
-    for k in range(int(res.build.stats["bands"])):
+    # perfect's bands, each its ranges and entries (its stat "bands" counts fill dispatches)
+    bands = sum(1 for name in renderer.provided() if name.startswith("perfect_ranges_"))
+    for k in range(bands):
         ranges = renderer.read(f"perfect_ranges_{k}").reshape(-1, 2).astype(np.int64)
         entries = renderer.read(f"perfect_entries_{k}").astype(np.int64)
         pixels.append(first + np.repeat(np.arange(len(ranges)), ranges[:, 1]))

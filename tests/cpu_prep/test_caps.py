@@ -120,3 +120,42 @@ def test_without_culls_the_dropped_lights_and_keeps_every_id(rng):
     keep = np.setdiff1d(np.arange(len(lights)), gone)
     for name in lights.dtype.names:                                     # the others untouched
         assert np.array_equal(out[name][keep], lights[name][keep])
+
+
+def test_hdrps_sort_key_orders_category_then_gpu_type_then_index():
+    # PackLightSortKey: punctual before area; within punctual Point (1) < Spot (2) <
+    # ProjectorBox (4); then the visible index (the scene id), whatever the shape's lab id
+    types = np.array([LIGHT_CAPSULE, LIGHT_BOX, LIGHT_SPOT, LIGHT_POINT, LIGHT_POINT], np.uint8)
+    ids = np.array([0, 1, 2, 9, 3])
+    order = np.argsort(caps.hdrp_sort_key(types, ids)).tolist()
+    assert order == [4, 3, 2, 1, 0]
+    big = caps.hdrp_sort_key(np.zeros(2, np.uint8), np.array([70000, 2**32 - 1]))
+    assert big[0] < big[1] < caps.hdrp_sort_key(np.array([LIGHT_SPOT]), np.array([0]))[0]
+
+
+def test_tile_keep_keeps_the_lowest_keys_of_each_category_in_each_tile(rng):
+    n = 400
+    tiles = rng.integers(0, 5, n)
+    ids = rng.permutation(n)
+    types = rng.choice([LIGHT_POINT, LIGHT_SPOT, LIGHT_BOX, LIGHT_CAPSULE], n, p=[.5, .2, .1, .2]).astype(np.uint8)
+    kept = caps.tile_keep("hdrp-fptl-24", tiles, types, ids)
+    key = caps.hdrp_sort_key(types, ids)
+    for t in range(5):
+        for group in (caps.HDRP_PUNCTUAL, caps.HDRP_AREA):
+            here = (tiles == t) & np.isin(types, group)
+            assert kept[here].sum() == min(24, here.sum())
+            if (here & ~kept).any():                           # past the cap: higher keys only
+                assert key[here & kept].max() < key[here & ~kept].min()
+    assert (~kept).any() and kept[tiles == 9].size == 0
+
+
+def test_a_per_tile_policy_drops_nothing_from_the_view(rng):
+    lights, cam = _frame(rng)
+    full = cpuframe.prepare_lights(lights, cam, cpuframe.StageTimes())
+    for name in caps.TILE_NAMES:
+        pl, dropped = cpuframe.prepare_capped_lights(lights, cam, cpuframe.StageTimes(),
+                                                     cap_policy=name)
+        assert not len(dropped) and np.array_equal(pl.ids, full.ids)
+    assert caps.TILE_NAMES == ("hdrp-fptl-24", "hdrp-fptl-63")
+    with pytest.raises(ValueError):
+        caps.tile_keep("urp-16", np.zeros(1), np.zeros(1, np.uint8), np.zeros(1))
