@@ -12,13 +12,19 @@
 //   c) mixed: list lanes visit their one node, tree lanes traverse.
 // Without SPECIALISED every lane runs the general traversal (the unspecialised loop the
 // report compares against).
-// define: SPECIALISED SCALARIZED
+// With feature variants (app/techniques/variants.py) CELL_KINDS says which cells the tile's
+// pixels read, by structure: 1 lists only, 2 trees only, 3 both (the general program), 0
+// none; a kind the tile lacks folds to false, so its loop is not compiled.
+// define: SPECIALISED SCALARIZED CELL_KINDS
 #include "generated.glsl"
 #include "wave.glsl"
 #include "common.glsl"
 #include "lists.glsl"
 #include "tree.glsl"
 #include "hybrid_cells.glsl"        // CELL_TREE_BIT, from app/techniques/hybrid.py
+#ifndef CELL_KINDS
+#define CELL_KINDS 3
+#endif
 
 // a) scalarized: the wave's distinct list cells, one per round (lists.glsl's
 // next_wave_cell), each its one node; returns the wave's scalar iterations (rounds + lights).
@@ -43,8 +49,8 @@ void main() {
     CELLS_ONLY_RETURN(s);
     uvec2 r = s.shading ? ranges[cell].offset_count : uvec2(0u);
     uint count = r.y & ~CELL_TREE_BIT;
-    bool is_tree = s.shading && count > 1u;         // by structure: which loop can read it
-    bool is_list = s.shading && count == 1u;
+    bool is_tree = (CELL_KINDS & 2) != 0 && s.shading && count > 1u;   // by structure: which loop can read it
+    bool is_list = (CELL_KINDS & 1) != 0 && s.shading && count == 1u;
     // listing 2's choice, list or tree (both in one wave: CASE_MIXED)
     uint case_bits = s.shading ? ((r.y & CELL_TREE_BIT) != 0u ? CASE_TREE : CASE_LIST) : 0u;
     uint iterations = 0u;
@@ -85,7 +91,7 @@ void main() {
         traverse_tree(s, r.x, count);
     }
 #else
-    if (s.shading) traverse_tree(s, r.x, count);
+    if (is_tree || is_list) traverse_tree(s, r.x, count);
 #endif
     store_pixel(s);
     write_wave_stats(iterations != 0u ? iterations : s.evaluated + s.nodes, case_bits);

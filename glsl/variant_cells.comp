@@ -33,6 +33,7 @@ uniform uint u_frame_shapes;  // the shape bits of every visible light
 
 uint shape_bit(uint light) { return 1u << lights[light].id_type.y; }
 
+#if CELL_SOURCE != 3
 // The shapes of entries [first, first + count), `budget` counting down the iterations.
 uint entry_shapes(uint first, uint count, inout int budget) {
     uint bits = 0u;
@@ -41,6 +42,7 @@ uint entry_shapes(uint first, uint count, inout int budget) {
     for (uint k = first; k < first + count; ++k) bits |= shape_bit(entries[k]);
     return bits;
 }
+#endif
 
 void main() {
     uint cell = gl_GlobalInvocationID.x;

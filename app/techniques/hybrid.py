@@ -26,7 +26,9 @@ from ..model import waves
 from ..pipeline.passes import OUT_STATS, WAVE_DIM, WAVE_STATS, HostStep
 from .base import Technique, cell_head, entry_list, prepare_binned
 from .options import (CapOptions, ListOptions, ScalarizeOptions, SliceOptions, StochasticOptions, TreeOptions,
-                      WaveOptions, option)
+                      WaveOptions, FeatureVariantOptions, option)
+from . import variants
+from ..pipeline import features as feat
 from .blocks import (add_shared_load, live_groups, one_tree_groups, study_notes, tree_buffers,
                      tree_passes)
 
@@ -41,7 +43,7 @@ class Hybrid(Technique, register_at=50):
 
     @dataclass(frozen=True)
     class Options(SliceOptions, ListOptions, TreeOptions, WaveOptions, ScalarizeOptions,
-                  CapOptions, StochasticOptions):
+                  CapOptions, StochasticOptions, FeatureVariantOptions):
         radius_scale: float = option(1.0, "listing 2's cell.radius = scale x half the cell's "
                                           "depth extent (undefined in the paper)",
                                      lo=1e-3, hi=1e3, study=(0.5, 1.0, 2.0, 4.0))
@@ -68,9 +70,16 @@ class Hybrid(Technique, register_at=50):
         shade = tree_passes(build, opts, "shade_hybrid.comp", native_wave=opts.native_wave,
                             defines={"SPECIALISED": int(opts.specialised),
                                      "SCALARIZED": int(opts.scalarize)})
-        return shade + [HostStep("wave cases", (WAVE_STATS, OUT_STATS),
-                                 lambda got: _case_counters(build, got[WAVE_STATS], got[OUT_STATS]),
-                                 figures=True)]
+        steps = shade + [HostStep("wave cases", (WAVE_STATS, OUT_STATS),
+                                  lambda got: _case_counters(build, got[WAVE_STATS], got[OUT_STATS]),
+                                  figures=True)]
+        return variants.with_variants(build, opts, steps, variants.CellSource(
+            variants.CELL_NODES, ("ranges", "entries", "nodes"), count_mask=int(~CELL_TREE_BIT),
+            mask_defines=lambda m: {"CELL_KINDS": (m >> feat.CELL_KIND_SHIFT) & 3}))
+
+    def cull_figures(self, frame, width):
+        """The feature variants' passes when on (the cells are CPU-built)."""
+        return variants.figures_if_on(frame, width, variants.node_scans, {})
 
     def report_notes(self, rows):
         """Per wave path: the waves, their scalar iterations and node visits, against the

@@ -49,7 +49,7 @@ from typing import Callable
 
 import numpy as np
 
-from cpu_prep import layouts
+from cpu_prep import layouts, limits
 
 from ..model import waves
 from ..pipeline import features as feat
@@ -114,10 +114,12 @@ def with_variants(build, opts, steps: list, cells: CellSource) -> list:
         build.stats["variant_fallback"] = "no indirect dispatch (glDispatchComputeIndirect) in " \
                                           "this driver: the general program shades every tile"
         return steps
-    general = steps[shade[0]:shade[-1] + 1]
-    decide = HostStep("feature variants", ("variant_args",),
-                      lambda got: ({}, variant_steps(build, general, cells, got["variant_args"])))
-    return steps[:shade[0]] + classify_passes(build, cells) + [decide] + steps[shade[-1] + 1:]
+    general, after = steps[shade[0]:shade[-1] + 1], steps[shade[-1] + 1:]
+    # the steps after shading (its counters) come with the dispatches: the frame graph checks
+    # what a host step returns once it has run, and they read what those dispatches write
+    decide = HostStep("feature variants", ("variant_args",), lambda got: (
+        {}, variant_steps(build, general, cells, got["variant_args"]) + after))
+    return steps[:shade[0]] + classify_passes(build, cells) + [decide]
 
 
 def classify_passes(build, cells: CellSource) -> list[Pass]:
@@ -290,6 +292,19 @@ def list_scans(frame, count_mask: int = 0xFFFFFFFF) -> np.ndarray:
     rng = frame.read("ranges").view(layouts.CELL_RANGE)["offset_count"].astype(np.int64)
     count = rng[:, 1] & count_mask
     return np.where(count > SCAN_BUDGET, 0, count)
+
+
+def node_scans(frame, count_mask: int = 0x7FFFFFFF) -> np.ndarray:
+    """Each hybrid cell's scan: its nodes, then each leaf's entries (a scan past the budget
+    stops at its nodes)."""
+    rng = frame.read("ranges").view(layouts.CELL_RANGE)["offset_count"].astype(np.int64)
+    first, count = rng[:, 0], rng[:, 1] & count_mask
+    nodes = frame.build.buffers["nodes"]
+    bits = nodes["bits"].astype(np.int64)
+    leaf = np.where(bits & 1, (bits >> 1) & ((1 << limits.NODE_COUNT_BITS) - 1), 0)
+    csum = np.concatenate([[0], np.cumsum(leaf)])
+    entries = csum[np.minimum(first + count, len(leaf))] - csum[np.minimum(first, len(leaf))]
+    return np.where(count > SCAN_BUDGET, count, count + entries)
 
 
 def bit_scans(frame, buffer: str, words: int) -> np.ndarray:

@@ -73,7 +73,8 @@ from .base import Technique, prepare
 from .bit_arrays import (VARIANTS, ShadingOptions, add_bit_words, attach_zbins, shading_steps,
                          tile_bit_maps, variant_flags)
 from .blocks import tile_boxes
-from .options import CapOptions, StochasticOptions, option
+from .options import CapOptions, FeatureVariantOptions, StochasticOptions, option
+from . import variants
 
 DEPTH_GROUP = 64              # zbin_tile_depth.comp: one 8x8 group a tile
 
@@ -89,7 +90,7 @@ class ZBin(Technique, register_at=60):
     views = Technique.views + ("tiles", "maps")
 
     @dataclass(frozen=True)
-    class Options(ShadingOptions, CapOptions, StochasticOptions):
+    class Options(ShadingOptions, CapOptions, StochasticOptions, FeatureVariantOptions):
         tile_depth: bool = option(True, "cull each tile's bits against its min / max scene depth on "
                                         "the GPU (the slides' tiles are depth tested); off: the "
                                         "CPU's screen rectangles alone", study=(True, False))
@@ -151,7 +152,16 @@ class ZBin(Technique, register_at=60):
                           uniforms={"u_tile": g.tile, "u_words": words}),
                      HostStep("depth counts", ("tile_bits", "zbin_bits"),
                               lambda got: _depth_counts(build, got), figures=True)]
-        return depth + shading_steps(build, opts, "zbin_bits" if opts.tile_depth else "tile_bits")
+        bits = "zbin_bits" if opts.tile_depth else "tile_bits"
+        cells = variants.CellSource(variants.CELL_BITS, ("tile_bits",), sources={"tile_bits": bits},
+                                    uniforms={"u_words": zb.words_for(len(build.lights))})
+        return variants.with_variants(build, opts, depth + shading_steps(build, opts, bits), cells)
+
+    @staticmethod
+    def _bit_scans(frame):
+        """variant_cells.comp's scan of each tile's bits (the ones shading reads)."""
+        bits = "zbin_bits" if frame.opts.tile_depth else "tile_bits"
+        return variants.bit_scans(frame, bits, zb.words_for(len(frame.build.lights)))
 
     def wave_program(self, frame, width):
         opts = frame.opts
@@ -165,7 +175,7 @@ class ZBin(Technique, register_at=60):
         """zbin_tile_depth.comp: per tile one 8x8 group, its pixels' depths, then each lane's
         words and, per set bit, the light's depth range."""
         if not frame.opts.tile_depth:
-            return {}
+            return variants.figures_if_on(frame, width, self._bit_scans, {})
         g, n = frame.build.grid, len(frame.build.lights)
         words = zb.words_for(n)
         pixels, covered, *_ = waves.per_tile(frame, g.tile)
@@ -180,11 +190,11 @@ class ZBin(Technique, register_at=60):
                  line(tiles * per * texels, 16))
         test = (tiles * per * rounds + -(-set_bits // width), set_bits + tiles * words,
                 tiles * per * rounds + -(-set_bits // width), line(tiles * per * rounds, 4))
-        return {"zbin tile depth": waves.analytic(
+        return variants.figures_if_on(frame, width, self._bit_scans, {"zbin tile depth": waves.analytic(
             width, tiles * per, {"depth": depth, "cull_test": test},
             {"g_position": int(pixels.sum()) * 16, "tile_bits": tiles * words * 4,
              "light_depth": n * 8, "zbin_bits": tiles * words * 4},
-            barriers=2 * tiles, shared_atomics=2 * int(covered.sum()))}
+            barriers=2 * tiles, shared_atomics=2 * int(covered.sum()))})
 
 
 def check_depth_loops(frame, tile: int, lights: int) -> None:
