@@ -18,7 +18,9 @@ from ..model import waves
 from .base import Technique, add_cell_lists, cell_head, entry_list, grid_uniforms, prepare_binned, shading_passes
 from .blocks import cell_ranges, list_buffers, list_reads
 from .gpu_build import BuildOptions, build_lists, on_gpu
-from .options import CapOptions, ListOptions, ScalarizeOptions, SliceOptions, StochasticOptions, WaveOptions
+from .options import (CapOptions, FeatureVariantOptions, ListOptions, ScalarizeOptions, SliceOptions,
+                      StochasticOptions, WaveOptions)
+from . import variants
 
 
 class Clustered(Technique, register_at=30):
@@ -28,7 +30,7 @@ class Clustered(Technique, register_at=30):
 
     @dataclass(frozen=True)
     class Options(SliceOptions, ListOptions, WaveOptions, ScalarizeOptions, CapOptions,
-                  StochasticOptions, BuildOptions):
+                  StochasticOptions, BuildOptions, FeatureVariantOptions):
         def ignored(self) -> dict[str, str]:
             """Only the scalarized walk uses wave operations (options.py's rule)."""
             out = dict(super().ignored())
@@ -47,11 +49,17 @@ class Clustered(Technique, register_at=30):
     def passes(self, build, opts):
         # scalarized, the wave walks its cells one round each: its lanes' lists run at
         # different rounds (base.windows' steps)
-        return shading_passes(build, "shade_clustered.comp", list_reads(opts.duplicated),
-                              build.data["longest_list"], steps=64 if opts.scalarize else 1,
-                              defines={"LIGHTS_DUPLICATED": int(opts.duplicated),
-                                       "SCALARIZED": int(opts.scalarize)},
-                              uniforms=grid_uniforms(build.grid), native_wave=opts.native_wave)
+        shade = shading_passes(build, "shade_clustered.comp", list_reads(opts.duplicated),
+                               build.data["longest_list"], steps=64 if opts.scalarize else 1,
+                               defines={"LIGHTS_DUPLICATED": int(opts.duplicated),
+                                        "SCALARIZED": int(opts.scalarize)},
+                               uniforms=grid_uniforms(build.grid), native_wave=opts.native_wave)
+        return variants.with_variants(build, opts, shade,
+                                      variants.CellSource(variants.CELL_LISTS, ("ranges", "entries")))
+
+    def cull_figures(self, frame, width):
+        """The feature variants' passes when on (the lists are CPU-built)."""
+        return variants.figures_if_on(frame, width, variants.list_scans, {})
 
     def wave_program(self, frame, width):
         prog = waves.Program(frame, width)
