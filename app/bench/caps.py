@@ -3,7 +3,10 @@
 light cutoff study's levels (the report's lead figure, app.report.tradeoff).
 
     each list technique (every technique whose Options take cap_policy)
-      x  none, and each policy that drops lights from the scene's visible ones
+      x  none, and each view policy that drops lights from the scene's visible ones
+    fptl (every technique whose list build takes the per-tile caps, Options.tile_caps)
+      x  each per-tile policy (HDRP FPTL 24 / 63: whether a tile passes its cap is known
+         only from the GPU's lists, so they always run; the row says what they dropped)
     in Preset.caps_scenes at Preset.caps_lights (the cutoff study's light count, so the
     figure holds both), frame 0, the scene's own radii
 
@@ -20,10 +23,11 @@ study_repeat of them), with
                                pixels in both), an uncapped one against brute
     stats                      the frame's stats (capped_lights) and its intended loss
                                against brute: lost_pixels (pixels whose light set differs)
-                               and lost_contributions ((pixel, light) pairs lost); 0 for none
+                               and lost_contributions ((pixel, light) pairs lost); 0 for none;
+                               a per-tile cap also lost_entries and lost_tiles
 
-A policy whose every budget holds its group's visible lights drops nothing: its frame is
-none's, so it is skipped, and the log says so.
+A view policy whose every budget holds its group's visible lights drops nothing: its frame
+is none's, so it is skipped, and the log says so.
 """
 from __future__ import annotations
 
@@ -36,11 +40,13 @@ from cpu_prep import caps
 CAPS = "caps"                  # results.csv study of the series
 
 
-def cap_techniques() -> list[str]:
-    """The techniques that take a cap policy, in registry order."""
+def cap_techniques(policy: str = caps.NONE) -> list[str]:
+    """The techniques that take the cap policy `policy` (a per-tile one: those whose list
+    build applies it), in registry order."""
     from ..techniques import REGISTRY
     from ..techniques.options import CapOptions
-    return [n for n, t in REGISTRY.items() if issubclass(t.Options, CapOptions)]
+    return [n for n, t in REGISTRY.items() if issubclass(t.Options, CapOptions)
+            and (t.Options.tile_caps or not caps.per_tile(policy))]
 
 
 def dropped_lights(scene, size, frame: int, frames: int) -> dict[str, int]:
@@ -55,18 +61,20 @@ def dropped_lights(scene, size, frame: int, frames: int) -> dict[str, int]:
 
 
 def caps_jobs(p, scene_name: str, lights: int, scene, log=None) -> list:
-    """The series' jobs in one scene: every cap technique at none and at each policy that
-    drops a light (the skipped ones named in `log`)."""
+    """The series' jobs in one scene: every cap technique at none and at each view policy
+    that drops a light (the skipped ones named in `log`), the per-tile policies on the
+    techniques that take them."""
     from ..techniques import REGISTRY
     from .plan import Job
     dropped = dropped_lights(scene, p.size, 0, p.frames)
-    biting = [k for k, name in enumerate(caps.NAMES) if name == caps.NONE or dropped[name]]
-    skipped = [n for n in caps.NAMES if n != caps.NONE and not dropped[n]]
+    biting = [k for k, name in enumerate(caps.NAMES)
+              if name == caps.NONE or dropped[name] or caps.per_tile(name)]
+    skipped = [n for n in caps.NAMES if n != caps.NONE and not dropped[n] and not caps.per_tile(n)]
     if skipped and log is not None:
         log.write(f"bench: caps in {scene_name} at {lights} lights: {', '.join(skipped)} drop "
                   f"nothing (every budget holds the visible lights): skipped\n")
     return [Job(CAPS, scene_name, lights, 0, t, REGISTRY[t].Options().with_(cap_policy=k))
-            for k in biting for t in cap_techniques()]
+            for k in biting for t in cap_techniques(caps.NAMES[k])]
 
 
 def with_caps_jobs(jobs: list, p, light_counts, scene_of, log=None) -> list:
@@ -97,6 +105,8 @@ def loss_cells(renderer, res, ref, stats: str, render_args: dict) -> dict:
         if isinstance(got, exactness.IntendedLoss):
             out = {"mismatch_count": 0, "mismatch_hash": 0}
             cells.update(lost_pixels=got.pixels, lost_contributions=got.contributions)
+            if got.entries is not None:
+                cells.update(lost_entries=got.entries, lost_tiles=got.tiles)
         else:                          # not exact on the lights it kept: a plain failure
             out = {"mismatch_count": got.pixels, "mismatch_hash": got.pixels}
             cells.update(lost_pixels=int(exactness.differing(res, ref).sum()),

@@ -6,8 +6,10 @@ frame rendered by
 
     every technique at its defaults            exact: the lab's guarantee
     each cap policy (cpu_prep.caps)            on the first technique that takes one: a
-                                               policy drops the same lights whatever the
-                                               structure (exact against brute without them)
+                                               view policy drops the same lights whatever
+                                               the structure (exact against brute without
+                                               them); a per-tile one (HDRP FPTL) on the
+                                               first whose list build applies it
     each light-cutoff level t = 1/c            the reference with the cutoff's radii
                                                (app.bench.cutoff.cutoff_lights)
     the unbounded reference                    every light, UNBOUNDED_FALLOFF (no window)
@@ -52,11 +54,12 @@ def configurations(cutoffs) -> list[dict]:
     ref = with_role("reference")
     out = [dict(config=n, kind="technique", technique=n, opts=t.Options(), policy=caps.NONE,
                 cutoff=0) for n, t in REGISTRY.items()]
-    capped = next((t for t in REGISTRY.values() if issubclass(t.Options, CapOptions)), None)
-    if capped is not None:
-        out += [dict(config=f"{p} ({capped.name})", kind="cap", technique=capped.name,
-                     opts=capped.Options.make({"cap_policy": p}), policy=p, cutoff=0)
-                for p in caps.NAMES if p != caps.NONE]
+    for p in (n for n in caps.NAMES if n != caps.NONE):
+        capped = next((t for t in REGISTRY.values() if issubclass(t.Options, CapOptions)
+                       and (t.Options.tile_caps or not caps.per_tile(p))), None)
+        if capped is not None:
+            out.append(dict(config=f"{p} ({capped.name})", kind="cap", technique=capped.name,
+                            opts=capped.Options.make({"cap_policy": p}), policy=p, cutoff=0))
     out += [dict(config=f"cutoff 1/{c}", kind="cutoff", technique=ref.name, opts=ref.Options(),
                  policy=caps.NONE, cutoff=int(c)) for c in cutoffs]
     out.append(dict(config="unbounded", kind="reference", technique=ref.name, opts=ref.Options(),

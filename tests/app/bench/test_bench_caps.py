@@ -1,7 +1,8 @@
 """The cap-policy bench series (app.bench.caps): its jobs (every list technique at none and at
-each policy that drops lights; the others skipped and said so), placed after the caps scene's
-last job, and its rows measured by the sweep (a capped configuration loses pixels and image;
-none has the exact figures; both exact on the lights they keep)."""
+each view policy that drops lights, the others skipped and said so; the per-tile policies on
+fptl alone), placed after the caps scene's last job, and its rows measured by the sweep (a
+capped configuration loses pixels and image; none has the exact figures; both exact on the
+lights they keep)."""
 from dataclasses import replace
 import io
 import json
@@ -32,7 +33,8 @@ def series(gl):
     sc = sw.scene("arena", 256)
     jobs = caps_jobs(TINY, "arena", 256, sc, log)
     with Renderer(sc, TINY.size) as r:
-        sw.measure_group(r, [j for j in jobs if j.technique in RENDERED], 1, len(jobs))
+        sw.measure_group(r, [j for j in jobs if j.technique in RENDERED or caps.per_tile(_policy(j))],
+                         1, len(jobs))
     return jobs, sw.rows, log.getvalue(), dropped_lights(sc, TINY.size, 0, TINY.frames)
 
 
@@ -43,9 +45,10 @@ def test_jobs_every_list_technique_at_the_policies_that_drop(series):
     # ~190 of 256 lights visible: the 32- and 16-light caps bite, the 256- and 512-light ones not
     assert {"urp-32", "urp-16"} <= biting and not biting & {"urp-256", "filament-256", "hdrp-view"}
     assert dropped[caps.NONE] == 0
-    assert {_policy(j) for j in jobs} == biting | {caps.NONE}
+    assert {_policy(j) for j in jobs} == biting | {caps.NONE} | set(caps.TILE_NAMES)
+    assert {j.technique for j in jobs if caps.per_tile(_policy(j))} == {"fptl"}
     assert all(j.study == CAPS and j.cutoff == 0 and j.frame == 0 for j in jobs)
-    skipped = [p for p in caps.NAMES if p != caps.NONE and p not in biting]
+    skipped = [p for p in caps.NAMES if p != caps.NONE and p not in biting and not caps.per_tile(p)]
     assert f"{', '.join(skipped)} drop nothing" in log
 
 
@@ -64,7 +67,7 @@ def test_caps_jobs_follow_the_scene_s_last_job():
 
 def test_rows_lose_pixels_and_image_where_capped(series):
     _, rows, _, dropped = series
-    assert {r["technique"] for r in rows} == set(RENDERED)
+    assert {r["technique"] for r in rows} == set(RENDERED) | {"fptl"}
     stats = lambda r: json.loads(r["stats"])
     by = {(r["technique"], caps.NAMES[r["cap_policy"]]): r for r in rows}
     for r in rows:
@@ -73,6 +76,12 @@ def test_rows_lose_pixels_and_image_where_capped(series):
         # exact on the lights it kept: brute without the dropped ones
         assert r["mismatch_count"] == 0 and r["mismatch_hash"] == 0, where
         assert r["samples"] == TINY.study_repeat and r["frame_cost_ms"] > 0, where
+    # HDRP FPTL per tile: the check's count of entries lost is the GPU's (the arena's small
+    # lights leave its tiles under 24 here: tests/app/techniques/test_fptl_tile_caps.py bites)
+    for p in caps.TILE_NAMES:
+        s = stats(by[("fptl", p)])
+        assert s["lost_entries"] == s["capped_entries"] and s["lost_tiles"] == s["capped_tiles"]
+        assert (s["lost_pixels"] > 0) == (s["lost_entries"] > 0)
     for t in RENDERED:
         none = by[(t, caps.NONE)]
         assert stats(none)["lost_pixels"] == 0 and stats(none)["lost_contributions"] == 0
