@@ -54,9 +54,10 @@ REPLAY_BUDGET = 4_000_000
 
 
 class Sweep:
-    def __init__(self, preset: Preset, log=sys.stderr):
+    def __init__(self, preset: Preset, log=sys.stderr, motion: str | None = None):
         self.p = preset
         self.log = log
+        self.motion = motion          # --motion (scenes.motion.with_motion; None: the scene's own)
         self.rows: list[dict] = []
         self.maps: dict[str, np.ndarray] = {}
         self.warm: set = set()
@@ -73,11 +74,14 @@ class Sweep:
 
     def scene(self, name: str, lights: int):
         from scenes import BUILTIN_SCENES, load_scene
+        from scenes.motion import with_motion
         key = (name, lights)
         if key not in self.scenes:
             n = lights if name in BUILTIN_SCENES else None
-            # a scene file takes no seed (its lights are its own)
-            self.scenes[key] = load_scene(name, lights=n, seed=self.p.seed if name in BUILTIN_SCENES else 0)
+            # a scene file takes no seed (its lights are its own); its motion moves them, as
+            # in capture, unless --motion says otherwise
+            self.scenes[key] = with_motion(load_scene(name, lights=n, seed=self.p.seed if name in
+                                                      BUILTIN_SCENES else 0), self.motion)
         return self.scenes[key]
 
     def light_counts(self, name: str, counts) -> tuple[int, ...]:
@@ -87,13 +91,17 @@ class Sweep:
         return (len(self.scene(name, 0).lights),)   # a scene file: its own lights
 
     def lights_for(self, job: Job):
+        """The job's lights: the scene's at the job's frame of the path loop (moved by its
+        motion, Scene.lights_at, as capture's frame K of --frames F), with the job's cutoff."""
         sc = self.scene(job.scene, job.lights)
+        moving = sc.motion is not None and sc.motion.speed != 0
+        lights = sc.lights_at(job.frame, self.p.frames)
         if job.cutoff == 0:
-            return sc.lights
-        key = (job.scene, job.lights, job.cutoff)
+            return lights
+        key = (job.scene, job.lights, job.cutoff, job.frame if moving else 0)
         if key not in self.light_sets:
-            self.light_sets[key] = (unbounded_lights(sc.lights, sc) if job.cutoff < 0
-                                    else cutoff_lights(sc.lights, 1.0 / job.cutoff))
+            self.light_sets[key] = (unbounded_lights(lights, sc) if job.cutoff < 0
+                                    else cutoff_lights(lights, 1.0 / job.cutoff))
         return self.light_sets[key]
 
     # ---- measuring -------------------------------------------------------------------------
@@ -382,20 +390,22 @@ def compared_groups(jobs: list[Job]) -> list[list[Job]]:
     return [list(g) for _, g in groupby(jobs, key=lambda j: (j.study, j.scene, j.lights, j.frame))]
 
 
-def run_sweep(preset: Preset, out: Path, command: str, log=sys.stderr) -> list[dict]:
-    """Measure the preset, write out/results.csv, maps.npz, run.json and the report."""
+def run_sweep(preset: Preset, out: Path, command: str, log=sys.stderr,
+              motion: str | None = None) -> list[dict]:
+    """Measure the preset, write out/results.csv, maps.npz, run.json and the report
+    (`motion`: --motion, the lights' motion; None: each scene's own)."""
     from .. import report
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     threads = set_cpu_threads(preset.cpu_threads)
-    sweep = Sweep(preset, log)
+    sweep = Sweep(preset, log, motion)
     rows = sweep.run()
     write_csv(rows, out / "results.csv", columns())
     np.savez_compressed(out / "maps.npz", **sweep.maps)
     elapsed = time.perf_counter() - t0
     info = dict(machine_info(), command=command, preset=preset.name, elapsed_s=elapsed,
-                cpu_threads=threads,
+                cpu_threads=threads, motion=motion or "the scenes' own",
                 config={f.name: getattr(preset, f.name) for f in fields(preset)})
     (out / "run.json").write_text(json.dumps(info, indent=1, default=list) + "\n")
     report.write_report(out, read_csv(out / "results.csv"), dict(np.load(out / "maps.npz")), info)
@@ -429,7 +439,9 @@ def sweep_main(argv) -> None:
     p.add_argument("--papers", action=argparse.BooleanOptionalAction, default=None,
                    help="the papers' settings at 1920x1080, modelled (default: on, off with "
                         "--scenes)")
+    from ..window.launch import add_motion_arg
+    add_motion_arg(p)
     args = p.parse_args(argv)
     preset = preset_from_args(args)
     command = "python -m app.bench " + " ".join(argv)
-    run_sweep(preset, Path(args.out), command)
+    run_sweep(preset, Path(args.out), command, motion=args.motion)
