@@ -305,11 +305,16 @@ class StochasticOptions(TechniqueOptions):
 
     def check_modes(self) -> None:
         super().check_modes()
-        if self.stochastic and cap_policy(self) != caps.NONE:
+        # A per-tile cap (HDRP FPTL) caps the lists built from the draw's ranges, and its check
+        # renders the exact lists with the same draw on the same lights: sound.  A view cap's
+        # check renders brute without the dropped lights, whose draw would then take its
+        # brightest light (t I_max) from another set: not the same draw, so refused.
+        if self.stochastic and cap_policy(self) != caps.NONE and not caps.per_tile(cap_policy(self)):
             raise UserError(f"--stochastic {self.stochastic} with --cap-policy "
-                            f"{cap_policy(self)}: not offered together (a capped frame's "
-                            f"check renders brute without the dropped lights, which moves "
-                            f"the stochastic budget's brightest light)")
+                            f"{cap_policy(self)}: not offered together (a view cap's check "
+                            f"renders brute without the dropped lights, which moves the "
+                            f"stochastic budget's brightest light; the per-tile hdrp-fptl-* "
+                            f"caps take it)")
 
 
 @dataclass(frozen=True)
