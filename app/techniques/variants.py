@@ -170,7 +170,9 @@ def variant_steps(build, general: list[Pass], cells: CellSource, args: np.ndarra
     own, rest = programs_for(per_mask)
     record_stats(build, per_mask, own, rest)
     figures = figure_steps(build, cells, own)
-    if len(own) == 1 and not rest:        # one mask: one dispatch over the image, as ever
+    single = len(own) == 1 and not rest
+    build.stats["variant_dispatches"] = 1 if single else len(own) + len(rest)
+    if single:                            # one mask: one dispatch over the image, as ever
         return figures + [replace(p, **mask_program(p, own[0], cells)) for p in general]
     out = []
     for mask in own + rest:
