@@ -145,3 +145,20 @@ def test_a_per_tile_cap_is_refused_where_no_tile_list_takes_it(technique, values
     with pytest.raises(UserError, match=says) as e:
         REGISTRY[technique].Options.make(values, technique)
     assert "\n" not in str(e.value)
+
+
+def test_stochastic_culling_under_a_per_tile_cap_is_the_counted_loss_of_its_draw(gl):
+    """The cap acts on the lists the draw's ranges build; the check renders brute and the
+    exact lists with the same draw: still exactly the tile cap's loss.  A view cap with a
+    draw stays refused."""
+    L = crowd(40, 30, seed=4)
+    L["intensity"] = np.linspace(1.0, 8.0, len(L))
+    with Renderer(make_scene(L, size=SIZE, camera=CAMERA)) as r:
+        opts = T.Options.make({"cap_policy": "hdrp-fptl-24", "stochastic": 256, "stochastic_frame": 3})
+        res = r.render(T, opts=opts)
+        m = check(res, r.render(BRUTE), r, T, BRUTE, {"opts": opts})
+    assert res.meta["stats"]["stochastic_t"] == 1 / 256
+    assert isinstance(m, IntendedLoss) and m.entries > 0 and m.pixels > 0, m.message() if m else "a pass"
+    assert m.entries == res.meta["stats"]["capped_entries"]
+    with pytest.raises(UserError, match="not offered together"):
+        T.Options.make({"cap_policy": "urp-16", "stochastic": 4})
