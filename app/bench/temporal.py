@@ -12,6 +12,10 @@ frame rendered by
                                                first whose list build applies it
     each light-cutoff level t = 1/c            the reference with the cutoff's radii
                                                (app.bench.cutoff.cutoff_lights)
+    stochastic culling at each budget t = 1/N  the reference with Tokuyoshi & Harada's
+      (app.bench.cutoff.STOCHASTIC_BUDGETS)    ranges, a new draw every frame
+                                               (stochastic_frame = the frame index): what
+                                               its noise costs from frame to frame
     the unbounded reference                    every light, UNBOUNDED_FALLOFF (no window)
 
 and per frame k >= 1 and configuration T, against the unbounded reference R of the same
@@ -25,7 +29,9 @@ frames:
                      it moved into or out of its volume (popping_pixels)
 
 An exact technique's set is brute's at every pixel, so it never pops.  Each row also has the
-frame's CPU stage (cpu_total_ms: the rebuild every frame costs) and frame cost.
+frame's CPU stage (cpu_total_ms: the rebuild every frame costs) and frame cost.  A
+stochastic configuration's popping counts the pixels whose drawn set changed where the exact
+one did not: its noise, frame after frame (the estimate is unbiased, not steady).
 """
 from __future__ import annotations
 
@@ -38,15 +44,15 @@ import numpy as np
 from ..report.temporal import CSV
 from ..results import write_csv
 from . import measure
-from .cutoff import cutoff_lights, unbounded_lights
+from .cutoff import STOCHASTIC_BUDGETS, cutoff_lights, unbounded_lights
 
 COLUMNS = ["study", "scene", "lights", "width", "height", "frame", "frames", "motion_speed",
-           "config", "kind", "technique", "role", "policy", "cutoff", "visible",
+           "config", "kind", "technique", "role", "policy", "cutoff", "stochastic", "visible",
            "temporal_error_pct", "popping_pixels", "changed_pixels", "covered_pixels",
            "capped_lights", "cpu_total_ms", "frame_cost_ms", "wall_ms"]
 
 
-def configurations(cutoffs) -> list[dict]:
+def configurations(cutoffs, budgets=STOCHASTIC_BUDGETS) -> list[dict]:
     """Every configuration the series renders, the unbounded reference last."""
     from cpu_prep import caps
     from ..techniques import REGISTRY, with_role
@@ -62,6 +68,9 @@ def configurations(cutoffs) -> list[dict]:
                             opts=capped.Options.make({"cap_policy": p}), policy=p, cutoff=0))
     out += [dict(config=f"cutoff 1/{c}", kind="cutoff", technique=ref.name, opts=ref.Options(),
                  policy=caps.NONE, cutoff=int(c)) for c in cutoffs]
+    out += [dict(config=f"stochastic 1/{n}", kind="stochastic", technique=ref.name,
+                 opts=ref.Options.make({"stochastic": int(n)}), policy=caps.NONE, cutoff=0)
+            for n in budgets]
     out.append(dict(config="unbounded", kind="reference", technique=ref.name, opts=ref.Options(),
                     policy=caps.NONE, cutoff=-1))
     return out
@@ -86,9 +95,11 @@ def run_temporal(scene, scene_name: str, size, frames: int, loop: int, cutoffs,
                 lights = cutoff_lights(lights, 1.0 / c["cutoff"])
             elif c["cutoff"] < 0:
                 lights, defines = unbounded_lights(lights, scene), {"UNBOUNDED_FALLOFF": 1}
-            return r.render(REGISTRY[c["technique"]], k, c["opts"], frames=loop, lights=lights,
+            opts = c["opts"].with_(stochastic_frame=k) if c["kind"] == "stochastic" else c["opts"]
+            return r.render(REGISTRY[c["technique"]], k, opts, frames=loop, lights=lights,
                             readback=readback, defines=defines)
-        for c in {c["technique"]: c for c in configs}.values():     # compilation, not measured
+        warm = {(c["technique"], c["kind"]): c for c in configs}   # each program variant once
+        for c in warm.values():                                     # compilation, not measured
             render(c, 0, readback=False)
         for k in range(frames):
             w0 = time.perf_counter()
@@ -120,7 +131,9 @@ def _row(c, k, f, wall, f_prev, unb, unb_prev, exact, exact_prev, covered, scene
     row = {"study": "temporal", "scene": scene_name, "lights": n, "width": size[0],
            "height": size[1], "frame": k, "frames": loop, "motion_speed": speed,
            "config": c["config"], "kind": c["kind"], "technique": tech.name, "role": tech.role,
-           "policy": c["policy"], "cutoff": c["cutoff"], "visible": int(stats.get("visible_lights", 0)),
+           "policy": c["policy"], "cutoff": c["cutoff"],
+           "stochastic": int(getattr(c["opts"], "stochastic", 0)),
+           "visible": int(stats.get("visible_lights", 0)),
            "capped_lights": int(stats.get("capped_lights", 0)),
            "covered_pixels": int(covered.sum()),
            "cpu_total_ms": float(sum(sample["cpu_ms"].values())),

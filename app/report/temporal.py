@@ -1,6 +1,6 @@
 """Temporal stability along a moving path (app.bench.temporal, DIR/temporal.csv): the
 temporal error against the unbounded reference and the popping pixels per frame, for every
-exact technique, cap policy and light-cutoff level."""
+exact technique, cap policy, light-cutoff level and stochastic budget."""
 from __future__ import annotations
 
 import math
@@ -18,7 +18,10 @@ EXPLANATION = (
     "pixels whose light set (contrib_hash) changed while the exact set (brute at the scene's "
     "radii) did not: a light crossed a cap or a cutoff rather than moving into or out of its "
     "volume. A cap policy runs on one list technique: it drops the same lights whatever the "
-    "structure. Exact techniques have brute's sets at every pixel, so they never pop.")
+    "structure. Exact techniques have brute's sets at every pixel, so they never pop. "
+    "Stochastic light culling (Tokuyoshi & Harada) draws each light's range anew every frame "
+    "(stochastic_frame = the frame): its popping is its noise, its temporal error what that "
+    "noise adds to the true change.")
 
 
 def _groups(rows) -> dict[str, list[dict]]:
@@ -48,7 +51,8 @@ def fig_temporal(rows, out, colors, roles) -> tuple[str | None, list[str]]:
     for i, (c, rs) in enumerate(groups.items()):
         x = [int(r["frame"]) for r in rs]
         kind = rs[0]["kind"]
-        style = dict(ls="-" if kind == "technique" else "--" if kind == "cap" else ":",
+        style = dict(ls="-" if kind == "technique" else "--" if kind == "cap" else
+                     "-." if kind == "stochastic" else ":",
                      marker="o", ms=3, lw=1.3, color=cmap(i % 20), label=c)
         axes[0][0].plot(x, [num(r["temporal_error_pct"]) for r in rs], **style)
         axes[0][1].plot(x, [num(r["popping_pixels"]) for r in rs], **style)
@@ -90,7 +94,12 @@ def _text(groups: dict, r0) -> list[str]:
     if cuts:
         text.append("Light cutoffs: " + "; ".join(
             f"{c}: {figs[c][0]:.3g}%, {int(figs[c][1])} popping pixels" for c in cuts) + ".")
-    inexact = {c: figs[c] for c in caps + cuts}
+    draws = [c for c in figs if figs[c][3][0]["kind"] == "stochastic"]
+    if draws:
+        text.append("Stochastic light culling, a new draw every frame: " + "; ".join(
+            f"{c}: {figs[c][0]:.3g}%, {int(figs[c][1])} popping pixels" for c in draws) +
+            " (its noise: unbiased on average, not steady from frame to frame).")
+    inexact = {c: figs[c] for c in caps + cuts + draws}
     if inexact:
         calm = min(inexact, key=lambda c: inexact[c][0])
         pop = max(inexact, key=lambda c: inexact[c][1])

@@ -131,15 +131,18 @@ def _match_temporal(g, trows) -> None:
     kind and value: an exact technique's own at the scene's radii; a cutoff level's (the
     series renders it with the reference) and a cap policy's (with one list technique) for
     every technique at that level or policy, whose images are the same: the same light sets,
-    summed in another order.  Stochastic culling has no temporal configuration."""
+    summed in another order; a stochastic budget's (the series draws anew every frame with
+    the reference) for every technique at that budget, whose draws give the same sets."""
     by = {}
+    value = {"cap": lambda r: r.get("policy"), "cutoff": lambda r: int(num(r.get("cutoff"))),
+             "stochastic": lambda r: int(num(r.get("stochastic")))}
     for r in trows:
         e = num(r.get("temporal_error_pct"))
-        kind = {"technique": "radii", "cap": "cap", "cutoff": "cutoff"}.get(r.get("kind"))
+        kind = {"technique": "radii", "cap": "cap", "cutoff": "cutoff",
+                "stochastic": "stochastic"}.get(r.get("kind"))
         if math.isnan(e) or kind is None:
             continue
-        key = (kind, r["technique"]) if kind == "radii" else \
-            (kind, r.get("policy") if kind == "cap" else int(num(r.get("cutoff"))))
+        key = (kind, r["technique"]) if kind == "radii" else (kind, value[kind](r))
         by.setdefault(key, []).append(e)
     for p in g["points"]:
         es = by.get((p.kind, p.technique if p.kind == "radii" else p.value))

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from app.bench import temporal
+from app.bench.cutoff import STOCHASTIC_BUDGETS
 from app.bench.presets import FULL, GPU_CHECK, QUICK
 from scenes.motion import Motion
 from tests.helpers import make_scene, random_lights
@@ -57,6 +58,12 @@ def test_exact_techniques_never_pop_and_a_binding_cap_does(gl, tmp_path):
     urp16 = [r for r in later if r["policy"] == "urp-16"]
     assert all(r["visible"] == 16 and r["capped_lights"] > 0 for r in urp16)
     assert sum(r["popping_pixels"] for r in urp16) > 0
+    # stochastic culling: a new draw a frame, so its sets change where the exact ones stay
+    for n in STOCHASTIC_BUDGETS:
+        drawn = [r for r in later if r["kind"] == "stochastic" and r["stochastic"] == n]
+        assert len(drawn) == 2 and all(r["technique"] == "brute" for r in drawn)
+        assert sum(r["popping_pixels"] for r in drawn) > 0
+        assert all(r["temporal_error_pct"] > 0 for r in drawn)
     assert all(not math.isnan(r["temporal_error_pct"]) for r in later)
     assert all(math.isnan(r["temporal_error_pct"]) for r in rows if r["frame"] == 0)
     # the report's section: its figure and its sentences from these rows
@@ -66,3 +73,5 @@ def test_exact_techniques_never_pop_and_a_binding_cap_does(gl, tmp_path):
     png, text = fig_temporal(rows, tmp_path, Colors([r["technique"] for r in rows], roles), roles)
     assert (tmp_path / png).is_file() and "pop on 0 pixels" in text[0]
     assert any(t.startswith("Cap policies: ") and "urp-16" in t for t in text)
+    assert any(t.startswith("Stochastic light culling, a new draw every frame: stochastic 1/")
+               for t in text)

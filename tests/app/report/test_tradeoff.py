@@ -103,13 +103,17 @@ def test_figure_written_with_a_temporal_panel(tmp_path):
               "policy": "urp-16", "cutoff": 0.0, "temporal_error_pct": e} for e in (3.0, 5.0)]
     trows += [{"scene": "arena", "lights": 256.0, "kind": "technique", "technique": "tiled",
                "policy": "none", "cutoff": 0.0, "temporal_error_pct": 0.5}]
+    # stochastic culling's temporal configuration (brute, a new draw a frame) at its budget
+    trows += [{"scene": "arena", "lights": 256.0, "kind": "stochastic", "technique": "brute",
+               "policy": "none", "cutoff": 0.0, "stochastic": n, "temporal_error_pct": e}
+              for n, e in ((256.0, 7.0), (4096.0, 9.0))]
     colors = Colors([r["technique"] for r in rows], ROLES)
     png, text = fig_tradeoff(rows, trows, tmp_path, colors, ROLES)
     assert png == "tradeoff.png" and (tmp_path / png).stat().st_size > 10_000
     g = gather(rows, trows, ROLES)[("arena", 256)]
     # the cap's figure holds for every technique under it; an exact technique's is its own
     assert {p.label: p.temporal for p in g["points"] if p.temporal == p.temporal} == \
-        {"tiled, urp-16": 4.0, "tiled, scene radii": 0.5}
+        {"tiled, urp-16": 4.0, "tiled, scene radii": 0.5, "tiled, stochastic 1/256": 7.0}
     assert "exact on the lights it kept" in "\n".join(text)
     assert "drop none of the 200 visible lights" in "\n".join(text)
     joined = "\n".join(text)
