@@ -35,10 +35,13 @@ def defined(text: str) -> set[str]:
 
 
 def test_generated_glsl_holds_the_constants_and_units(gl):
-    want = dict(layouts.glsl_constants(), **gbuffer.unit_defines())
+    want = dict(layouts.glsl_constants(), **gbuffer.unit_defines(), **features.feature_bit_defines())
     text = features.generated_glsl()
     assert defined(text) == set(want)
     assert read_back(gl, text, want) == want
+    bits = features.FEATURE_BITS
+    assert want["FEATURE_SPECULAR_BIT"] == bits["specular"] and want["FEATURE_MASKS"] == features.MASKS
+    assert features.MASKS == 2 * max(bits.values()) and len(set(bits.values())) == len(bits)
     assert want["G_POSITION_UNIT"] == gbuffer.TEXTURE_UNITS["g_position"]
     assert (want["CASE_LIST"], want["CASE_TREE"], want["CASE_MIXED"]) == \
         (layouts.CASE_LIST, layouts.CASE_TREE, layouts.CASE_LIST | layouts.CASE_TREE)
