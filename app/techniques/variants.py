@@ -196,7 +196,10 @@ def record_stats(build, per_mask: np.ndarray, own: list[int], rest: list[int]) -
     build.stats.update(
         feature_variants=len(own), variant_tile=vt,
         variant_tiles={feat.mask_label(m): int(per_mask[m]) for m in own + rest},
-        variant_masks=[int(m) for m in own + rest])
+        variant_masks=[int(m) for m in own + rest],
+        # numeric, for results.csv's stats column (the report's study of the option)
+        variant_tiles_total=int(per_mask.sum()), variant_masks_seen=len(own) + len(rest),
+        variant_tiles_most=int(per_mask.max()), variant_tiles_fewest=int(per_mask[own + rest].min()))
     if rest:
         build.stats["variant_fallback"] = (
             f"{len(rest)} masks past the {MAX_PROGRAMS} programs ({int(per_mask[rest].sum())} "
