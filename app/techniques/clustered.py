@@ -26,7 +26,7 @@ from . import variants
 class Clustered(Technique, register_at=30):
     name = "clustered"
     summary = "2.5D grid of index lists (Persson 2013)"
-    views = Technique.views + ("tiles", "slices")
+    views = Technique.views + ("tiles", "slices", "variants")
 
     @dataclass(frozen=True)
     class Options(SliceOptions, ListOptions, WaveOptions, ScalarizeOptions, CapOptions,

@@ -38,7 +38,7 @@ CELL_TREE_BIT = np.uint32(1 << 31)     # a cell's count word: listing 2 chose a 
 class Hybrid(Technique, register_at=50):
     name = "hybrid"
     summary = "2.5D grid, each cell a list or a tree (listing 2 heuristic)"
-    views = Technique.views + ("tiles", "slices", "classes")
+    views = Technique.views + ("tiles", "slices", "classes", "variants")
     glsl = {"hybrid_cells.glsl": layouts.glsl_defines({"CELL_TREE_BIT": CELL_TREE_BIT})}
 
     @dataclass(frozen=True)

@@ -31,7 +31,7 @@ def pool_entries(b) -> int:
 class Tiled(Technique, register_at=20):
     name = "tiled"
     summary = "2D tiles, min/max depth and light lists on the GPU (Andersson, Harada)"
-    views = Technique.views + ("tiles",)
+    views = Technique.views + ("tiles", "variants")
     glsl = {"tiled_lists.glsl": layouts.glsl_defines({"TILE_OVERFLOW": OVERFLOW})}
 
     @dataclass(frozen=True)

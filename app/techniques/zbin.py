@@ -73,6 +73,7 @@ from .base import Technique, prepare
 from .bit_arrays import (VARIANTS, ShadingOptions, add_bit_words, attach_zbins, shading_steps,
                          tile_bit_maps, variant_flags)
 from .blocks import tile_boxes
+from .gpu_build import BuildOptions, build_bits, on_gpu
 from .options import CapOptions, FeatureVariantOptions, StochasticOptions, option
 from . import variants
 
@@ -87,16 +88,18 @@ class ZBin(Technique, register_at=60):
     # and images do not.
     evaluates_per_wave = True
     # the window's views (app.window.views): the common ones and the bit arrays' tile grid
-    views = Technique.views + ("tiles", "maps")
+    views = Technique.views + ("tiles", "maps", "variants")
 
     @dataclass(frozen=True)
-    class Options(ShadingOptions, CapOptions, StochasticOptions, FeatureVariantOptions):
+    class Options(ShadingOptions, CapOptions, StochasticOptions, BuildOptions, FeatureVariantOptions):
         tile_depth: bool = option(True, "cull each tile's bits against its min / max scene depth on "
                                         "the GPU (the slides' tiles are depth tested); off: the "
                                         "CPU's screen rectangles alone", study=(True, False))
 
     def build(self, frame, opts):
         opts = self.resolve_options(opts)
+        if on_gpu(opts):
+            return build_bits(frame, opts, lambda b: self.passes(b, opts))
         b = prepare(frame, opts=opts)
         masked, _ = variant_flags(opts.zbin_variant)
         n = len(b.lights)

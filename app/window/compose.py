@@ -30,7 +30,8 @@ from ..techniques import REGISTRY
 from . import passes
 from .figures import frame_sums, split_figures
 from .inspect import Inspection, inspect
-from .views import HEAT_OF, VIEWS, Overlay
+from . import variant_view
+from .views import HEAT_OF, PASS_VIEWS, VIEWS, Overlay
 
 REF_SETTLE_S = 0.3            # interactive: the reference renders once the view is this still
 
@@ -71,6 +72,7 @@ class FrameComposer:
         self.map_index = 0                # the maps view: which of the technique's maps
         self.map_shown = ("", "", 0.0)    # its name, label and heat-scale top
         self._map_tex = None
+        self._variants = None             # the variants view: the frame's stats, when it has them
         self.view_shown = "shaded"
         self.uniforms: dict = {}
         self._still = (None, time.perf_counter())     # the view's key, and since when
@@ -114,6 +116,8 @@ class FrameComposer:
         render_ms = (time.perf_counter() - t0) * 1e3
         if state.view == "maps":
             self._upload_map(plan.technique, result, size)
+        if state.view == "variants":
+            self._upload_variants(result)
         exposure = images.exposure_from_histogram(extra["hist"]) if state.exposure_auto else state.exposure_manual
         state.exposure_now = exposure
         ins = self._inspect(result, debug_pixel, size) if debug_pixel is not None else None
@@ -172,6 +176,17 @@ class FrameComposer:
         self._map_tex.write(np.ascontiguousarray(full).tobytes())
         self.map_shown = (name, label, images.maps_top(maps))
 
+    def _upload_variants(self, result) -> None:
+        """The variants view: each variant tile's colour (VARIANT_VIEW) from this frame's
+        tile masks, and the legend for the HUD; none when the frame ran no variants."""
+        stats = result.meta["stats"]
+        self.map_shown = ("variants", variant_view.legend_text(stats), 0.0)
+        self._variants = None
+        if "variant_masks" in stats and "tile_masks" in self.renderer.provided():
+            colors = variant_view.tile_colors(stats, self.renderer.read("tile_masks"))
+            self.renderer.upload(variant_view.VARIANT_VIEW, colors)
+            self._variants = stats
+
     # ---- drawing -------------------------------------------------------------------------------
     def present(self, c: Composed, state, fc, size, heat_max: float, split_x: int) -> None:
         """The present pass's uniforms for the view now shown."""
@@ -200,7 +215,12 @@ class FrameComposer:
         self.split_stash.bind()
         if self._map_tex is not None:
             self._map_tex.use(passes.UNITS["MAP_UNIT"])
-        r.run([passes.present_pass(target, r.size, viewport, self.view_shown, self.uniforms)])
+        own = self.view_shown in PASS_VIEWS      # drawn over the shaded view by a pass of its own
+        steps = [passes.present_pass(target, r.size, viewport, "shaded" if own else self.view_shown,
+                                     self.uniforms)]
+        if self.view_shown == "variants" and self._variants is not None:
+            steps.append(variant_view.overlay_pass(target, r.size, viewport, self._variants))
+        r.run(steps)
 
 
 class Screenshots:

@@ -11,6 +11,8 @@
     split    the current technique left, a second one right (shaded or heat)
     maps     the technique's own structure (Technique.maps: fptl's coarse and pruned lists
              per tile, zbin's bit arrays and z-bin ranges, raster's marked tiles), M: next
+    variants each tile's feature variant (--feature-variants), colour-coded, the legend in
+             the HUD; drawn by its own pass over the shaded image (app.window.variant_view)
 
 A technique offers the views in its `views` attribute (app.techniques.base.Technique.views:
 shaded, heat, diff, split for every one; tiles, slices, classes where it has that structure):
@@ -21,6 +23,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 VIEWS = ("shaded", "heat", "tiles", "slices", "classes", "diff", "split", "maps")
+# views drawn by a pass of their own over the shaded view (present.frag knows VIEWS only)
+PASS_VIEWS = ("variants",)
+ALL_VIEWS = VIEWS + PASS_VIEWS
 SPLIT_VIEWS = ("shaded", "heat")
 HEAT_OF = ("evaluated", "exact")
 
@@ -28,11 +33,11 @@ HEAT_OF = ("evaluated", "exact")
 def views_of(technique) -> tuple[str, ...]:
     """The views a technique offers, in the window's order."""
     own = set(getattr(technique, "views", ()) or ("shaded",))
-    unknown = own - set(VIEWS)
+    unknown = own - set(ALL_VIEWS)
     if unknown:
         raise ValueError(f"technique {technique.name}: unknown view(s) {sorted(unknown)} "
-                         f"(known: {', '.join(VIEWS)})")
-    return tuple(v for v in VIEWS if v in own)
+                         f"(known: {', '.join(ALL_VIEWS)})")
+    return tuple(v for v in ALL_VIEWS if v in own)
 
 
 def with_view(registry, view: str) -> list[str]:
@@ -96,6 +101,8 @@ def view_note(view: str, technique: str, overlay: Overlay, heat_top: float, *,
         return f"diff vs {reference}: {differ} pixels differ (red)"
     if view == "split":
         return f"split: {technique} left | {split} right ({split_view})"
+    if view == "variants":
+        return f"variants: {map_label}"
     if view == "maps":
         if not map_name:
             return f"maps: {technique} has none for this frame"
