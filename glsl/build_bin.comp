@@ -8,9 +8,10 @@
 //               as the CPU's fill, which walks the lights in that order
 //   BIN_STEP 2  each cell's range (first entry, count) by binary search of the sorted cells,
 //               the longest list into counters[COUNTER_LONGEST]
-// define: BIN_STEP COUNTER_VISIBLE COUNTER_ENTRIES COUNTER_LONGEST
+// define: BIN_STEP
 #include "generated.glsl"
 #include "build_common.glsl"
+#include "build_counters.glsl"
 
 uniform uint u_capacity;          // scene lights: the per-light buffers' length
 uniform ivec2 u_tiles;
@@ -74,22 +75,14 @@ layout(std430, binding = B_BOXES) readonly buffer Boxes { ivec2 boxes[]; };
 layout(std430, binding = B_LIGHT_FIRST) readonly buffer First { uint light_first[]; };
 layout(std430, binding = B_ENTRY_CELLS) buffer Cells { uint entry_cells[]; };
 layout(std430, binding = B_ENTRY_LIGHTS) buffer Lights { uint entry_lights[]; };
+#include "build_entries.glsl"
 
 void main() {
     uint e = element_index();
     if (e >= counters[COUNTER_ENTRIES]) return;
-    // the last light whose first entry is at or before e (the lights between own none)
-    uint lo = 0u, hi = u_capacity;
-    while (hi - lo > 1u) {
-        uint mid = (lo + hi) >> 1;
-        if (light_first[mid] <= e) lo = mid; else hi = mid;
-    }
-    ivec2 x = boxes[3u * lo], y = boxes[3u * lo + 1u], sl = boxes[3u * lo + 2u];
-    uint k = e - light_first[lo];
-    uint ns = uint(sl.y - sl.x + 1), nx = uint(x.y - x.x + 1);
-    uint s = uint(sl.x) + k % ns, tx = uint(x.x) + (k / ns) % nx, ty = uint(y.x) + k / (ns * nx);
-    entry_cells[e] = (ty * uint(u_tiles.x) + tx) * uint(u_slices) + s;   // tile-major (grid.py)
-    entry_lights[e] = lo;
+    uint light = entry_light(e);
+    entry_cells[e] = entry_cell(light, e - light_first[light]);
+    entry_lights[e] = light;
 }
 #else
 layout(std430, binding = B_SORTED_CELLS) readonly buffer Cells { uint sorted_cells[]; };

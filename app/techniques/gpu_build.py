@@ -2,23 +2,24 @@
 
 cpu (the default) is the CPU stage (cpu_prep, numba); gpu builds the same buffers, bit for
 bit, as compute passes of the frame graph before the shading pass (app/gpu_build), timed
-like every pass (meta gpu_ms: build_cull, build_sort, build_bin; the pack, still on the
-CPU, in setup_ms build_pack).  The dump's meta says which ran: options.build (the choice's
-index) and stats.build (its name).
+like every pass (meta gpu_ms: build_cull, build_sort, build_bin, build_zbin, build_tree;
+the pack, still on the CPU, in setup_ms build_pack).  The dump's meta says which ran:
+options.build (the choice's index) and stats.build (its name).
 
-Built on the GPU so far: clustered (cull, depth sort, binning).  zbin's z-bins and bit
-arrays, the tree build with skip counts and listing 2's choice are not yet; those
-techniques do not take the option (docs/cpu_stage.md).
+Built on the GPU: clustered (cull, depth sort, binning), zbin (its Z-bin LUT and tile bit
+arrays).  Not offered with it (one line, exit 2): --duplicated, --stochastic and
+--cap-policy, which the GPU build does not make (docs/cpu_stage.md).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from cpu_prep import caps
+from cpu_prep import caps, grid as gridmod, limits, zbin as zb
 
 from ..errors import UserError
-from ..gpu_build import lists as gpulists
+from ..gpu_build import lists as gpulists, prepare, zbins as gpuzbins
 from .base import make_grid
+from .bit_arrays import variant_flags
 from .options import TechniqueOptions, cap_policy, choice, stochastic
 
 CPU, GPU = "cpu", "gpu"
@@ -46,19 +47,55 @@ def on_gpu(opts) -> bool:
 
 
 def build_lists(frame, opts, slices: int, shade):
-    """A list technique's Build whose cull, sort and binning run on the GPU: the grid and
-    the scene's lights go up; its steps (build.data[gpulists.BUILD_STEPS], which the
-    renderer runs in place of the technique's passes) end in `shade(b)`: the technique's
-    own passes, once the longest list (b.data["longest_list"]) is known."""
-    b = gpulists.Build(frame=frame, lights=gpulists.unbuilt_lights(frame))
-    b.grid = make_grid(frame, opts, slices)
-    b.buffers["scene_lights"] = gpulists.scene_words(frame.lights)
-    b.buffers["gb_slice_table"] = gpulists.slice_table(b.grid)     # the grid's, not the lights'
-    b.stats.update(build=GPU, cells=b.grid.cells)
+    """A list technique's Build whose cull, sort and binning run on the GPU; its steps
+    (build.data[prepare.BUILD_STEPS], which the renderer runs in place of the technique's
+    passes) end in `shade(b)`: the technique's own passes, once the longest list
+    (b.data["longest_list"]) is known, then the lists read back for the figures."""
+    grid = make_grid(frame, opts, slices)
 
-    def shading(longest: int):
-        b.data["longest_list"] = longest
-        return list(shade(b)) + [gpulists.readback_step(b)]
-    b.data["shade"] = shading
-    b.data[gpulists.BUILD_STEPS] = gpulists.cull_and_sort(frame) + [gpulists.pack_step(b, gpulists.count_cells)]
+    def after_pack(b):
+        b.grid = grid
+        return gpulists.bin_lists(b, lambda longest: list(shade(b)) + [
+            gpulists.readback_step(b, gpulists.list_readback(b))])
+    b = prepare.start(frame, after_pack, cells=grid.cells)
+    b.buffers["gb_slice_table"] = gpulists.slice_table(grid)
+    return b
+
+
+def build_bits(frame, opts, passes):
+    """zbin's Build whose cull, sort, Z-bin LUT and tile bit arrays run on the GPU (its
+    tile, grid, checks and stats as ZBin.build makes them, once the visible count is read
+    back); its steps end in `passes(b)`: the technique's own (the tile depth test, the
+    shading), then the structures read back for the figures."""
+    from .zbin import check_depth_loops            # (zbin imports this module)
+    masked, _ = variant_flags(opts.zbin_variant)
+    capacity = len(frame.lights)
+
+    def after_pack(b):
+        n, (w, h) = len(b.lights), frame.size
+        tile = zb.choose_tile(w, h, n, opts.bit_tile, opts.budget_bytes)
+        b.grid = g = gridmod.make_grid(frame.camera, tile, 1, frame.max_depth,
+                                       limits.DEFAULT_NEAR_SLICE_DEPTH)
+        bits_bytes = 4 * g.tiles_x * g.tiles_y * zb.words_for(n)
+        limits.check_buffer("zbin tile bit arrays", bits_bytes)
+        if opts.tile_depth:
+            check_depth_loops(frame, tile, n)
+        lut = gpuzbins.lut_passes(b, opts.zbins, capacity) if masked else []
+        wide = zb.is_wide(n)
+        b.stats.update(
+            variant=opts.choice_name("zbin_variant"), bit_tile_used=tile, tiles=g.tiles_x * g.tiles_y,
+            words_per_tile=zb.words_for(n), bits_bytes=bits_bytes, zbins=opts.zbins if masked else 0,
+            zbin_bytes=4 * opts.zbins * (2 if wide else 1) if masked else 0,
+            zbin_id_bits=32 if wide else zb.ZBIN_ID_BITS)
+        readback = dict(gpuzbins.bits_readback(b), **(gpuzbins.lut_readback(b, opts.zbins) if masked else {}))
+
+        def filled(read):
+            entries = int(read[prepare.COUNTERS][prepare.ENTRIES])
+            return {}, ([gpuzbins.bits_pass(b, capacity, entries)] + list(passes(b))
+                        + [gpulists.readback_step(b, readback)])
+        return lut + gpulists.box_passes(b, capacity) + [
+            prepare.host("build_bin_entries", (prepare.COUNTERS,), filled)]
+    b = prepare.start(frame, after_pack)
+    b.buffers["gb_slice_table"] = gpulists.slice_table(gridmod.make_grid(
+        frame.camera, opts.bit_tile, 1, frame.max_depth, limits.DEFAULT_NEAR_SLICE_DEPTH))
     return b
