@@ -324,8 +324,8 @@ class FeatureVariantOptions(TechniqueOptions):
                                            "by the light shapes of its lists, specular or matte "
                                            "(hybrid: list / tree cells), then shaded by that "
                                            "mask's own program, dispatched indirectly over its "
-                                           "tiles", study=(False, True), study_scene="corridor",
-                                    also_study=("city",))
+                                           "tiles", study=(False, True),
+                                    also_study=("corridor", "city"))
 
 
 def stochastic(opts) -> tuple[int, int, int] | None:
