@@ -31,15 +31,18 @@ from . import steps
 COUNTERS = "gb_counters"
 # Build.data key of a GPU build's steps, run by the renderer in place of technique.passes()
 BUILD_STEPS = "build_steps"
-# counter words: each count one pass makes for the next (SCRATCH: a scan's unkept total)
-(VISIBLE, ENTRIES, LONGEST, SCRATCH, NODES, MAX_LEAVES, TREES, LISTS,
- LISTS_AS_TREES) = range(9)
-COUNTER_WORDS = 16
+# counter words: each count one pass makes for the next (SCRATCH: a scan's unkept total;
+# TREES / LISTS: cells of more than one leaf / of one; CHOSEN_TREES, LISTS_AS_TREES: the
+# hybrid's listing 2 choices, and its lists stored as trees of lists)
+COUNTER_NAMES = ("visible", "entries", "longest", "scratch", "nodes", "max_leaves", "trees",
+                 "lists", "chosen_trees", "lists_as_trees")
+(VISIBLE, ENTRIES, LONGEST, SCRATCH, NODES, MAX_LEAVES, TREES, LISTS, CHOSEN_TREES,
+ LISTS_AS_TREES) = range(len(COUNTER_NAMES))
+COUNTER_WORDS = steps.COUNTER_WORDS
+assert len(COUNTER_NAMES) <= COUNTER_WORDS
 # the build shaders' names of those words, generated (build_counters.glsl, a pass's virtual file)
-COUNTER_FILES = {"build_counters.glsl": layouts.glsl_defines({
-    "COUNTER_VISIBLE": VISIBLE, "COUNTER_ENTRIES": ENTRIES, "COUNTER_LONGEST": LONGEST,
-    "COUNTER_NODES": NODES, "COUNTER_MAX_LEAVES": MAX_LEAVES, "COUNTER_TREES": TREES,
-    "COUNTER_LISTS": LISTS, "COUNTER_LISTS_AS_TREES": LISTS_AS_TREES})}
+COUNTER_FILES = {"build_counters.glsl": layouts.glsl_defines(
+    {f"COUNTER_{name.upper()}": k for k, name in enumerate(COUNTER_NAMES)})}
 CULL_KEY_BITS = 32
 # the scene record's fields as 4-byte words (LIGHT_DTYPE: type is its first byte)
 _SL = {f"SL_{n.upper()}": LIGHT_DTYPE.fields[n][1] // 4

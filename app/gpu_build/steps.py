@@ -22,6 +22,9 @@ DIGIT_BITS = 8
 NO_TOTAL = 0xFFFFFFFF
 U32 = np.dtype(np.uint32)
 MAX_GROUPS_X = 65535        # GL's minimum per axis: the 2D layout of large dispatches
+# the counter words a scan's total goes to (prepare.py names them); every pass declares the
+# whole buffer, since a smaller declaration would read back, or reallocate, fewer words
+COUNTER_WORDS = 16
 
 
 def groups(n_groups: int) -> tuple[int, int, int]:
@@ -46,7 +49,7 @@ def scan(name: str, src: str, dst: str, n: int, counters: str, total_word: int =
     return [Pass(name, "build_scan.comp", reads=("src",),
                  writes={"dst": words(n), "sums": words(nb)}, groups=groups(nb),
                  defines={"SCAN_STEP": 0}, uniforms=u, sources={"src": src, "dst": dst, "sums": scratch}),
-            Pass(name, "build_scan.comp", writes={"sums": words(nb), "counters": words(4)},
+            Pass(name, "build_scan.comp", writes={"sums": words(nb), "counters": words(COUNTER_WORDS)},
                  groups=(1, 1, 1), defines={"SCAN_STEP": 1}, uniforms=u,
                  sources={"sums": scratch, "counters": counters}),
             Pass(name, "build_scan.comp", reads=("sums",), writes={"dst": words(n)},

@@ -14,11 +14,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from cpu_prep import caps, grid as gridmod, limits, zbin as zb
+import numpy as np
+
+from cpu_prep import caps, grid as gridmod, hybrid as hybridmod, limits, tree as treemod, zbin as zb
 
 from ..errors import UserError
-from ..gpu_build import lists as gpulists, prepare, zbins as gpuzbins
-from .base import make_grid
+from ..gpu_build import lists as gpulists, prepare, trees as gputrees, zbins as gpuzbins
+from .base import make_grid, windows
 from .bit_arrays import variant_flags
 from .options import TechniqueOptions, cap_policy, choice, stochastic
 
@@ -34,12 +36,17 @@ class BuildOptions(TechniqueOptions):
         super().check_modes()
         if self.choice_name("build") != GPU:
             return
-        taken = [flag for flag, on in (("--duplicated", getattr(self, "duplicated", False)),
-                                       ("--stochastic", stochastic(self) is not None),
-                                       ("--cap-policy", cap_policy(self) != caps.NONE)) if on]
+        taken = [flag for flag, on in (
+            ("--duplicated", getattr(self, "duplicated", False)),
+            ("--stochastic", stochastic(self) is not None),
+            ("--cap-policy", cap_policy(self) != caps.NONE),
+            ("--sort-buckets", getattr(self, "sort_buckets", 0) > 0),
+            ("--tree-build topdown", getattr(self, "tree_build", treemod.BUILD_BOTTOMUP) != treemod.BUILD_BOTTOMUP))
+            if on]
         if taken:
             raise UserError(f"--build gpu with {', '.join(taken)}: not offered together (the GPU "
-                            f"build makes index lists of every visible light; use --build cpu)")
+                            f"build sorts exactly, builds the paper's bottom-up trees and index "
+                            f"lists of every visible light; use --build cpu)")
 
 
 def on_gpu(opts) -> bool:
@@ -98,4 +105,27 @@ def build_bits(frame, opts, passes):
     b = prepare.start(frame, after_pack)
     b.buffers["gb_slice_table"] = gpulists.slice_table(gridmod.make_grid(
         frame.camera, opts.bit_tile, 1, frame.max_depth, limits.DEFAULT_NEAR_SLICE_DEPTH))
+    return b
+
+
+def build_trees(frame, opts, slices: int, shade, tree_bit: int | None = None):
+    """tree's (every cell a tree) or hybrid's (tree_bit: its ranges' CELL_TREE_BIT; listing
+    2 chooses) Build whose cull, sort, binning and trees run on the GPU; its steps end in
+    `shade(b)`, then the trees read back for the figures."""
+    grid = make_grid(frame, opts, slices)
+    plan = tree_bit is not None
+
+    def after_pack(b):
+        b.grid = grid
+
+        def trees(longest):
+            return gputrees.tree_passes(b, opts, plan, lambda n: windows(frame, n), lambda: list(shade(b)) + [
+                gpulists.readback_step(b, gputrees.tree_readback(b))])
+        return gpulists.bin_lists(b, trees, ranges=gputrees.LIST_RANGES)
+    b = prepare.start(frame, after_pack, cells=grid.cells)
+    b.buffers["gb_slice_table"] = gpulists.slice_table(grid)
+    gputrees.upload_tables(b, opts)
+    if plan:
+        b.data["cell_tree_bit"] = tree_bit
+        b.buffers[gputrees.SLICE_DEPTHS] = np.column_stack(hybridmod.cell_depth_ranges(grid, frame.max_depth))
     return b

@@ -25,6 +25,7 @@ from cpu_prep import hybrid as hybridmod, layouts
 from ..model import waves
 from ..pipeline.passes import OUT_STATS, WAVE_DIM, WAVE_STATS, HostStep
 from .base import Technique, cell_head, entry_list, prepare_binned
+from .gpu_build import BuildOptions, build_trees, on_gpu
 from .options import (CapOptions, ListOptions, ScalarizeOptions, SliceOptions, StochasticOptions, TreeOptions,
                       WaveOptions, FeatureVariantOptions, option)
 from . import variants
@@ -43,7 +44,7 @@ class Hybrid(Technique, register_at=50):
 
     @dataclass(frozen=True)
     class Options(SliceOptions, ListOptions, TreeOptions, WaveOptions, ScalarizeOptions,
-                  CapOptions, StochasticOptions, FeatureVariantOptions):
+                  CapOptions, StochasticOptions, BuildOptions, FeatureVariantOptions):
         radius_scale: float = option(1.0, "listing 2's cell.radius = scale x half the cell's "
                                           "depth extent (undefined in the paper)",
                                      lo=1e-3, hi=1e3, study=(0.5, 1.0, 2.0, 4.0))
@@ -52,6 +53,8 @@ class Hybrid(Technique, register_at=50):
                                          "traversal for every wave", study=(True, False))
 
     def build(self, frame, opts):
+        if on_gpu(opts):
+            return build_trees(frame, opts, opts.slices, lambda b: self.passes(b, opts), CELL_TREE_BIT)
         b, offsets, entries = prepare_binned(frame, opts, opts.slices, opts.sort_buckets)
         with b.times.stage("build"):      # listing 2's choice and the trees, one pass
             *built, is_tree = hybridmod.plan_and_build(

@@ -20,6 +20,7 @@ from ..pipeline.passes import WAVE_DIM
 from .base import Technique, cell_head, entry_list, prepare_binned
 from .blocks import (SHARED_TREE_NODES, add_shared_load, cell_ranges, live_groups, live_pixels,
                      one_tree_groups, study_notes, tree_buffers, tree_passes)
+from .gpu_build import BuildOptions, build_trees, on_gpu
 from .options import CapOptions, ListOptions, StochasticOptions, TileOptions, TreeOptions, option
 
 class Tree(Technique, register_at=40):
@@ -28,7 +29,7 @@ class Tree(Technique, register_at=40):
     views = Technique.views + ("tiles", "classes")
 
     @dataclass(frozen=True)
-    class Options(TileOptions, ListOptions, TreeOptions, CapOptions, StochasticOptions):
+    class Options(TileOptions, ListOptions, TreeOptions, CapOptions, StochasticOptions, BuildOptions):
         shared_tree: bool = option(True, "a group whose pixels all read one tree of at "
                                          f"most {SHARED_TREE_NODES} nodes loads it into shared "
                                          "memory once and traverses it there (tree paper 3.4); "
@@ -36,6 +37,8 @@ class Tree(Technique, register_at=40):
                                    study=(True, False))
 
     def build(self, frame, opts):
+        if on_gpu(opts):
+            return build_trees(frame, opts, 1, lambda b: self.passes(b, opts))
         b, offsets, entries = prepare_binned(frame, opts, 1, opts.sort_buckets)
         tree_buffers(b, offsets, entries, np.ones(b.grid.cells, bool), opts, frame.arena)
         return b
