@@ -142,3 +142,15 @@ def test_every_pass_is_timed_and_modelled(frames, renderer):
     names = ("variant_cells", "variant_classify", "variant_compact")
     assert set(names) <= set(res.meta["gpu_ms"]) and set(names) <= set(figures[32])
     assert all(figures[32][n].waves > 0 for n in names)
+
+
+def test_a_tile_the_groups_do_not_tile_classifies_on_hdrps_16(gl):
+    """tile 12 is not a multiple of the 8x8 group: the variant tile is HDRP's 16, each the
+    union of the 12-px lists its pixels read."""
+    with Renderer(mask_scene((48, 40))) as r:
+        res = r.render(REGISTRY["tiled"], opts=dict(ON, tile=12))
+        ref = r.render(REGISTRY["brute"])
+    assert_exact({"brute": ref, "tiled": res}, "tile 12")
+    s = res.meta["stats"]
+    assert s["variant_tile"] == variants.HDRP_TILE and s["variant_tiles_total"] == 3 * 3
+    assert s["variant_dispatches"] > 1 and (ref.contrib_count > 0).any()
