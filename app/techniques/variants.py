@@ -266,7 +266,9 @@ def cull_figures(frame, width: int, scans: np.ndarray) -> dict:
     scans = np.minimum(np.asarray(scans, np.int64), SCAN_BUDGET)
     line = lambda issued, nbytes: issued * width * nbytes // waves.LINE
     cell_waves = -(-cells // width)
-    scan = (int(scans.sum()), int(scans.sum()), int(scans.sum()), line(int(scans.sum()), 8))
+    # a wave of `width` cells issues its longest scan; its lanes run their own
+    issued = int(np.maximum.reduceat(scans, np.arange(0, cells, width)).sum()) if cells else 0
+    scan = (issued, int(scans.sum()), issued, line(issued, 8))
     w, h = frame.size
     pix_waves = -(-w // WAVE_DIM) * -(-h // WAVE_DIM) * (64 // width)
     px = int(frame.shading.sum())
@@ -304,7 +306,7 @@ def node_scans(frame, count_mask: int = 0x7FFFFFFF) -> np.ndarray:
     stops at its nodes)."""
     rng = frame.read("ranges").view(layouts.CELL_RANGE)["offset_count"].astype(np.int64)
     first, count = rng[:, 0], rng[:, 1] & count_mask
-    nodes = frame.build.buffers["nodes"]
+    nodes = np.ascontiguousarray(frame.read("nodes")).view(layouts.TREE_NODE)   # the frame's, CPU- or GPU-built
     bits = nodes["bits"].astype(np.int64)
     leaf = np.where(bits & 1, (bits >> 1) & ((1 << limits.NODE_COUNT_BITS) - 1), 0)
     csum = np.concatenate([[0], np.cumsum(leaf)])
