@@ -6,6 +6,12 @@
         after a warm-up (numba JIT), median/min/max ms of each stage and total.  An option
         flag the technique does not take is an error.
 
+    python -m app.bench gpu-build [--scene S] [--sweep 8192,32768,131072] [--size WxH]
+                                  [--repeat R] [--technique a,b] [--out DIR] [--json]
+        Each technique that takes --build, built on the CPU and on the GPU at each light
+        count (app.bench.gpu_build): both builds' ms, their ratio, the GPU build's ms by
+        pass; --out writes gpu_build.csv (the report's CPU page reads it) and gpu_build.md.
+
     python -m app.bench --path PATH.json --out DIR [--scenes S] [--lights N] [--size WxH]
                         [--repeat R] [--techniques a,b] [technique options]
         Every technique along a camera path recorded in the window (app.bench.path:
@@ -38,6 +44,8 @@ import sys
 USAGE = """usage: python -m app.bench [--quick|--full] --out DIR [...]     the sweep and its report
        python -m app.bench cpu --scene S --technique T [...]     the CPU stage alone, no GL
                                                                   (python -m app.bench cpu --help)
+       python -m app.bench gpu-build [...]                       CPU and GPU builds as a ratio
+                                                                  (python -m app.bench gpu-build --help)
        python -m app.bench --path PATH.json --out DIR [...]      every technique along a recorded
                                                                   camera path, per-frame CSV
                                                                   (python -m app.bench --path --help)
@@ -50,6 +58,10 @@ def main(argv=None) -> None:
     if argv[:1] == ["cpu"]:
         from .cpu import cpu_main          # imports no OpenGL
         cpu_main(argv[1:])
+        return
+    if argv[:1] == ["gpu-build"]:
+        from .gpu_build import main as gpu_build_main
+        gpu_build_main(argv[1:])
         return
     from .path import wants_path
     if wants_path(argv):

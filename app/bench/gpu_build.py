@@ -1,70 +1,146 @@
-"""`python -m app.bench.gpu_build`: clustered's structures built on the CPU and on the GPU
-(--build cpu / gpu, issue 23 item 1) at each light count, as a ratio: on llvmpipe the GPU
-passes run on the same two cores, so only the ratio means anything (DESIGN "Measuring").
+"""`python -m app.bench gpu-build`: each technique's structures built on the CPU and on the
+GPU (--build cpu / gpu, issue 23 item 1) at each light count, as a ratio, and where the GPU
+build's time goes: on llvmpipe the passes run on the same two cores as the numba stage, so
+only the ratio (and the passes' shares) mean anything (DESIGN "Measuring").
 
-    cpu ms   the CPU stage's steps (cull, sort, bin, pack; meta cpu_ms less the upload)
-    gpu ms   the build's passes (build_cull, build_sort, build_bin; meta gpu_ms) plus the
-             pack, still a CPU step between them (setup_ms build_pack, run once a frame)
+    cpu ms   the CPU stage's steps (cull, sort, bin, build, pack; meta cpu_ms less the upload)
+    gpu ms   the build's timed passes (meta gpu_ms: build_cull, build_sort, build_bin,
+             build_zbin, build_tree) plus the pack, still a CPU step between them
+             (setup_ms build_pack, once a frame); the other host steps' readbacks of a
+             count (4 bytes, a sync each) are in `readback ms`, apart
 
-Each figure is the minimum over --repeat samples of one frame (Renderer.render samples).
+Each figure is the minimum over --repeat samples of one frame (Renderer.render samples); the
+techniques are those whose Options take `build` (app.techniques.gpu_build.BuildOptions).
+--out DIR writes DIR/gpu_build.csv (results.csv's schema, study "gpu_build": the CPU build's
+stage columns, the GPU build's figures in `stats`) and DIR/gpu_build.md; the report's CPU
+page reads gpu_build.csv beside results.csv (app/report/cpu.py gpu_build_report).
 """
 from __future__ import annotations
 
 import json
+import sys
+from pathlib import Path
 
 from .. import cli
 from ..errors import UserError
-from ..techniques import REGISTRY
+from ..results import CPU_STAGES, stats
+from ..techniques import REGISTRY, get
 from .presets import int_list
 
-BUILD_PASSES = ("build_cull", "build_sort", "build_bin")
+STUDY = "gpu_build"
+CSV = "gpu_build.csv"
+BUILD_PASSES = ("build_cull", "build_sort", "build_bin", "build_zbin", "build_tree")
+PACK = "build_pack"
+READBACKS = ("build_bin_entries", "build_bin_longest", "build_tree_nodes")
 
 
-def build_ms(meta: dict, build: str) -> float:
-    """The minimum over the samples of one frame's build time (see the module docstring)."""
-    samples = meta.get("samples") or [{"cpu_ms": meta["cpu_ms"], "gpu_ms": meta["gpu_ms"]}]
-    if build == "cpu":
-        return min(sum(v for k, v in s["cpu_ms"].items() if k != "upload") for s in samples)
-    pack = meta["setup_ms"].get("build_pack", 0.0)
-    return min(sum(s["gpu_ms"].get(k, 0.0) for k in BUILD_PASSES) for s in samples) + pack
+def gpu_techniques() -> list[str]:
+    """The registry's techniques that take --build."""
+    return [t.name for t in REGISTRY.values() if "build" in t.Options.names()]
 
 
-def ratio_rows(scene_name: str, counts, size, repeat: int) -> list[dict]:
+def _samples(meta: dict) -> list[dict]:
+    return meta.get("samples") or [{"cpu_ms": meta["cpu_ms"], "gpu_ms": meta["gpu_ms"]}]
+
+
+def cpu_build_ms(meta: dict) -> list[float]:
+    """Each sample's CPU stage (its steps but the upload)."""
+    return [sum(v for k, v in s["cpu_ms"].items() if k != "upload") for s in _samples(meta)]
+
+
+def gpu_build_ms(meta: dict) -> list[float]:
+    """Each sample's GPU build: its timed passes plus the pack (run once, the first sample)."""
+    pack = meta["setup_ms"].get(PACK, 0.0)
+    return [sum(s["gpu_ms"].get(k, 0.0) for k in BUILD_PASSES) + pack for s in _samples(meta)]
+
+
+def pass_ms(meta: dict) -> dict[str, float]:
+    """The fastest sample's ms of each GPU build pass, the pack and the readbacks."""
+    samples = _samples(meta)
+    out = {k: min(s["gpu_ms"].get(k, 0.0) for s in samples) for k in BUILD_PASSES}
+    out[PACK] = meta["setup_ms"].get(PACK, 0.0)
+    out["readback"] = sum(meta["setup_ms"].get(k, 0.0) for k in READBACKS)
+    return {k: round(v, 3) for k, v in out.items() if v}
+
+
+def ratio_row(technique, scene_name: str, n: int, size, cpu, gpu, repeat: int) -> dict:
+    """One results.csv row (study "gpu_build") from the CPU-built frame `cpu` and the GPU-built
+    `gpu` of one count: the CPU stage's columns (median, min, max), the GPU build's figures
+    and their ratio (fastest samples) in `stats`."""
+    from .measure import option_cells
+    c, g = cpu_build_ms(cpu.meta), gpu_build_ms(gpu.meta)
+    per = [dict(s["cpu_ms"]) for s in _samples(cpu.meta)]
+    r = {"study": STUDY, "scene": scene_name, "lights": int(n),
+         "visible": int(gpu.meta["stats"].get("visible_lights", 0)), "width": size[0],
+         "height": size[1], "frame": 0, "frames": 64, "technique": technique.name,
+         "role": technique.role, "cutoff": 0, "samples": repeat}
+    r.update(option_cells(technique.resolve_options({})))
+    for k in CPU_STAGES:
+        r[f"cpu_{k}_ms"] = stats([s.get(k, 0.0) for s in per])[0]
+    r["cpu_total_ms"], r["cpu_total_min_ms"], r["cpu_total_max_ms"] = stats(c)
+    gmed, gmin, gmax = stats(g)
+    r["stats"] = json.dumps({"gpu_build_ms": round(gmed, 3), "gpu_build_min_ms": round(gmin, 3),
+                             "gpu_build_max_ms": round(gmax, 3), "passes": pass_ms(gpu.meta),
+                             "gpu_over_cpu": round(gmin / min(c), 2) if min(c) > 0 else None},
+                            sort_keys=True)
+    return r
+
+
+def ratio_rows(scene_name: str, counts, size, repeat: int, techniques=None, progress=None) -> list[dict]:
+    """ratio_row of each technique (default: every one that takes --build) at each count."""
     from scenes import load_scene
     from ..pipeline.renderer import Renderer
-    t = REGISTRY["clustered"]
-    rows = []
+    techs = [get(n) for n in (techniques or gpu_techniques())]
+    rows, total = [], len(counts) * len(techs)
     with Renderer(load_scene(scene_name, lights=int(counts[0])), size) as r:
         for n in counts:
             r.scene = load_scene(scene_name, lights=int(n))
-            row = {"lights": int(n)}
-            for build in ("cpu", "gpu"):
-                res = r.render(t, 0, t.Options.make({"build": build}), samples=repeat, readback=False)
-                row[f"{build}_ms"] = round(build_ms(res.meta, build), 3)
-                row["visible"] = res.meta["stats"]["visible_lights"]
-            row["gpu_over_cpu"] = round(row["gpu_ms"] / row["cpu_ms"], 2) if row["cpu_ms"] else None
-            rows.append(row)
+            for t in techs:
+                if progress:
+                    progress(len(rows) + 1, total, f"{STUDY} {scene_name} {n} lights {t.name}")
+                built = {b: r.render(t, 0, t.Options.make({"build": b}), samples=repeat, readback=False)
+                         for b in ("cpu", "gpu")}
+                rows.append(ratio_row(t, scene_name, n, size, built["cpu"], built["gpu"], repeat))
     return rows
 
 
 def main(argv=None) -> None:
-    p = cli.Parser(prog="python -m app.bench.gpu_build",
-                   description="clustered's build on the CPU and on the GPU, as a ratio")
+    p = cli.Parser(prog="python -m app.bench gpu-build",
+                   description="each --build technique's CPU and GPU builds, as a ratio per light count")
     p.add_argument("--scene", default="city")
     p.add_argument("--sweep", default="8192,32768,131072", help="light counts")
-    p.add_argument("--size", default="320x180", help="WxH")
+    p.add_argument("--size", type=cli.parse_size, default=(320, 180), help="WxH")
     p.add_argument("--repeat", type=int, default=5)
+    p.add_argument("--technique", help="techniques a,b (default: every one that takes --build)")
+    p.add_argument("--out", help="folder for gpu_build.csv and gpu_build.md")
     p.add_argument("--json", action="store_true")
     args = p.parse_args(argv)
     if args.repeat < 1:
         raise UserError("--repeat must be >= 1")
-    rows = ratio_rows(args.scene, int_list(args.sweep, "--sweep"), cli.parse_size(args.size), args.repeat)
+    names = [n.strip() for n in args.technique.split(",") if n.strip()] if args.technique else None
+    for n in names or ():
+        if "build" not in get(n).Options.names():
+            raise UserError(f"--technique {n}: it does not take --build (those that do: "
+                            f"{', '.join(gpu_techniques())})")
+    counts = [n for n in int_list(args.sweep, "--sweep") if n]
+    if not counts:
+        raise UserError("--sweep: give at least one light count above 0")
+    log = (lambda i, total, what: sys.stderr.write(f"[{i}/{total}] {what}\n")) if not args.json else None
+    rows = ratio_rows(args.scene, counts, args.size, args.repeat, names, log)
+    from ..report.cpu import gpu_build_report
+    text, table = gpu_build_report(rows)
+    if args.out:
+        from ..results import columns, write_csv
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        write_csv(rows, out / CSV, columns())
+        (out / "gpu_build.md").write_text("# CPU and GPU builds\n\n" + "\n".join(
+            t if t.startswith(("|", "-")) else f"- {t}" for t in text) + "\n\n" + table + "\n")
     if args.json:
         print(json.dumps({"rows": rows}))
         return
-    print(f"{'lights':>9} {'visible':>9} {'cpu ms':>9} {'gpu ms':>9} {'gpu/cpu':>8}")
-    for r in rows:
-        print(f"{r['lights']:9,} {r['visible']:9,} {r['cpu_ms']:9.2f} {r['gpu_ms']:9.2f} {r['gpu_over_cpu']:8}")
+    print(table)
+    print("\n".join(text))
 
 
 if __name__ == "__main__":

@@ -30,17 +30,29 @@ def stage_shares(cpu_rows) -> dict:
 
 
 def fig_cpu(rows, out) -> tuple[str | None, list[str], str]:
-    """Figure 4 (the "cpu" study) and, after its tables, the growth series (growth_report)."""
+    """Figure 4 (the "cpu" study) and, after its tables, the growth series (growth_report)
+    and the CPU and GPU builds' ratio (gpu_build_report: rows of study "gpu_build", or
+    out/gpu_build.csv from `python -m app.bench gpu-build --out`)."""
     name, text, table = _fig4(rows, out)
     png, gtext, gtables = growth_report(rows, out)
-    if not png and not gtext:
+    btext, btable = gpu_build_report(gpu_build_rows(rows, out))
+    parts = []
+    if png or gtext:
+        parts.append("\n\n".join(x for x in (
+            "### Growth from 8k to 1M lights (issue 23 item 4)", f"![CPU stage growth]({png})" if png else "",
+            _bullets(gtext), gtables) if x))
+    if btext:
+        parts.append("\n\n".join(("### The build on the CPU and on the GPU (--build gpu, issue 23 "
+                                   "item 1)", _bullets(btext), btable)))
+    if not parts:
         return name, text, table
-    growth = "\n\n".join(x for x in (
-        "### Growth from 8k to 1M lights (issue 23 item 4)", f"![CPU stage growth]({png})" if png else "",
-        "\n".join(t if t.startswith(("|", "-")) else f"- {t}" for t in gtext), gtables) if x)
-    if name is None:           # no figure 4 rows: the growth alone, its image inline
-        return None, [], growth
-    return name, text, table + "\n\n" + growth
+    if name is None:           # no figure 4 rows: the series alone, their images inline
+        return None, [], "\n\n".join(parts)
+    return name, text, "\n\n".join([table] + parts)
+
+
+def _bullets(text) -> str:
+    return "\n".join(t if t.startswith(("|", "-")) else f"- {t}" for t in text)
 
 
 def _fig4(rows, out) -> tuple[str | None, list[str], str]:
@@ -386,3 +398,60 @@ def growth_report(rows, out) -> tuple[str | None, list[str], str]:
             f"light costs more than at half the count; a doubling is called either only where "
             f"the fastest builds and the medians agree."] + growth_text(series, techs)
     return png, text, growth_tables(series, techs)
+
+
+# ---- the build on the CPU and on the GPU (issue 23 item 1; app.bench.gpu_build) ----------
+
+GPU_BUILD_STUDY = "gpu_build"    # app.bench.gpu_build.STUDY
+GPU_BUILD_CSV = "gpu_build.csv"  # app.bench.gpu_build.CSV
+
+
+def gpu_build_rows(rows, out) -> list[dict]:
+    """The "gpu_build" rows of results.csv, else those of out/gpu_build.csv."""
+    got = sel(rows, study=GPU_BUILD_STUDY) if rows and "study" in rows[0] else []
+    if got or out is None:
+        return got
+    from pathlib import Path
+    from ..results import read_csv
+    path = Path(out) / GPU_BUILD_CSV
+    return sel(read_csv(path), study=GPU_BUILD_STUDY) if path.exists() else []
+
+
+def _gpu_figures(r) -> tuple[float, float, dict]:
+    """(GPU build ms, its ratio to the CPU stage, ms by pass) of a row: fastest samples."""
+    s = _st(r)
+    g, c = num(s.get("gpu_build_min_ms", math.nan)), num(r["cpu_total_min_ms"])
+    return g, g / c if c > 0 else math.nan, s.get("passes", {})
+
+
+def gpu_build_report(rows) -> tuple[list[str], str]:
+    """(text, markdown table): per technique and light count the CPU stage against the GPU
+    build as a ratio, and which GPU pass takes its time at the largest count, and how much."""
+    if not rows:
+        return [], ""
+    techs = order(rows, "technique")
+    r0 = rows[0]
+    text = [f"Each technique's structures built by the CPU stage (numba, one thread) and by "
+            f"compute passes (`--build gpu`, the same buffers bit for bit) in {r0['scene']} at "
+            f"{resolution(r0)}, fastest of {int(num(r0['samples']))} samples. On llvmpipe the "
+            f"passes run on the same cores as the CPU stage: the ratio says what the GPU "
+            f"build costs on a CPU, not what it costs on a GPU."]
+    table = ["| technique | lights | visible | CPU stage ms | GPU build ms | GPU / CPU | "
+             "GPU build by pass, ms |", "|---|---:|---:|---:|---:|---:|---|"]
+    for t in techs:
+        rs = sorted(sel(rows, technique=t), key=lambda r: num(r["lights"]))
+        figs = [_gpu_figures(r) for r in rs]
+        for r, (g, ratio, passes) in zip(rs, figs):
+            table.append(f"| {t} | {int(num(r['lights'])):,} | {int(num(r['visible'])):,} | "
+                         f"{num(r['cpu_total_min_ms']):.3g} | {g:.3g} | {ratio:.3g} | "
+                         + ", ".join(f"{k} {v:.3g}" for k, v in sorted(passes.items(), key=lambda kv: -kv[1]))
+                         + " |")
+        g, ratio, passes = figs[-1]
+        top = max(passes, key=passes.get) if passes else None
+        line = (f"{t}: the GPU build takes {min(f[1] for f in figs):.3g}-{max(f[1] for f in figs):.3g}x "
+                f"the CPU stage's time from {_k(rs[0]['lights'])} to {_k(rs[-1]['lights'])} lights")
+        if top and g > 0:
+            line += (f"; at {_k(rs[-1]['lights'])} its largest part is {top} "
+                     f"({100 * passes[top] / g:.0f}% of {ms(g)})")
+        text.append(line + ".")
+    return text, "\n".join(table)
