@@ -122,7 +122,8 @@ def pack_step(b: Build, then) -> HostStep:
     def run(read):
         visible = int(read[COUNTERS][VISIBLE])
         ids = read["gb_sorted_ids"][:visible].astype(np.uint64)
-        pl = lightsmod.pack(b.frame.lights, b.frame.camera, ids)
+        # the frame's arena, as the CPU stage's pack: its arrays reused from frame to frame
+        pl = lightsmod.pack(b.frame.lights, b.frame.camera, ids, b.frame.arena)
         b.lights = pl
         b.buffers["lights"] = pl.gpu
         b.buffers["light_depth"] = np.column_stack([pl.depth_lo, pl.depth_hi])

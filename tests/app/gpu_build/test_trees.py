@@ -12,17 +12,15 @@ import pytest
 from app.errors import UserError
 from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY
-from tests.app.gpu_build.test_zbins import _lights, assert_same_build
-from tests.helpers import assert_exact, make_scene, options
+from tests.app.gpu_build.helpers import assert_same_build, hard_lights, render_both
+from tests.helpers import assert_exact, make_scene
 
 BUFFERS = ("lights", "ranges", "entries", "nodes")
 
 
 def _both(name, lights, size=(80, 48), **opts):
-    t = REGISTRY[name]
     with Renderer(make_scene(lights, size=size)) as r:
-        cpu = r.render(t, 0, options(name, **opts))
-        gpu = r.render(t, 0, options(name, build=1, **opts))
+        cpu, gpu = render_both(r, name, opts)
         ref = r.render(REGISTRY["brute"], 0)
     return cpu, gpu, ref
 
@@ -34,7 +32,7 @@ def _both(name, lights, size=(80, 48), **opts):
     ("hybrid", 5, 400, {"tile": 24, "slices": 5, "radius_scale": 0.5, "lights_per_leaf": 2}),
 ])
 def test_gpu_build_gives_the_cpu_builds_trees_bit_for_bit(gl, name, seed, n, opts):
-    cpu, gpu, ref = _both(name, _lights(seed, n), **opts)
+    cpu, gpu, ref = _both(name, hard_lights(seed, n), **opts)
     assert_same_build(cpu, gpu, BUFFERS)
     s = gpu.meta["stats"]
     assert s["trees"] > 0 and s["lists"] > 0 if name == "hybrid" else s["trees"] > 0
@@ -67,8 +65,7 @@ def test_a_cell_past_65535_lights_splits_and_listing_2_sums_over_windows(gl):
         got = {}
         for name, opts in (("hybrid", {"slices": 2, "tile": 32, "radius_scale": 1e-3}),
                            ("tree", {"tile": 32, "max_leaves": 1})):
-            cpu = f.renderer.render(REGISTRY[name], 0, opts, lights=L)
-            got[name] = f.renderer.render(REGISTRY[name], 0, dict(opts, build="gpu"), lights=L)
+            cpu, got[name] = render_both(f.renderer, name, opts, lights=L)
             assert_same_build(cpu, got[name], BUFFERS)
         fi = FrameInput(L, f.cam, f.scene.max_depth, loop_budget=f.renderer.limits.loop_budget)
     assert len(windows(fi, got["hybrid"].build.data["longest_list"])) > 1

@@ -1,0 +1,52 @@
+"""What the GPU build's tests share: a frame's lights with the hard cases, both builds of one
+frame held apart, and the bit-for-bit comparison of every buffer and stat."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from tests.helpers import options, random_shapes
+
+
+def hard_lights(seed: int, n: int):
+    """n lights of every shape, some behind the eye and off screen, an eighth of them at
+    another eighth's positions (depth ties: the sort's stability)."""
+    rng = np.random.default_rng(seed)
+    lights = random_shapes(rng, n, (-20, -2, -40), (20, 9, 12))
+    lights["position"][: n // 8] = lights["position"][n // 8: 2 * (n // 8)]
+    return lights
+
+
+def frozen(res):
+    """res with its build's arrays copied: the renderer's arena reuses them frame after
+    frame (both builds pack into it), so a later frame would overwrite what is compared."""
+    b = res.build
+    b.buffers = {k: np.array(v, copy=True) for k, v in b.buffers.items()}
+    b.lights = dataclasses.replace(b.lights, **{
+        f.name: np.array(getattr(b.lights, f.name), copy=True) for f in dataclasses.fields(b.lights)})
+    return res
+
+
+def render_both(renderer, name: str, opts: dict, **kw):
+    """(cpu, gpu): one frame of technique `name` built on the CPU, then on the GPU."""
+    from app.techniques import REGISTRY
+    t = REGISTRY[name]
+    cpu = frozen(renderer.render(t, 0, options(name, **opts), **kw))
+    gpu = frozen(renderer.render(t, 0, options(name, build=1, **opts), **kw))
+    return cpu, gpu
+
+
+def assert_same_build(cpu, gpu, names) -> None:
+    """Every buffer the CPU build made (of `names`) equals the GPU's bit for bit, and the
+    stats agree but for the build's name."""
+    a, b = cpu.build, gpu.build
+    assert np.array_equal(a.lights.ids, b.lights.ids)
+    assert a.lights.gpu.tobytes() == b.lights.gpu.tobytes()
+    for name in names:
+        if name in a.buffers:
+            assert a.buffers[name].shape == b.buffers[name].shape, name
+            assert a.buffers[name].tobytes() == b.buffers[name].tobytes(), name
+    sa, sb = dict(cpu.meta["stats"]), dict(gpu.meta["stats"])
+    assert sb.pop("build") == "gpu" and sb == sa
+    assert gpu.meta["options"]["build"] == 1
