@@ -25,7 +25,9 @@ layout(std430, binding = B_SRC_VALUES) readonly buffer SrcValues { uint src_valu
 layout(std430, binding = B_HIST) readonly buffer Hist { uint hist[]; };
 layout(std430, binding = B_DST_KEYS) buffer DstKeys { uint dst_keys[]; };
 layout(std430, binding = B_DST_VALUES) buffer DstValues { uint dst_values[]; };
-shared uint digits[GROUP];
+// per digit, which of the block's 256 pairs have it: 8 words a digit (8 KiB)
+const uint MASK_WORDS = GROUP / 32u;
+shared uint holders[DIGITS * MASK_WORDS];
 #endif
 
 void main() {
@@ -43,11 +45,16 @@ void main() {
     barrier();
     hist[lid * u_blocks + block] = counts[lid];
 #else
-    digits[lid] = digit;
+    // the pair's rank among its block's pairs with its digit that come before it: the set
+    // bits below its own in its digit's mask (8 popcounts, not a loop over 256 pairs)
+    for (uint w = 0u; w < MASK_WORDS; ++w) holders[lid * MASK_WORDS + w] = 0u;   // (GROUP == DIGITS)
+    barrier();
+    uint word = lid >> 5, bit = 1u << (lid & 31u);
+    if (valid) atomicOr(holders[digit * MASK_WORDS + word], bit);
     barrier();
     if (!valid) return;
-    uint rank = 0u;
-    for (uint j = 0u; j < lid; ++j) rank += digits[j] == digit ? 1u : 0u;
+    uint rank = bitCount(holders[digit * MASK_WORDS + word] & (bit - 1u));
+    for (uint w = 0u; w < word; ++w) rank += bitCount(holders[digit * MASK_WORDS + w]);
     uint at = hist[digit * u_blocks + block] + rank;
     dst_keys[at] = key;
     dst_values[at] = src_values[e];
