@@ -4,13 +4,12 @@ build's time goes: on llvmpipe the passes run on the same two cores as the numba
 only the ratio (and the passes' shares) mean anything (DESIGN "Measuring").
 
     cpu ms   the CPU stage's steps (cull, sort, bin, build, pack; meta cpu_ms less the upload)
-    gpu ms   the build's timed passes (meta gpu_ms: build_cull, build_sort, build_bin,
-             build_zbin, build_tree) plus the pack, still a CPU step between them
-             (setup_ms build_pack, once a frame); the other host steps' readbacks of a
-             count (4 bytes, a sync each) are in `readback ms`, apart
+    gpu ms   the build's timed passes (meta gpu_ms: build_cull, build_sort, build_pack,
+             build_bin, build_zbin, build_tree); the host steps' readbacks of a count (4 or
+             8 bytes, a sync each, setup_ms) are in `readback`, apart
 
-Each figure is the minimum over --repeat samples of one frame (Renderer.render samples); the
-techniques are those whose Options take `build` (app.techniques.gpu_build.BuildOptions).
+Each figure is the minimum over --repeat samples of one frame (Renderer.render samples), after
+one unrecorded frame of each build (numba's and llvmpipe's compilations); the techniques are those whose Options take `build` (app.techniques.gpu_build.BuildOptions).
 --out DIR writes DIR/gpu_build.csv (results.csv's schema, study "gpu_build": the CPU build's
 stage columns, the GPU build's figures in `stats`) and DIR/gpu_build.md; the report's CPU
 page reads gpu_build.csv beside results.csv (app/report/cpu.py gpu_build_report).
@@ -29,9 +28,8 @@ from .presets import int_list
 
 STUDY = "gpu_build"
 CSV = "gpu_build.csv"
-BUILD_PASSES = ("build_cull", "build_sort", "build_bin", "build_zbin", "build_tree")
-PACK = "build_pack"
-READBACKS = ("build_bin_entries", "build_bin_longest", "build_tree_nodes")
+BUILD_PASSES = ("build_cull", "build_sort", "build_pack", "build_bin", "build_zbin", "build_tree")
+READBACKS = ("build_visible", "build_bin_entries", "build_bin_longest", "build_tree_nodes")
 
 
 def gpu_techniques() -> list[str]:
@@ -49,16 +47,14 @@ def cpu_build_ms(meta: dict) -> list[float]:
 
 
 def gpu_build_ms(meta: dict) -> list[float]:
-    """Each sample's GPU build: its timed passes plus the pack (run once, the first sample)."""
-    pack = meta["setup_ms"].get(PACK, 0.0)
-    return [sum(s["gpu_ms"].get(k, 0.0) for k in BUILD_PASSES) + pack for s in _samples(meta)]
+    """Each sample's GPU build: its timed passes."""
+    return [sum(s["gpu_ms"].get(k, 0.0) for k in BUILD_PASSES) for s in _samples(meta)]
 
 
 def pass_ms(meta: dict) -> dict[str, float]:
-    """The fastest sample's ms of each GPU build pass, the pack and the readbacks."""
+    """The fastest sample's ms of each GPU build pass, and the readbacks' (once a frame)."""
     samples = _samples(meta)
     out = {k: min(s["gpu_ms"].get(k, 0.0) for s in samples) for k in BUILD_PASSES}
-    out[PACK] = meta["setup_ms"].get(PACK, 0.0)
     out["readback"] = sum(meta["setup_ms"].get(k, 0.0) for k in READBACKS)
     return {k: round(v, 3) for k, v in out.items() if v}
 
@@ -98,8 +94,12 @@ def ratio_rows(scene_name: str, counts, size, repeat: int, techniques=None, prog
             for t in techs:
                 if progress:
                     progress(len(rows) + 1, total, f"{STUDY} {scene_name} {n} lights {t.name}")
-                built = {b: r.render(t, 0, t.Options.make({"build": b}), samples=repeat, readback=False)
-                         for b in ("cpu", "gpu")}
+                built = {}
+                for b in ("cpu", "gpu"):
+                    opts = t.Options.make({"build": b})
+                    if n == counts[0]:                 # warm-up: the compilations
+                        r.render(t, 0, opts, readback=False)
+                    built[b] = r.render(t, 0, opts, samples=repeat, readback=False)
                 rows.append(ratio_row(t, scene_name, n, size, built["cpu"], built["gpu"], repeat))
     return rows
 

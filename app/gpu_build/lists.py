@@ -11,7 +11,7 @@ hybrid bin the same way before their trees (trees.py), zbin shares the boxes (zb
                 (host step: the longest list read back: the shading's dispatch windows)
 
 Two readbacks, each a count the next buffers' sizes or the shading's windows need (4 bytes),
-besides the sorted ids the pack reads (prepare.py).
+besides the visible count (prepare.py).
 """
 from __future__ import annotations
 
@@ -21,7 +21,8 @@ from cpu_prep import grid as gridmod, layouts, limits
 
 from ..pipeline.passes import Build, Buffer, Pass
 from . import steps
-from .prepare import COUNTER_FILES, COUNTERS, ENTRIES, LONGEST, counters, host
+from .prepare import (COUNTER_FILES, COUNTERS, ENTRIES, LONGEST, PACK_OUTPUTS, counters, host,
+                      readback_lights)
 
 
 def bin_uniforms(grid: gridmod.Grid) -> dict:
@@ -96,14 +97,18 @@ def fill_cells(b: Build, capacity: int, entries: int, then, ranges: str) -> list
 
 
 def readback_step(b: Build, names) -> "HostStep":
-    """The GPU-built buffers `names` read back into b.buffers, as the CPU build's arrays
-    (figures only: the maps, the wave replay and the tests read the frame's structures from
-    there); names: {buffer: (dtype, shape of one element, count)}."""
+    """The packed lights (b.lights, b.buffers lights and light_depth) and the GPU-built
+    buffers `names` read back into b.buffers, as the CPU build's arrays (figures only: the
+    maps, the wave replay and the tests read the frame's structures from there); names:
+    {buffer: (dtype, shape of one element, count)}."""
     def run(read):
+        b.lights = readback_lights(read, len(b.lights))
+        b.buffers["lights"] = b.lights.gpu
+        b.buffers["light_depth"] = np.column_stack([b.lights.depth_lo, b.lights.depth_hi])
         for name, (dtype, shape, count) in names.items():
             b.buffers[name] = read[name].view(dtype).reshape((-1,) + tuple(shape))[:count].copy()
         return {}, []
-    return host("build_readback", tuple(names), run, figures=True)
+    return host("build_readback", tuple(dict.fromkeys(PACK_OUTPUTS + tuple(names))), run, figures=True)
 
 
 def list_readback(b: Build) -> dict:

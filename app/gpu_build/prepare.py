@@ -1,26 +1,31 @@
 """The GPU build's first steps, shared by every technique that takes --build gpu: the frame's
-cull, compaction and depth sort as compute passes, then the pack, each bit for bit the CPU
-stage's (cpu_prep.lights: cull, sort_ids, pack).
+cull, compaction, depth sort and pack as compute passes, each bit for bit the CPU stage's
+(cpu_prep.lights: cull, sort_ids, pack; tests/app/gpu_build).
 
     scene lights (LIGHT_DTYPE words, uploaded)
-      build_cull  flags[N], cull_keys[N]  --scan-->  places[N], visible -> counters[VISIBLE]
+      build_cull  flags[N], cull_keys[N]  --scan-->  places[N], visible -> counters[VISIBLE],
+                  their shapes -> counters[TYPES] (a bit a light type)
                   compact: sort_in (key, scene id) of the visible lights, in scene order
       build_sort  4 digits of 8 bits (steps.sort): sorted_ids, in depth order, ties in scene order
-      build_pack  (host step) the light records (`lights`), each shape's screen rectangle
-                  (gb_light_rect) and depth range (light_depth), on the GPU's order; then
-                  the technique's own steps, `then(b)`
+                  (host step: the visible count and shapes read back, 8 bytes: the pack's
+                   buffers and the technique's sizes follow from the count)
+      build_pack  each visible light in that order (build_pack.comp): its record (`lights`),
+                  sphere (gb_light_bounds, gb_light_spheres), screen rectangle (gb_light_rect)
+                  and depth range (light_depth); then the technique's own steps, `then(b)`
 
 `counters` (COUNTER_WORDS uint words, cleared by the first pass) holds every count a build
 makes on the GPU: the visible lights, the list entries, the longest list, the tree nodes ...
-A count that sizes a later buffer or dispatch is read back by a host step (4 bytes).  The
-pack still runs on the CPU: cpu_prep/bounds.py mixes float32 and float64 operations as numba
-types them, which a GLSL port must follow op by op to stay bit for bit (docs/cpu_stage.md).
+A count that sizes a later buffer or dispatch is read back by a host step (4 bytes).  Until
+the figures read the pack's buffers back (readback_lights), the frame's lights are a stand-in
+that knows their count and shapes (PackedLights).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from cpu_prep import layouts, lights as lightsmod, limits
+from cpu_prep import bounds as boundsmod, layouts, lights as lightsmod, limits
 from cpu_prep.bounds import F32_EPS, HALF_SQRT2
 from scenes.model import LIGHT_DTYPE
 
@@ -35,9 +40,9 @@ BUILD_STEPS = "build_steps"
 # TREES / LISTS: cells of more than one leaf / of one; CHOSEN_TREES, LISTS_AS_TREES: the
 # hybrid's listing 2 choices, and its lists stored as trees of lists)
 COUNTER_NAMES = ("visible", "entries", "longest", "scratch", "nodes", "max_leaves", "trees",
-                 "lists", "chosen_trees", "lists_as_trees")
+                 "lists", "chosen_trees", "lists_as_trees", "types")
 (VISIBLE, ENTRIES, LONGEST, SCRATCH, NODES, MAX_LEAVES, TREES, LISTS, CHOSEN_TREES,
- LISTS_AS_TREES) = range(len(COUNTER_NAMES))
+ LISTS_AS_TREES, TYPES) = range(len(COUNTER_NAMES))
 COUNTER_WORDS = steps.COUNTER_WORDS
 assert len(COUNTER_NAMES) <= COUNTER_WORDS
 # the build shaders' names of those words, generated (build_counters.glsl, a pass's virtual file)
@@ -45,10 +50,17 @@ COUNTER_FILES = {"build_counters.glsl": layouts.glsl_defines(
     {f"COUNTER_{name.upper()}": k for k, name in enumerate(COUNTER_NAMES)})}
 CULL_KEY_BITS = 32
 # the scene record's fields as 4-byte words (LIGHT_DTYPE: type is its first byte)
-_SL = {f"SL_{n.upper()}": LIGHT_DTYPE.fields[n][1] // 4
-       for n in ("type", "position", "radius", "direction", "cos_outer", "length", "extent")}
+_SL = {f"SL_{n.upper()}": LIGHT_DTYPE.fields[n][1] // 4 for n in LIGHT_DTYPE.names}
 SCENE_DEFINES = dict(_SL, SL_WORDS=LIGHT_DTYPE.itemsize // 4)
 assert LIGHT_DTYPE.itemsize % 4 == 0 and LIGHT_DTYPE.fields["type"][1] == 0
+# the GPU_LIGHT row's fields as word offsets (layouts: the one declaration of the row)
+ROW_DEFINES = {"LW_POS": layouts.LIGHT_POS_RADIUS, "LW_COLOR": layouts.LIGHT_COLOR_COS_INNER,
+               "LW_DIR": layouts.LIGHT_DIR_COS_OUTER, "LW_ID": layouts.LIGHT_ID_TYPE,
+               "LW_EXT": layouts.LIGHT_EXTENT_LENGTH, "LW_RIGHT": layouts.LIGHT_RIGHT,
+               "LW_WORDS": layouts.LIGHT_WORDS}
+# the pack's outputs beside `lights` and `light_depth`
+BOUNDS, SPHERES, RECTS = "gb_light_bounds", "gb_light_spheres", "gb_light_rect"
+F64 = np.dtype(np.float64)
 
 
 def counters() -> Buffer:
@@ -77,16 +89,29 @@ def scene_words(lights: np.ndarray) -> np.ndarray:
 def cull_uniforms(frame: FrameInput) -> dict:
     """The cull's camera and margins, as cpu_prep.lights.cull and _cull compute them."""
     cam = frame.camera
-    m = np.asarray(cam.view_from_world, np.float64)
     tx = cam.tan_half_x * (1.0 + 2.0 * limits.PIXEL_MARGIN / cam.width)      # lights.cull
     ty = cam.tan_half_y * (1.0 + 2.0 * limits.PIXEL_MARGIN / cam.height)
+    return dict(light_uniforms(frame), u_near_lo=cam.near * (1 - limits.RADIUS_REL_MARGIN),
+                u_far_hi=cam.far * (1 + limits.RADIUS_REL_MARGIN), u_tan_x=tx, u_tan_y=ty,
+                u_norm_x=float(np.sqrt(1.0 + tx * tx)), u_norm_y=float(np.sqrt(1.0 + ty * ty)),
+                u_n=len(frame.lights))
+
+
+def light_uniforms(frame: FrameInput) -> dict:
+    """build_light.glsl's: the view matrix's rows, bounds.grow's margins."""
+    m = np.asarray(frame.camera.view_from_world, np.float64)
     return {"u_view_x": tuple(m[0]), "u_view_y": tuple(m[1]), "u_view_z": tuple(m[2]),
-            "u_near_lo": cam.near * (1 - limits.RADIUS_REL_MARGIN),
-            "u_far_hi": cam.far * (1 + limits.RADIUS_REL_MARGIN),
-            "u_tan_x": tx, "u_tan_y": ty,
-            "u_norm_x": float(np.sqrt(1.0 + tx * tx)), "u_norm_y": float(np.sqrt(1.0 + ty * ty)),
             "u_grow_scale": 1.0 + limits.RADIUS_REL_MARGIN, "u_grow_eps": 4.0 * F32_EPS,
-            "u_half_sqrt2": HALF_SQRT2, "u_n": len(frame.lights)}
+            "u_half_sqrt2": HALF_SQRT2}
+
+
+def pack_uniforms(frame: FrameInput) -> dict:
+    """build_bounds.glsl's: the camera as lights.pack passes it to bounds.shape_bounds."""
+    cam = frame.camera
+    return dict(light_uniforms(frame), u_near=float(cam.near), u_tan=(cam.tan_half_x, cam.tan_half_y),
+                u_size=(float(cam.width), float(cam.height)), u_pixel_margin=float(limits.PIXEL_MARGIN),
+                u_pad_scale=limits.RADIUS_REL_MARGIN + 8.0 * F32_EPS,
+                u_wide_cone_cos=float(boundsmod.WIDE_CONE_COS))
 
 
 def cull_and_sort(frame: FrameInput) -> list[Pass]:
@@ -95,12 +120,13 @@ def cull_and_sort(frame: FrameInput) -> list[Pass]:
     nb = steps.groups(steps.blocks(n))
     u = cull_uniforms(frame)
     cull = Pass("build_cull", "build_cull.comp", reads=("scene_lights",),
-                writes={"flags": steps.words(n), "cull_keys": steps.words(n)}, groups=nb,
-                defines=dict(SCENE_DEFINES, CULL_STEP=0), uniforms=u,
-                sources={"flags": "gb_flags", "cull_keys": "gb_cull_keys"})
+                writes={"flags": steps.words(n), "cull_keys": steps.words(n), "counters": counters()},
+                groups=nb, defines=dict(SCENE_DEFINES, CULL_STEP=0), uniforms=u,
+                sources={"flags": "gb_flags", "cull_keys": "gb_cull_keys", "counters": COUNTERS},
+                virtual=COUNTER_FILES)
     compact = Pass("build_cull", "build_cull.comp", reads=("flags", "cull_keys", "places"),
                    writes={"keys": steps.words(n), "values": steps.words(n)}, groups=nb,
-                   defines=dict(SCENE_DEFINES, CULL_STEP=1), uniforms={"u_n": n},
+                   defines=dict(SCENE_DEFINES, CULL_STEP=1), uniforms={"u_n": n}, virtual=COUNTER_FILES,
                    sources={"flags": "gb_flags", "cull_keys": "gb_cull_keys", "places": "gb_places",
                             "keys": "gb_sort_in_keys", "values": "gb_sort_in_ids"})
     clear = Pass("build_cull", "build_scan.comp",
@@ -115,39 +141,80 @@ def cull_and_sort(frame: FrameInput) -> list[Pass]:
                          "gb_sorted_ids", n, CULL_KEY_BITS, COUNTERS, VISIBLE))
 
 
-def pack_step(b: Build, then) -> HostStep:
-    """The CPU pack on the GPU's depth order: the light records (uploaded as `lights`), the
-    rectangles and depth ranges the binning reads; b.lights becomes the frame's lights.
-    `then(b)`: the steps after it."""
+def pack_pass(frame: FrameInput, n: int) -> Pass:
+    """The pack of the n visible lights (read back) in the sort's order (build_pack.comp)."""
+    return Pass("build_pack", "build_pack.comp", reads=("counters", "scene_lights", "sorted_ids"),
+                writes={"lights": Buffer(max(n, 1) * layouts.GPU_LIGHT.itemsize, layouts.GPU_LIGHT),
+                        "bounds": Buffer(max(n, 1) * layouts.GPU_BOUND.itemsize, layouts.GPU_BOUND),
+                        "spheres": Buffer(max(n, 1) * 32, F64), "rects": Buffer(max(n, 1) * 32, F64),
+                        "depths": Buffer(max(n, 1) * 8, np.dtype(np.float32))},
+                groups=steps.groups(steps.blocks(n)), defines=dict(SCENE_DEFINES, **ROW_DEFINES),
+                virtual=COUNTER_FILES, uniforms=pack_uniforms(frame),
+                sources={"counters": COUNTERS, "sorted_ids": "gb_sorted_ids", "bounds": BOUNDS,
+                         "spheres": SPHERES, "rects": RECTS, "depths": "light_depth"})
+
+
+@dataclass
+class PackedLights(lightsmod.PreparedLights):
+    """The frame's visible lights as the GPU packed them, before any readback: their count
+    and the types among them (counters[VISIBLE], [TYPES]); no arrays (they are on the GPU;
+    readback_lights brings them back where the figures want them)."""
+    count: int = 0
+
+    def __len__(self):
+        return self.count
+
+
+def packed_lights(frame: FrameInput, count: int, type_bits: int) -> PackedLights:
+    empty = lightsmod.pack(frame.lights[:0], frame.camera, np.zeros(0, np.uint64))
+    kw = {f: getattr(empty, f) for f in ("ids", "center", "bound_radius", "rect", "gpu", "bounds",
+                                         "depth_lo", "depth_hi")}
+    types = np.array([t for t in range(32) if type_bits >> t & 1], np.uint8)
+    return PackedLights(type=types, count=int(count), **kw)
+
+
+def visible_step(b: Build, then) -> HostStep:
+    """The visible count and shapes read back after the sort; the pack sized by the count;
+    b.lights the stand-in that knows both; `then(b)`: the steps after the pack."""
     def run(read):
-        visible = int(read[COUNTERS][VISIBLE])
-        ids = read["gb_sorted_ids"][:visible].astype(np.uint64)
-        # the frame's arena, as the CPU stage's pack: its arrays reused from frame to frame
-        pl = lightsmod.pack(b.frame.lights, b.frame.camera, ids, b.frame.arena)
-        b.lights = pl
-        b.buffers["lights"] = pl.gpu
-        b.buffers["light_depth"] = np.column_stack([pl.depth_lo, pl.depth_hi])
-        b.stats["visible_lights"] = visible
-        uploads = {"lights": pl.gpu, "gb_light_rect": pl.rect, "light_depth": b.buffers["light_depth"]}
-        return uploads, then(b)
-    return host("build_pack", (COUNTERS, "gb_sorted_ids"), run)
+        c = read[COUNTERS]
+        n = int(c[VISIBLE])
+        b.lights = packed_lights(b.frame, n, int(c[TYPES]))
+        b.stats["visible_lights"] = n
+        return {}, [pack_pass(b.frame, n)] + list(then(b))
+    return host("build_visible", (COUNTERS,), run)
+
+
+def readback_lights(read, n: int) -> lightsmod.PreparedLights:
+    """The pack's buffers read back as the CPU pack's PreparedLights (figures, tests)."""
+    rows = read["lights"].view(layouts.GPU_LIGHT)[:n].copy()
+    spheres = read[SPHERES].view(np.float64).reshape(-1, 4)[:n].copy()
+    depth = read["light_depth"].view(np.float32).reshape(-1, 2)[:n].copy()
+    return lightsmod.PreparedLights(
+        ids=rows["id_type"][:, 0], type=rows["id_type"][:, 1].astype(np.uint8),
+        center=spheres[:, :3], bound_radius=spheres[:, 3],
+        rect=read[RECTS].view(np.float64).reshape(-1, 4)[:n].copy(), gpu=rows,
+        bounds=read[BOUNDS].view(layouts.GPU_BOUND)[:n].copy(),
+        depth_lo=depth[:, 0].copy(), depth_hi=depth[:, 1].copy())
+
+
+PACK_OUTPUTS = ("lights", BOUNDS, SPHERES, RECTS, "light_depth")
 
 
 def unbuilt_lights(frame: FrameInput) -> lightsmod.PreparedLights:
     """The frame's lights before the GPU has culled them: no rows yet, and every scene
     light's type, so that the shaders compile each shape the cull may keep (the renderer
-    reads the types before the passes run); the pack step replaces it."""
-    empty = lightsmod.pack(frame.lights[:0], frame.camera, np.zeros(0, np.uint64))
-    empty.type = np.unique(frame.lights["type"]).astype(np.uint8)
-    return empty
+    reads the types before the passes run); the visible step replaces it."""
+    return packed_lights(frame, 0, int(np.bitwise_or.reduce(1 << frame.lights["type"].astype(np.int64),
+                                                            initial=0)))
 
 
 def start(frame: FrameInput, then, **stats) -> Build:
-    """A Build whose lights the GPU culls and sorts (the scene's records go up), packed on
-    its order, then `then(b)`'s steps: build.data[BUILD_STEPS], which the renderer runs in
-    place of the technique's passes.  stats: the build's own, beside build=gpu."""
+    """A Build whose lights the GPU culls, sorts and packs (the scene's records go up), then
+    `then(b)`'s steps: build.data[BUILD_STEPS], which the renderer runs in place of the
+    technique's passes.  stats: the build's own, beside build=gpu."""
     b = Build(frame=frame, lights=unbuilt_lights(frame))
     b.buffers["scene_lights"] = scene_words(frame.lights)
     b.stats.update(build="gpu", **stats)
-    b.data[BUILD_STEPS] = cull_and_sort(frame) + [pack_step(b, then)]
+    b.data[BUILD_STEPS] = cull_and_sort(frame) + [visible_step(b, then)]
     return b

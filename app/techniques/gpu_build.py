@@ -2,12 +2,13 @@
 
 cpu (the default) is the CPU stage (cpu_prep, numba); gpu builds the same buffers, bit for
 bit, as compute passes of the frame graph before the shading pass (app/gpu_build), timed
-like every pass (meta gpu_ms: build_cull, build_sort, build_bin, build_zbin, build_tree;
-the pack, still on the CPU, in setup_ms build_pack).  The dump's meta says which ran:
-options.build (the choice's index) and stats.build (its name).
+like every pass (meta gpu_ms: build_cull, build_sort, build_pack, build_bin, build_zbin,
+build_tree; the readbacks of the counts that size the next steps in setup_ms).  The dump's
+meta says which ran: options.build (the choice's index) and stats.build (its name).
 
-Built on the GPU: clustered (cull, depth sort, binning), zbin (its Z-bin LUT and tile bit
-arrays).  Not offered with it (one line, exit 2): --duplicated, --stochastic and
+Built on the GPU: the cull, depth sort and pack of every technique here; clustered's
+binning; tree's per-tile trees with skip counts; hybrid's listing 2 and its trees; zbin's
+Z-bin LUT and tile bit arrays.  Not offered with it (one line, exit 2): --duplicated, --stochastic and
 --cap-policy, which the GPU build does not make (docs/cpu_stage.md).
 """
 from __future__ import annotations

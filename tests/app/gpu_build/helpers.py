@@ -38,11 +38,12 @@ def render_both(renderer, name: str, opts: dict, **kw):
 
 
 def assert_same_build(cpu, gpu, names) -> None:
-    """Every buffer the CPU build made (of `names`) equals the GPU's bit for bit, and the
-    stats agree but for the build's name."""
+    """The packed lights (every array) and every buffer the CPU build made (of `names`)
+    equal the GPU's bit for bit, and the stats agree but for the build's name."""
     a, b = cpu.build, gpu.build
-    assert np.array_equal(a.lights.ids, b.lights.ids)
-    assert a.lights.gpu.tobytes() == b.lights.gpu.tobytes()
+    for f in dataclasses.fields(a.lights):        # ids, types, spheres, rectangles, rows, bounds, depths
+        x, y = getattr(a.lights, f.name), getattr(b.lights, f.name)
+        assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes(), f.name
     for name in names:
         if name in a.buffers:
             assert a.buffers[name].shape == b.buffers[name].shape, name
