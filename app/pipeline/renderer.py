@@ -173,19 +173,22 @@ class Renderer:
         """Render one frame of `technique` (anything with resolve_options, build and
         passes).  `defines` are frame-wide switches that reach every program declaring them
         (e.g. UNBOUNDED_FALLOFF=1).  meta['samples'] holds each sample's CPU and GPU ms;
-        meta['cpu_ms'] / ['gpu_ms'] are the last sample's.  `debug_pixel` (x, row from the
-        top) records the ids of the lights the shading passes find affecting that pixel
+        meta['cpu_ms'] / ['gpu_ms'] are the last sample's; the result's build and meta's
+        features the first sample's, whose steps all ran (host steps included).
+        `debug_pixel` (x, row from the top) records the ids of the lights the shading passes find affecting that pixel
         (FrameResult.debug_lights, sorted).  `figures` (default: `readback`) runs the steps
         that only count figures for meta['stats'] and the technique's maps (passes.py)."""
         opts = technique.resolve_options(opts)
         fin = self.frame_input(frame, frames, lights, camera)
         self._begin_frame(debug_pixel, readback if figures is None else figures)
-        records, stats = [], None
+        records, stats, ran = [], None, None
         for k in range(max(int(samples), 1)):
             build, features, record = self._sample(technique, fin, opts, defines, first=k == 0)
             if stats is None:
                 stats = dict(build.stats)       # host steps of the first sample add to them
+                ran = build, features           # the build whose steps (host steps) all ran
             records.append(record)
+        build, features = ran
         missing = [n for n in FRAME_OUTPUTS if n not in self._frame.provided]
         if missing:
             raise UserError(f"technique '{technique.name}': no pass writes {', '.join(missing)}")
@@ -242,6 +245,8 @@ class Renderer:
             # a build made on the GPU (app/gpu_build) brings its passes, ending in the technique's
             steps = build.data.get("build_steps") or technique.passes(build, opts)
             self.run(steps, *env, technique=technique.name)
+            # a GPU build knows its visible lights' shapes once its steps ran (app/gpu_build)
+            features = feat.feature_set(build.lights.type, self.gbuffer.specular)
         else:
             for p in self._frame.timed:
                 self._run_pass(p, *env, technique.name)

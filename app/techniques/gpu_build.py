@@ -13,13 +13,15 @@ Z-bin LUT and tile bit arrays.  Not offered with it (one line, exit 2): --duplic
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from cpu_prep import caps, grid as gridmod, hybrid as hybridmod, limits, tree as treemod, zbin as zb
 
 from ..errors import UserError
+from ..pipeline import features as feat
+from ..pipeline.passes import HostStep, Pass
 from ..gpu_build import lists as gpulists, prepare, trees as gputrees, zbins as gpuzbins
 from .base import make_grid, windows
 from .bit_arrays import variant_flags
@@ -54,6 +56,28 @@ def on_gpu(opts) -> bool:
     return isinstance(opts, BuildOptions) and opts.choice_name("build") == GPU
 
 
+def with_visible_features(b, steps) -> list:
+    """The technique's steps compiled for the shapes among the visible lights, as the CPU
+    build's are: the renderer's features come from the lights it knows before the steps
+    run (every scene type, for a build whose cull runs on the GPU), so each pass brings the
+    visible set's features.glsl (a pass's own files, a feature variant's, still win) and
+    each host step's later steps get the same."""
+    files = feat.virtual_files(feat.feature_set(b.lights.type, b.frame.specular))
+    out = []
+    for s in steps:
+        if isinstance(s, Pass):
+            s = replace(s, virtual=dict(files, **s.virtual))
+        elif isinstance(s, HostStep):
+            s = replace(s, run=lambda read, run=s.run: _later(b, run(read)))
+        out.append(s)
+    return out
+
+
+def _later(b, result):
+    uploads, more = result
+    return uploads, with_visible_features(b, more)
+
+
 def build_lists(frame, opts, slices: int, shade):
     """A list technique's Build whose cull, sort and binning run on the GPU; its steps
     (build.data[prepare.BUILD_STEPS], which the renderer runs in place of the technique's
@@ -63,7 +87,7 @@ def build_lists(frame, opts, slices: int, shade):
 
     def after_pack(b):
         b.grid = grid
-        return gpulists.bin_lists(b, lambda longest: list(shade(b)) + [
+        return gpulists.bin_lists(b, lambda longest: with_visible_features(b, shade(b)) + [
             gpulists.readback_step(b, gpulists.list_readback(b))])
     b = prepare.start(frame, after_pack, cells=grid.cells)
     b.buffers["gb_slice_table"] = gpulists.slice_table(grid)
@@ -99,7 +123,7 @@ def build_bits(frame, opts, passes):
 
         def filled(read):
             entries = int(read[prepare.COUNTERS][prepare.ENTRIES])
-            return {}, ([gpuzbins.bits_pass(b, capacity, entries)] + list(passes(b))
+            return {}, ([gpuzbins.bits_pass(b, capacity, entries)] + with_visible_features(b, passes(b))
                         + [gpulists.readback_step(b, readback)])
         return lut + gpulists.box_passes(b, capacity) + [
             prepare.host("build_bin_entries", (prepare.COUNTERS,), filled)]
@@ -120,8 +144,8 @@ def build_trees(frame, opts, slices: int, shade, tree_bit: int | None = None):
         b.grid = grid
 
         def trees(longest):
-            return gputrees.tree_passes(b, opts, plan, lambda n: windows(frame, n), lambda: list(shade(b)) + [
-                gpulists.readback_step(b, gputrees.tree_readback(b))])
+            return gputrees.tree_passes(b, opts, plan, lambda n: windows(frame, n), lambda: with_visible_features(
+                b, shade(b)) + [gpulists.readback_step(b, gputrees.tree_readback(b))])
         return gpulists.bin_lists(b, trees, ranges=gputrees.LIST_RANGES)
     b = prepare.start(frame, after_pack, cells=grid.cells)
     b.buffers["gb_slice_table"] = gpulists.slice_table(grid)
