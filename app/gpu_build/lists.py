@@ -21,8 +21,8 @@ from cpu_prep import grid as gridmod, layouts, limits
 
 from ..pipeline.passes import Build, Buffer, Pass
 from . import steps
-from .prepare import (COUNTER_FILES, COUNTERS, ENTRIES, LONGEST, PACK_OUTPUTS, counters, host,
-                      readback_lights)
+from .prepare import (COUNTER_FILES, COUNTERS, ENTRIES, LONGEST, PACK_OUTPUTS, check_items, counters,
+                      host, readback_lights)
 
 
 def bin_uniforms(grid: gridmod.Grid) -> dict:
@@ -71,7 +71,7 @@ def fill_cells(b: Build, capacity: int, entries: int, then, ranges: str) -> list
     """The entries (cell, light) in light order, stable-sorted by cell; the ranges; then the
     host step that reads the longest list back and hands over to `then`."""
     g = b.grid
-    limits.check_buffer("light index list", 4 * entries)   # (the CPU build's refusal, same words)
+    check_items(b.frame, "the light index list", 4, entries, "list entries")
     expand = Pass("build_bin", "build_bin.comp", reads=("counters", "boxes", "light_first"),
                   writes={"entry_cells": steps.words(entries), "entry_lights": steps.words(entries)},
                   groups=steps.groups(steps.blocks(entries)), defines={"BIN_STEP": 1}, virtual=COUNTER_FILES,

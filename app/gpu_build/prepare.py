@@ -81,6 +81,22 @@ def host(name: str, reads, run, figures: bool = False) -> HostStep:
     return HostStep(name, tuple(reads), checked, figures=figures)
 
 
+# the largest per-item buffers of the build: what the storage-block limit caps first
+SCENE_ITEM_BYTES = LIGHT_DTYPE.itemsize             # scene_lights: a record a scene light
+VISIBLE_ITEM_BYTES = layouts.GPU_LIGHT.itemsize     # `lights`: a row a visible light
+
+
+def check_items(frame: FrameInput, what: str, item_bytes: int, count: int, unit: str) -> None:
+    """Refuse in one line (LimitError) a buffer of `count` items of `item_bytes` past the
+    driver's storage-block limit, naming it, the limit and the most items it holds."""
+    limit = frame.limits.max_storage_block
+    if item_bytes * count > limit:
+        raise limits.LimitError(
+            f"--build gpu: {what} of {count:,} {unit} needs {item_bytes * count / 2**20:.4g} MiB, "
+            f"over this driver's {limit / 2**20:.4g} MiB storage-block limit (at most "
+            f"{limit // item_bytes:,} {unit})")
+
+
 def scene_words(lights: np.ndarray) -> np.ndarray:
     """The scene's light records as the uint32 words the cull reads."""
     return np.ascontiguousarray(lights).view(np.uint32)
@@ -179,6 +195,7 @@ def visible_step(b: Build, then) -> HostStep:
     def run(read):
         c = read[COUNTERS]
         n = int(c[VISIBLE])
+        check_items(b.frame, "the visible lights' rows", VISIBLE_ITEM_BYTES, n, "visible lights")
         b.lights = packed_lights(b.frame, n, int(c[TYPES]))
         b.stats["visible_lights"] = n
         return {}, [pack_pass(b.frame, n)] + list(then(b))
@@ -213,6 +230,7 @@ def start(frame: FrameInput, then, **stats) -> Build:
     """A Build whose lights the GPU culls, sorts and packs (the scene's records go up), then
     `then(b)`'s steps: build.data[BUILD_STEPS], which the renderer runs in place of the
     technique's passes.  stats: the build's own, beside build=gpu."""
+    check_items(frame, "the scene's light records", SCENE_ITEM_BYTES, len(frame.lights), "scene lights")
     b = Build(frame=frame, lights=unbuilt_lights(frame))
     b.buffers["scene_lights"] = scene_words(frame.lights)
     b.stats.update(build="gpu", **stats)

@@ -33,7 +33,7 @@ from cpu_prep import layouts, limits, tree as treemod
 from ..pipeline.passes import Build, Buffer, Pass
 from . import steps
 from .prepare import (CHOSEN_TREES, COUNTER_FILES, COUNTERS, LISTS, LISTS_AS_TREES, MAX_LEAVES,
-                      NODES, TREES, counters, host)
+                      NODES, TREES, check_items, counters, host)
 
 LIST_RANGES = "gb_list_ranges"     # the cells' index lists; `ranges` is the trees'
 TABLES = "gb_tree_tables"
@@ -117,7 +117,7 @@ def tree_passes(b: Build, opts, plan: bool, windows, then) -> list:
         nodes = int(c[NODES])
         if g.cells:
             treemod._check_skip(int(c[MAX_LEAVES]))       # the CPU build's refusal, same words
-        limits.check_buffer("tree nodes", nodes * layouts.TREE_NODE.itemsize)
+        check_items(b.frame, "the tree nodes", layouts.TREE_NODE.itemsize, nodes, "nodes")
         b.stats.update(nodes=nodes, trees=int(c[TREES]), lists=int(c[LISTS]))
         if plan:
             used = int(c[TREES]) + int(c[LISTS])
