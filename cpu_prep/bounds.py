@@ -291,3 +291,15 @@ def shape_bounds(t, px, py, pz, dx, dy, dz, rx, ry, rz, radius, cos_outer, lengt
         a0, a1, b0, b1, e0, e1 = box_bounds(px, py, pz, dx, dy, dz, rx, ry, rz, ex, ey, ez,
                                             near, tan_x, tan_y, width, height)
     return max(x0, a0), min(x1, a1), max(y0, b0), min(y1, b1), max(d0, e0), min(d1, e1)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def shape_bounds_call(t, px, py, pz, dx, dy, dz, rx, ry, rz, radius, cos_outer, length, ex, ey, ez,
+                      cx, cy, cz, r, near, tan_x, tan_y, width, height):
+    """shape_bounds() as a plain call, for the pack's scalar slow path: numba inlines an
+    inline="always" function by copying its IR at every call site, and shape_bounds' tree
+    of inlined covers (eight box corners, the cone, the capsule) made the pack's two kernels
+    take 30-80 s each to compile (cold test runs, a fresh clone); called, it compiles once,
+    and the common path's SIMD helpers stay inlined.  The same IEEE operations either way."""
+    return shape_bounds(t, px, py, pz, dx, dy, dz, rx, ry, rz, radius, cos_outer, length, ex, ey, ez,
+                        cx, cy, cz, r, near, tan_x, tan_y, width, height)

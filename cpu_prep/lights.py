@@ -41,7 +41,7 @@ from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT
 
 from . import layouts, parallel
 from .arena import Arena, empty
-from .bounds import (grow, ndc_rect, project_axis_ahead, shape_bounds, sphere_only,
+from .bounds import (grow, ndc_rect, project_axis_ahead, shape_bounds_call, sphere_only,
                      spot_sphere)
 from .camera import FrameCamera
 from .layouts import (LIGHT_COLOR_COS_INNER as COLOR, LIGHT_DIR_COS_OUTER as DIR,
@@ -151,6 +151,13 @@ def _view_light(li, m):
         rx, ry, rz = np.float32(x), np.float32(y), np.float32(z)
     cx, cy, cz, r = _sphere(t, li, px, py, pz, dx, dy, dz)
     return px, py, pz, dx, dy, dz, rx, ry, rz, cx, cy, cz, r
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _view_light_call(li, m):
+    """_view_light() as a plain call, for the pack's non-point lights (shape_bounds_call
+    says why: compile time, the same operations)."""
+    return _view_light(li, m)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -416,7 +423,7 @@ def _pack_block(j0, j1, lights, sorted_ids, m, near, tan_x, tan_y, width, height
         jj = j - J0
         if kind[jj] != LIGHT_POINT:
             li = lights[sorted_ids[j] & np.uint64(0xFFFFFFFF)]
-            _, _, _, _, _, _, rx, ry, rz, cx, cy, cz, r = _view_light(li, m)
+            _, _, _, _, _, _, rx, ry, rz, cx, cy, cz, r = _view_light_call(li, m)
             tmp[_RX, jj], tmp[_RY, jj], tmp[_RZ, jj] = rx, ry, rz
             tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj], tmp[_R, jj] = cx, cy, cz, r
         # the whole row, its 16-byte fields in memory order, so that the streaming stores of
@@ -442,7 +449,7 @@ def _pack_block(j0, j1, lights, sorted_ids, m, near, tan_x, tan_y, width, height
     for j in range(J0, np.uint64(j1)):
         jj = j - J0
         if slow[jj]:
-            x0, x1, y0, y1, d0, d1 = shape_bounds(
+            x0, x1, y0, y1, d0, d1 = shape_bounds_call(
                 kind[jj], _f32(tmp, _PX, jj), _f32(tmp, _PY, jj), _f32(tmp, _PZ, jj),
                 _f32(tmp, _DX, jj), _f32(tmp, _DY, jj), _f32(tmp, _DZ, jj),
                 _f32(tmp, _RX, jj), _f32(tmp, _RY, jj), _f32(tmp, _RZ, jj),
