@@ -12,7 +12,7 @@ from .. import cli, images
 from ..errors import UserError
 from .keys import parse_keys
 from .options import DISPLAY, DISPLAY_FLAGS
-from .views import VIEWS, views_of, with_view
+from .views import ALL_VIEWS, views_of, with_view
 
 DESCRIPTION = ("Live window: the capture pipeline, every frame, with a panel of every option "
                "(Dear ImGui). Starts on the fastest exact technique for the scene.")
@@ -90,7 +90,7 @@ def build_parser():
     p.add_argument("--reprobe", action="store_true",
                    help="measure the techniques again at start-up (without --technique the window "
                         "starts on the one the last probe found fastest for this scene and size)")
-    p.add_argument("--view", choices=VIEWS, default="shaded", help="starting view (one the technique has)")
+    p.add_argument("--view", choices=ALL_VIEWS, default="shaded", help="starting view (one the technique has)")
     add_display_args(p)
     p.add_argument("--frames", type=_positive, help="exit after N frames (scripted run)")
     p.add_argument("--screenshot", help="PNG of the last frame")
