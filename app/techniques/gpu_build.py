@@ -94,12 +94,12 @@ def build_lists(frame, opts, slices: int, shade):
     return b
 
 
-def build_bits(frame, opts, passes):
+def build_bits(frame, opts, passes, check_depth_loops):
     """zbin's Build whose cull, sort, Z-bin LUT and tile bit arrays run on the GPU (its
     tile, grid, checks and stats as ZBin.build makes them, once the visible count is read
     back); its steps end in `passes(b)`: the technique's own (the tile depth test, the
-    shading), then the structures read back for the figures."""
-    from .zbin import check_depth_loops            # (zbin imports this module)
+    shading), then the structures read back for the figures.  check_depth_loops(frame,
+    tile, lights): zbin's loop-budget check (passed in: zbin imports this module)."""
     masked, _ = variant_flags(opts.zbin_variant)
     capacity = len(frame.lights)
 

@@ -99,7 +99,7 @@ class ZBin(Technique, register_at=60):
     def build(self, frame, opts):
         opts = self.resolve_options(opts)
         if on_gpu(opts):
-            return build_bits(frame, opts, lambda b: self.passes(b, opts))
+            return build_bits(frame, opts, lambda b: self.passes(b, opts), check_depth_loops)
         b = prepare(frame, opts=opts)
         masked, _ = variant_flags(opts.zbin_variant)
         n = len(b.lights)

@@ -60,11 +60,13 @@ def test_cache_reuses_programs_and_recompiles_on_define_change(gl):
 
 
 def test_every_glsl_file_is_reachable():
+    from app.gpu_build.prepare import COUNTER_FILES
     from app.pipeline import features
     from app.techniques import REGISTRY
     virtual = dict(features.virtual_files(features.LIGHT_TYPES))
     for t in REGISTRY.values():          # texts techniques generate (e.g. their structs)
         virtual.update(t.glsl)
+    virtual.update(COUNTER_FILES)        # the GPU build's generated counter names
     used = set()
     for stage in ("*.comp", "*.vert", "*.frag"):
         for main in shaders.GLSL_DIR.glob(stage):
