@@ -368,7 +368,8 @@ class Fptl(Technique, register_at=70):
                  for k, (lo, hi) in enumerate(scans)]
         if tile_cap:     # not figures only: the frame's cap stats are what the HUD and check read
             lists.append(HostStep("fptl tile cap", tuple(cap_writes),
-                                  lambda got: _tile_cap_stats(build, opts, got["fptl_category_seen"],
+                                  lambda got: _tile_cap_stats(build, cap_u["u_tile_cap"],
+                                                              got["fptl_category_seen"],
                                                               got["fptl_dropped"])))
         # a pixel meets at most every visible light (its list, or every light when flagged);
         # shading reads the lists' words (their state in band), never the cells' records
@@ -551,11 +552,11 @@ def _add_runs(prog, lanes, list_id: int, first, count, step: int, shapes, type_l
         start = start + n
 
 
-def _tile_cap_stats(build, opts, seen: np.ndarray, dropped: np.ndarray):
+def _tile_cap_stats(build, tile_cap, seen: np.ndarray, dropped: np.ndarray):
     """A per-tile cap's stats from what fptl_lists.comp counted: capped_lights (lights dropped
     from some tile; their scene ids in data["capped_ids"]), capped_entries (tile list entries
     dropped), capped_tiles (tiles that dropped one)."""
-    cap = np.array(tile_cap_uniforms(cap_policy(opts))["u_tile_cap"], np.int64)
+    cap = np.array(tile_cap, np.int64)          # (punctual, area): the lists' u_tile_cap
     over = np.maximum(np.asarray(seen).reshape(-1, 2).astype(np.int64) - cap, 0)
     bits = np.unpackbits(np.asarray(dropped, np.uint32).view(np.uint8), bitorder="little")
     ids = np.sort(build.lights.ids[np.nonzero(bits[:len(build.lights)])[0]]).astype(np.uint32)

@@ -155,7 +155,7 @@ class ZBin(Technique, register_at=60):
                           uniforms={"u_tile": g.tile, "u_words": words}),
                      HostStep("depth counts", ("tile_bits", "zbin_bits"),
                               lambda got: _depth_counts(build, got), figures=True)]
-        bits = "zbin_bits" if opts.tile_depth else "tile_bits"
+        bits = _shaded_bits(opts)
         cells = variants.CellSource(variants.CELL_BITS, ("tile_bits",), sources={"tile_bits": bits},
                                     uniforms={"u_words": zb.words_for(len(build.lights))})
         return variants.with_variants(build, opts, depth + shading_steps(build, opts, bits), cells)
@@ -163,14 +163,14 @@ class ZBin(Technique, register_at=60):
     @staticmethod
     def _bit_scans(frame):
         """variant_cells.comp's scan of each tile's bits (the ones shading reads)."""
-        bits = "zbin_bits" if frame.opts.tile_depth else "tile_bits"
+        bits = _shaded_bits(frame.opts)
         return variants.bit_scans(frame, bits, zb.words_for(len(frame.build.lights)))
 
     def wave_program(self, frame, width):
         opts = frame.opts
         masked, scalarized = variant_flags(opts.zbin_variant)
         prog = waves.Program(frame, width)
-        add_bit_words(prog, "zbin_bits" if opts.tile_depth else "tile_bits", frame.build.grid,
+        add_bit_words(prog, _shaded_bits(opts), frame.build.grid,
                       masked, scalarized, opts.printed_mask)
         return prog
 
@@ -198,6 +198,11 @@ class ZBin(Technique, register_at=60):
             {"g_position": int(pixels.sum()) * 16, "tile_bits": tiles * words * 4,
              "light_depth": n * 8, "zbin_bits": tiles * words * 4},
             barriers=2 * tiles, shared_atomics=2 * int(covered.sum()))})
+
+
+def _shaded_bits(opts) -> str:
+    """The bit arrays shading reads: the depth-tested ones, or the rectangles' own."""
+    return "zbin_bits" if opts.tile_depth else "tile_bits"
 
 
 def check_depth_loops(frame, tile: int, lights: int) -> None:
