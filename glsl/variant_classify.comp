@@ -6,7 +6,7 @@
 // A tile of sky keeps mask 0 (empty): it is still dispatched, to write its pixels.
 // With PIXEL_FEATURES (the figures only, untimed) each pixel's own bits instead, the top bit
 // set where it shades: what its program compiled that it did not need is counted from them.
-// define: VARIANT_TILE PIXEL_FEATURES
+// define: VARIANT_TILE PIXEL_FEATURES PIXEL_SHADES
 #include "generated.glsl"
 #include "pixel.glsl"
 #include "cells.glsl"
@@ -20,8 +20,6 @@ uniform int u_variant_tiles_x;
 shared uint s_mask;
 #endif
 
-const uint SHADES = 0x80000000u;
-
 void main() {
     PixelState s = load_pixel_at(ivec2(gl_GlobalInvocationID.xy));
     uint bits = 0u;
@@ -30,7 +28,7 @@ void main() {
         if (s.roughness > 0.0) bits |= FEATURE_SPECULAR_BIT;
     }
 #if PIXEL_FEATURES
-    if (s.inside) pixel_features[s.pixel.y * u_size.x + s.pixel.x] = bits | (s.shading ? SHADES : 0u);
+    if (s.inside) pixel_features[s.pixel.y * u_size.x + s.pixel.x] = bits | (s.shading ? PIXEL_SHADES : 0u);
 #else
     if (gl_LocalInvocationIndex == 0u) s_mask = 0u;
     barrier();

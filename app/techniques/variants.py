@@ -64,6 +64,7 @@ MAX_PROGRAMS = 28        # specialised programs a frame; with the general one HD
 HDRP_TILE = 16           # HDRP's classification tile (TILE_SIZE_FPTL)
 ARGS = 12                # bytes of one DispatchIndirectCommand
 PIXEL_SHADES = np.uint32(1 << 31)    # variant_classify.comp PIXEL_FEATURES: the pixel shades
+_SHADES_GLSL = f"{int(PIXEL_SHADES):#x}u"   # its define there (one source)
 
 
 @dataclass(frozen=True)
@@ -138,7 +139,7 @@ def classify_passes(build, cells: CellSource) -> list[Pass]:
              sources=dict(cells.sources)),
         Pass("variant_classify", "variant_classify.comp", reads=("lights", "cell_features"),
              writes={"tile_masks": Buffer(4 * tiles, cleared=True)}, groups=image_groups(w, h),
-             defines={"VARIANT_TILE": vt, "PIXEL_FEATURES": 0},
+             defines={"VARIANT_TILE": vt, "PIXEL_FEATURES": 0, "PIXEL_SHADES": _SHADES_GLSL},
              uniforms=dict(grid_uniforms(g), u_variant_tiles_x=tx)),
         Pass("variant_compact", "variant_compact.comp", reads=("tile_masks",),
              writes={"variant_args": Buffer(ARGS * feat.MASKS, cleared=True),
@@ -216,7 +217,7 @@ def figure_steps(build, cells: CellSource, own: list[int]) -> list:
     w, h = build.frame.size
     pixels = Pass("variant pixels", "variant_classify.comp", reads=("lights", "cell_features"),
                   writes={"pixel_features": Buffer(4 * w * h)}, groups=image_groups(w, h),
-                  defines={"VARIANT_TILE": vt, "PIXEL_FEATURES": 1},
+                  defines={"VARIANT_TILE": vt, "PIXEL_FEATURES": 1, "PIXEL_SHADES": _SHADES_GLSL},
                   uniforms=grid_uniforms(build.grid), timed=False, figures=True)
     step = HostStep("variant figures", ("pixel_features", "tile_masks"),
                     lambda got: waste_stats(build, got["pixel_features"], got["tile_masks"], own),
