@@ -132,10 +132,15 @@ def _slice_table(scale, bias, slices):
     return out
 
 
+def slice_table(grid: Grid) -> np.ndarray:
+    """The depths where the grid's slice_index() steps (_slice_table()), padded with NaN to
+    2^k - 1 entries (no depth compares >= NaN), for slice_from_table()'s branch-free binary
+    search; empty for one slice.  Read-only, shared by grids of the same slicing."""
+    return _table_for(grid.slice_scale, grid.slice_bias, grid.slices)
+
+
 @lru_cache(maxsize=256)
 def _table_for(scale: float, bias: float, slices: int) -> np.ndarray:
-    """_slice_table() padded with NaN to 2^k - 1 entries (no depth compares >= NaN), for
-    slice_from_table()'s branch-free binary search."""
     t = _slice_table(scale, bias, slices)
     size = 1
     while size - 1 < len(t):
@@ -202,8 +207,7 @@ def _boxes_from_rects(rect, d_lo, d_hi, tile, tiles_x, tiles_y, table):
 
 
 def _grid_args(grid: Grid):
-    return (float(grid.tile), grid.tiles_x, grid.tiles_y,
-            _table_for(grid.slice_scale, grid.slice_bias, grid.slices))
+    return float(grid.tile), grid.tiles_x, grid.tiles_y, slice_table(grid)
 
 
 def cell_boxes(grid: Grid, rect, depth_lo, depth_hi) -> np.ndarray:

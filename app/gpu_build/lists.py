@@ -32,7 +32,7 @@ def bin_uniforms(grid: gridmod.Grid) -> dict:
 def slice_table(grid: gridmod.Grid) -> np.ndarray:
     """The depths where listing 4 steps, NaN-padded to 2^k - 1 (grid.slice_from_table);
     one NaN for a grid of one slice (never read: its binary search takes no step)."""
-    table = gridmod._table_for(grid.slice_scale, grid.slice_bias, grid.slices)
+    table = gridmod.slice_table(grid)
     return table if len(table) else np.full(1, np.nan)
 
 

@@ -171,7 +171,7 @@ def test_next_float_matches_numpy():
 @pytest.mark.parametrize("slices,near,far", [(16, 5.0, 280.0), (2, 0.5, 10.0), (64, 1.0, 1e4), (1, 5.0, 50.0)])
 def test_slice_table_steps_where_listing_4_does(slices, near, far):
     g = gridmod.Grid(960, 540, 48, slices, math.log(near), math.log(far))
-    table = gridmod._table_for(g.slice_scale, g.slice_bias, g.slices)
+    table = gridmod.slice_table(g)
     steps = table[:slices - 1]
     assert np.all(np.isnan(table[slices - 1:])) and np.all(np.diff(steps) > 0)
     around = np.concatenate([steps, np.nextafter(steps, 0), np.nextafter(steps, np.inf),
