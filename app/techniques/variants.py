@@ -5,7 +5,8 @@ Lit.hlsl kFeatureVariantFlags and FeatureFlagsToTileVariant; builddispatchindire
 Deferred.compute's Deferred_Indirect_Fptl_Variant<N> kernels).
 
     culling (the technique's own passes)
-      -> variant_cells     per cell: the shapes its lights have (+ hybrid: list or tree)
+      -> variant_cells     per cell: the shapes its lights have (+ hybrid: list or tree);
+                           fptl's list pass writes these words itself (CELL_PRECOMPUTED)
       -> variant_classify  per variant tile: OR of its shading pixels' cell bits, + specular
       -> variant_compact   per tile: appended to its mask's list, that mask's indirect
                            arguments counted up (HDRP's BuildIndirect)
@@ -57,6 +58,9 @@ from ..pipeline.passes import OUT_STATS, WAVE_DIM, WAVE_STATS, Buffer, HostStep,
 from .base import grid_uniforms
 
 CELL_LISTS, CELL_NODES, CELL_BITS = 1, 2, 3       # variant_cells.comp CELL_SOURCE
+# ... or the technique's own pass writes cell_features, and variant_cells does not run (fptl:
+# its packed lists with spill are no CSR scan; fptl_lists.comp ORs each kept light's shape)
+CELL_PRECOMPUTED = 4
 # A cell scan longer than this takes every shape of the frame unscanned: 8 llvmpipe lanes in
 # lockstep x 4,096 stay within its 65,535-iteration loop limit (DESIGN "Platform facts").
 SCAN_BUDGET = 4096
@@ -70,8 +74,9 @@ _SHADES_GLSL = f"{int(PIXEL_SHADES):#x}u"   # its define there (one source)
 @dataclass(frozen=True)
 class CellSource:
     """Where a technique's pixels find their lights, for variant_cells.comp: its kind
-    (CELL_LISTS, CELL_NODES, CELL_BITS), the slots it reads and their frame buffers, its
-    uniforms, and the defines a mask adds to the technique's program (hybrid's CELL_KINDS)."""
+    (CELL_LISTS, CELL_NODES, CELL_BITS; CELL_PRECOMPUTED: the technique's pass wrote
+    cell_features), the slots it reads and their frame buffers, its uniforms, and the
+    defines a mask adds to the technique's program (hybrid's CELL_KINDS)."""
     kind: int
     reads: tuple[str, ...]
     sources: dict = field(default_factory=dict)
@@ -104,6 +109,12 @@ def general_mask(build) -> int:
     return frame_shape_mask(build) | spec
 
 
+def on(build, opts) -> bool:
+    """Whether the frame classifies its tiles: the option on and a driver that dispatches
+    indirectly (a CELL_PRECOMPUTED technique writes its cell words only then)."""
+    return bool(getattr(opts, "feature_variants", False)) and build.frame.limits.indirect_dispatch
+
+
 def with_variants(build, opts, steps: list, cells: CellSource) -> list:
     """The technique's steps with its shading passes run per feature variant (module doc);
     unchanged with the option off, and the general program alone (the meta saying why)
@@ -124,19 +135,21 @@ def with_variants(build, opts, steps: list, cells: CellSource) -> list:
 
 
 def classify_passes(build, cells: CellSource) -> list[Pass]:
-    """variant_cells, variant_classify, variant_compact (timed: the variants' own cost)."""
+    """variant_cells (unless CELL_PRECOMPUTED), variant_classify, variant_compact (timed: the
+    variants' own cost)."""
     g = build.grid
     vt, tx, ty = tile_grid(build)
     tiles = tx * ty
     w, h = build.frame.size
     shapes = frame_shape_mask(build)
-    return [
+    scan = [] if cells.kind == CELL_PRECOMPUTED else [
         Pass("variant_cells", "variant_cells.comp", reads=("lights",) + cells.reads,
              writes={"cell_features": Buffer(4 * g.cells)}, groups=(-(-g.cells // 64), 1, 1),
              defines={"CELL_SOURCE": cells.kind, "SCAN_BUDGET": SCAN_BUDGET,
                       "CELL_COUNT_MASK": f"{cells.count_mask:#x}u"},
              uniforms=dict(cells.uniforms, u_cells=g.cells, u_frame_shapes=shapes),
-             sources=dict(cells.sources)),
+             sources=dict(cells.sources))]
+    return scan + [
         Pass("variant_classify", "variant_classify.comp", reads=("lights", "cell_features"),
              writes={"tile_masks": Buffer(4 * tiles, cleared=True)}, groups=image_groups(w, h),
              defines={"VARIANT_TILE": vt, "PIXEL_FEATURES": 0, "PIXEL_SHADES": _SHADES_GLSL},
@@ -258,26 +271,20 @@ def waste_stats(build, pixel_bits, tile_masks, own: list[int]):
 
 # ---- the wave model's figures of the variant passes (app.model.predict) -------------------
 
-def cull_figures(frame, width: int, scans: np.ndarray) -> dict:
-    """{pass: waves.Figures} of the three classification passes, counted from the frame:
-    `scans` the iterations of each cell's scan (variant_cells.comp, SCAN_BUDGET-clipped)."""
+def cull_figures(frame, width: int, scans: np.ndarray | None) -> dict:
+    """{pass: waves.Figures} of the classification passes, counted from the frame: `scans`
+    the iterations of each cell's scan (variant_cells.comp, SCAN_BUDGET-clipped); None: a
+    CELL_PRECOMPUTED technique, no variant_cells pass (its own pass counts the words)."""
     b = frame.build
     vt, tx, ty = tile_grid(b)
     tiles, cells = tx * ty, b.grid.cells
-    scans = np.minimum(np.asarray(scans, np.int64), SCAN_BUDGET)
     line = lambda issued, nbytes: issued * width * nbytes // waves.LINE
-    cell_waves = -(-cells // width)
-    # a wave of `width` cells issues its longest scan; its lanes run their own
-    issued = int(np.maximum.reduceat(scans, np.arange(0, cells, width)).sum()) if cells else 0
-    scan = (issued, int(scans.sum()), issued, line(issued, 8))
     w, h = frame.size
     pix_waves = -(-w // WAVE_DIM) * -(-h // WAVE_DIM) * (64 // width)
     px = int(frame.shading.sum())
     classify = (pix_waves, px, 2 * pix_waves, line(pix_waves, 20))
     compact = (-(-tiles // width), tiles, -(-tiles // width), line(-(-tiles // width), 4))
-    return {
-        "variant_cells": waves.analytic(width, cell_waves, {"load": scan},
-                                        {"ranges": cells * 8, "cell_features": cells * 4}),
+    out = {
         "variant_classify": waves.analytic(width, pix_waves, {"depth": classify},
                                            {"g_position": px * 16, "cell_features": cells * 4},
                                            barriers=2 * pix_waves, shared_atomics=px,
@@ -285,13 +292,21 @@ def cull_figures(frame, width: int, scans: np.ndarray) -> dict:
         "variant_compact": waves.analytic(width, -(-tiles // width), {"load": compact},
                                           {"tile_masks": tiles * 4}, atomics=tiles),
     }
+    if scans is not None:
+        scans = np.minimum(np.asarray(scans, np.int64), SCAN_BUDGET)
+        # a wave of `width` cells issues its longest scan; its lanes run their own
+        issued = int(np.maximum.reduceat(scans, np.arange(0, cells, width)).sum()) if cells else 0
+        scan = (issued, int(scans.sum()), issued, line(issued, 8))
+        out["variant_cells"] = waves.analytic(width, -(-cells // width), {"load": scan},
+                                              {"ranges": cells * 8, "cell_features": cells * 4})
+    return out
 
 
-def figures_if_on(frame, width: int, scans: Callable, passes: dict) -> dict:
+def figures_if_on(frame, width: int, scans: Callable | None, passes: dict) -> dict:
     """A technique's cull figures `passes`, plus the variant passes' when its option is on
-    (`scans(frame)`: each cell's scan length)."""
-    if getattr(frame.opts, "feature_variants", False) and frame.build.frame.limits.indirect_dispatch:
-        passes = dict(passes, **cull_figures(frame, width, scans(frame)))
+    (`scans(frame)`: each cell's scan length; None: CELL_PRECOMPUTED)."""
+    if on(frame.build, frame.opts):
+        passes = dict(passes, **cull_figures(frame, width, scans and scans(frame)))
     return passes
 
 
