@@ -27,7 +27,13 @@
 // before positions are given: its rank among that category's lights found so far in the
 // cell, in scan order, which the CPU made HDRP's sort-key order (fptl.class_order), so each
 // category keeps its lowest sort keys, as lightlistbuild.compute's per-category clamp does.
-// define: FPTL_PRUNE FPTL_TILE_CAP
+// FPTL_CELL_SHAPES 1 (--feature-variants: app/techniques/variants.py CELL_PRECOMPUTED): each
+// cell's shape word, the OR of 1 << type over the lights its list keeps (scan 1 gives every
+// kept light a position, listed and spilled alike; a cap's dropped ones have left the mask),
+// a pool-full cell every visible light's (u_frame_shapes, as it shades them all), into
+// cell_features[cell]: the bits variant_cells.comp writes for the CSR techniques, which the
+// tiles' classification reads.
+// define: FPTL_PRUNE FPTL_TILE_CAP FPTL_CELL_SHAPES
 #include "generated.glsl"
 #include "fptl_structs.glsl"
 #include "pixel.glsl"
@@ -44,6 +50,10 @@ layout(std430, binding = B_FPTL_COUNTER) coherent buffer Counter { uint fptl_spi
 // (lights[] index) dropped from some cell
 layout(std430, binding = B_FPTL_CATEGORY_SEEN) buffer Seen { uvec2 fptl_category_seen[]; };
 layout(std430, binding = B_FPTL_DROPPED) buffer Dropped { uint fptl_dropped[]; };
+#if FPTL_CELL_SHAPES
+layout(std430, binding = B_CELL_FEATURES) buffer CellFeatures { uint cell_features[]; };
+uniform uint u_frame_shapes;     // the shape bits of every visible light
+#endif
 
 uniform uvec2 u_scan;          // class positions this dispatch scans
 uniform uint u_scan_index;
@@ -75,6 +85,9 @@ shared uint s_seen[2 * FPTL_SLICES];          // per cell and category: found so
 shared uint s_seen_start[2 * FPTL_SLICES];    // ... at this dispatch's start
 shared uint s_drop[2 * FPTL_SLICES];          // the batch's lights each cell drops
 shared uint s_group1[2];                      // the batch's lights of category 1
+#endif
+#if FPTL_CELL_SHAPES
+shared uint s_shapes[FPTL_SLICES];            // each cell's shape word so far
 #endif
 
 PixelState g_px[4];            // this invocation's 2x2 pixels
@@ -183,9 +196,15 @@ void flush(uint m, uint mode) {
     cap_batch(m, mode);
 #endif
     uint light = me < m ? s_batch_light[me] : 0u;
+#if FPTL_CELL_SHAPES
+    uint shape = me < m && mode == 0u ? 1u << lights[light].id_type.y : 0u;
+#endif
     for (uint c = 0u; c < S; ++c) {
         uvec2 bits = uvec2(s_mask[2u * c], s_mask[2u * c + 1u]);
         if (me < m && has_bit(bits, me)) {
+#if FPTL_CELL_SHAPES
+            if (shape != 0u) atomicOr(s_shapes[c], shape);
+#endif
             uint p = s_pruned[c] + bits_below(bits, me);
             if (mode == 0u) {
                 if (p < FPTL_CAP)
@@ -303,6 +322,9 @@ void main() {
         s_seen[2u * me + 1u] = s_seen_start[2u * me + 1u] = seen.y;
     }
 #endif
+#if FPTL_CELL_SHAPES
+    if (me < S) s_shapes[me] = first ? 0u : cell_features[first_cell + me];
+#endif
     if (me == 0u) {
         s_coarse = first ? 0u : fptl_cells[first_cell].coarse;
         s_spilling = 0u;
@@ -357,6 +379,10 @@ void main() {
     // reads them
 #if FPTL_TILE_CAP
     if (me < S) fptl_category_seen[first_cell + me] = uvec2(s_seen[2u * me], s_seen[2u * me + 1u]);
+#endif
+#if FPTL_CELL_SHAPES
+    if (me < S)
+        cell_features[first_cell + me] = (s_flags[me] & FPTL_POOL_FULL) != 0u ? u_frame_shapes : s_shapes[me];
 #endif
     if (me < S)
         fptl_cells[first_cell + me] = FptlCell(s_coarse, s_pruned[me],

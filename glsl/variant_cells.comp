@@ -7,6 +7,8 @@
 //                  -> nodes[] -> each leaf's entries; adds the cell's kind by structure
 //                  (one node: read as a list, more: as a tree), as shade_hybrid.comp reads it
 //   CELL_SOURCE 3  bit arrays: the cell's u_words words (zbin), bit N = light N
+//   (CELL_PRECOMPUTED, 4: this pass does not run, the technique's own pass writes these
+//   words: fptl_lists.comp, whose packed lists with spill are no CSR scan)
 // A cell whose scan would pass SCAN_BUDGET iterations takes every shape of the frame
 // (u_frame_shapes) unscanned: conservative, so still exact, and clear of llvmpipe's silent
 // loop limit (a truncated scan would miss a shape and shade it with a program that lacks it).

@@ -31,6 +31,14 @@ per 2.5D cell (16 depth slices, listing 4; the chapter's "negates the need for c
 (on by default) shades with the chapter's per-type loops; off, one loop whose light code
 branches on each light's type: what the sort by shape buys.
 
+Feature variants (`--feature-variants`, app/techniques/variants.py): the packed lists with
+spill are no CSR scan for variant_cells.comp, so fptl_lists.comp writes each cell's shape
+word itself (cell_features, CELL_PRECOMPUTED): the OR of 1 << type over the lights the cell
+keeps, spilled ones included, a cap's dropped ones not, every visible light's for a
+pool-full cell.  Classification, compaction and the per-mask programs are the shared ones,
+on the 16 px tile (each 16x16 tile's pixels read its cells' lists); every fptl_variant, the
+per-type loops either way and the per-tile caps take it.
+
 Cap policies (`cap_policy`): the view caps every list technique takes (prepare: the lights
 are dropped before any structure), and HDRP FPTL's per-tile caps, hdrp-fptl-24 / -63
 (cpu_prep.caps per_tile), which only this build applies: with fine pruning per tile (the
@@ -97,8 +105,9 @@ from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT, LIGH
 from ..model import waves
 from ..pipeline.passes import Buffer, HostStep, Pass
 from ..errors import UserError
+from . import variants
 from .base import Technique, add_all_lights, prepare, shading_passes
-from .options import CapOptions, StochasticOptions, cap_policy, choice, option
+from .options import CapOptions, FeatureVariantOptions, StochasticOptions, cap_policy, choice, option
 
 TILE = 16                    # the chapter's tile: 64 invocations x 2x2 pixels
 LIST_CAP = 24                # pruned lights in a tile's 8 R10G10B10A2 blocks
@@ -282,11 +291,11 @@ def scan_windows(frame, n: int) -> list[tuple[int, int]]:
 class Fptl(Technique, register_at=70):
     name = "fptl"
     summary = "16x16 tiles, GPU screen-AABB coarse lists fine-pruned per pixel (Mikkelsen)"
-    views = Technique.views + ("tiles", "slices", "maps")
+    views = Technique.views + ("tiles", "slices", "maps", "variants")
     glsl = {"fptl_structs.glsl": structs_glsl(), "fptl_format.glsl": format_glsl()}
 
     @dataclass(frozen=True)
-    class Options(CapOptions, StochasticOptions):
+    class Options(CapOptions, StochasticOptions, FeatureVariantOptions):
         fptl_variant: int = choice("fine per tile", VARIANTS, "the lists: fine-pruned or coarse "
                                    "(AABBs only), per 16x16 tile (the chapter) or per 2.5D cell "
                                    "(16 depth slices)", study=True)
@@ -343,6 +352,10 @@ class Fptl(Technique, register_at=70):
         cap_writes = {"fptl_category_seen": Buffer(g.cells * CATEGORY_SEEN.itemsize, CATEGORY_SEEN),
                       "fptl_dropped": Buffer(4 * max(1, -(-n // 32)), cleared=True)} if tile_cap else {}
         cap_u = tile_cap_uniforms(cap_policy(opts)) if tile_cap else {}
+        # --feature-variants: the list pass writes each cell's shape word (CELL_PRECOMPUTED)
+        shapes_on = variants.on(build, opts)
+        shape_writes = {"cell_features": Buffer(4 * g.cells)} if shapes_on else {}
+        shape_u = {"u_frame_shapes": variants.frame_shape_mask(build)} if shapes_on else {}
         grid_u = {"u_fptl_tiles_x": g.tiles_x, "u_slice_scale": float(g.slice_scale),
                   "u_slice_bias": float(g.slice_bias), "u_cells": g.cells, "u_scans": len(scans)}
         aabb = Pass("light_aabb", "fptl_aabb.comp", reads=("lights", "bounds", "fptl_order"),
@@ -360,11 +373,13 @@ class Fptl(Technique, register_at=70):
                               "fptl_spill": Buffer(capacity * 4),
                               "fptl_counter": Buffer(16, cleared=k == 0),
                               **{name: Buffer(buf.nbytes, buf.struct, cleared=buf.cleared and k == 0)
-                                 for name, buf in cap_writes.items()}},
+                                 for name, buf in cap_writes.items()}, **shape_writes},
                       groups=(g.tiles_x, g.tiles_y, 1),
-                      defines=dict(common, FPTL_PRUNE=int(fine), FPTL_TILE_CAP=int(tile_cap)),
+                      defines=dict(common, FPTL_PRUNE=int(fine), FPTL_TILE_CAP=int(tile_cap),
+                                   FPTL_CELL_SHAPES=int(shapes_on)),
                       uniforms=dict(grid_u, u_scan=(lo, hi), u_scan_index=k,
-                                    u_spill_capacity=capacity, u_slices=g.slices, u_two=2, **cap_u))
+                                    u_spill_capacity=capacity, u_slices=g.slices, u_two=2,
+                                    **cap_u, **shape_u))
                  for k, (lo, hi) in enumerate(scans)]
         if tile_cap:     # not figures only: the frame's cap stats are what the HUD and check read
             lists.append(HostStep("fptl tile cap", tuple(cap_writes),
@@ -385,7 +400,8 @@ class Fptl(Technique, register_at=70):
                           lambda got: _counts(build, got["fptl_cells"], got["fptl_counter"],
                                               got["fptl_lists"], got["fptl_spill_heads"]),
                           figures=True)
-        return [aabb] + lists + shade + [counts]
+        return variants.with_variants(build, opts, [aabb] + lists + shade + [counts],
+                                      variants.CellSource(variants.CELL_PRECOMPUTED, ()))
 
     def report_notes(self, rows):
         """The chapter's figures beside this run's (app/report/notes.py)."""
@@ -394,7 +410,9 @@ class Fptl(Technique, register_at=70):
     def cull_figures(self, frame, width):
         """fptl_aabb.comp (a light a lane) and fptl_lists.comp (per 16x16 tile one 64-lane
         group: the 2x2 pixels' depths, the coarse AABB test 64 lights a round, then fine
-        pruning: every lane tests its four pixels against each coarse light)."""
+        pruning: every lane tests its four pixels against each coarse light); with
+        --feature-variants its shape words (a shared atomic per kept entry, the word written
+        each scan window) and the classification passes (variants.cull_figures)."""
         b = frame.build
         g, n = b.grid, len(b.lights)
         fine, _ = variant_flags(frame.opts.fptl_variant)
@@ -417,15 +435,18 @@ class Fptl(Technique, register_at=70):
         prune_it = per * int(coarse.sum() if fine else flushes)
         prune = (prune_it, prune_it * width, 0, 0, prune_it, 2 * prune_it)
         words = list_words(index_bits(n))
+        shapes = variants.on(b, frame.opts)
         lists = waves.analytic(
             width, tiles * per, {"depth": depth, "cull_test": test, "prune": prune},
             {"g_position": int(pixels.sum()) * 16, "fptl_aabbs": n * FPTL_AABB.itemsize,
              "lights": min(int(coarse.sum()), n) * 96, "fptl_lists": g.cells * words * 4,
-             "fptl_cells": g.cells * FPTL_CELL.itemsize},
+             "fptl_cells": g.cells * FPTL_CELL.itemsize,
+             **({"cell_features": g.cells * 4 * len(b.data["scans"])} if shapes else {})},
             barriers=tiles * (6 + 3 * rounds) + 4 * flushes,
-            shared_atomics=4 * int(covered.sum()) + int(coarse.sum()) + 8 * 64 * flushes,
+            shared_atomics=4 * int(covered.sum()) + int(coarse.sum()) + 8 * 64 * flushes
+            + (int(cells["pruned"].sum()) if shapes else 0),
             atomics=int((cells["flags"] & FLAG_SPILLED != 0).sum()))
-        return {"light_aabb": aabb, "fptl_lists": lists}
+        return variants.figures_if_on(frame, width, None, {"light_aabb": aabb, "fptl_lists": lists})
 
     def wave_program(self, frame, width):
         """fptl_shade.comp: the cell's list words (the eight blocks, or the wide formats'
