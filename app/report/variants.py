@@ -64,9 +64,11 @@ def variant_notes(rows) -> tuple[str, str]:
             "variants, dispatched indirectly) against the one program of the frame's features. "
             "A pixel counts as running code it did not need when its program compiled GGX while "
             "its surface is matte, or a light shape its cell's list does not hold. The GPU time "
-            "on includes the three classification passes (variant_cells, variant_classify, "
-            "variant_compact). The GPU cost model (app/model) counts the classification passes but "
-            "no saving in the shading pass: it already charges a shape's or GGX's code to a wave "
-            "only where one of its lanes needs it, so what variants save on a GPU, the smaller "
-            "program's registers and occupancy, is outside it.")
+            "on includes the classification passes (variant_cells, variant_classify, "
+            "variant_compact; fptl runs no variant_cells: its list pass writes each cell's "
+            "shape word, in its list-building time). The GPU cost model (app/model) counts "
+            "the classification passes but no saving in the shading pass: it already charges "
+            "a shape's or GGX's code to a wave only where one of its lanes needs it, so what "
+            "variants save on a GPU, the smaller program's registers and occupancy, is "
+            "outside it.")
     return "feature variants (HDRP deferred)", "\n".join([head, ""] + text).rstrip()
