@@ -34,10 +34,13 @@ import math
 import numba
 import numpy as np
 
+from . import parallel, share
 from .arena import Arena, empty, zeros
 from .camera import FrameCamera
-from .intrinsics import bits_to_f64
+from .intrinsics import bits_to_f64, fetch_add
 from .limits import SLICE_DEPTH_REL_MARGIN, check_buffer
+
+FILL_BANDS_A_THREAD = 2
 
 
 @dataclass(frozen=True)
@@ -359,15 +362,13 @@ def _fill_band(boxes, tiles_x, tiles_y, slices, band, bands, cursor, entries):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _fill1(boxes, tiles_x, tiles_y, slices, bands, cursor, entries):
-    for band in range(bands):
+def _fill_chunks(claim, bands, boxes, tiles_x, tiles_y, slices, cursor, entries):
+    """The bands this thread claims (cpu_prep.share): no two write one cell."""
+    band = fetch_add(claim, 0, 1)
+    while band < bands:
         _fill_band(boxes, tiles_x, tiles_y, slices, band, bands, cursor, entries)
-
-
-@numba.njit(cache=True, nogil=True, parallel=True, error_model="numpy")
-def _fill2(boxes, tiles_x, tiles_y, slices, bands, cursor, entries):
-    for band in numba.prange(bands):
-        _fill_band(boxes, tiles_x, tiles_y, slices, band, bands, cursor, entries)
+        fetch_add(claim, 1, 1)
+        band = fetch_add(claim, 0, 1)
 
 
 def _count_arrays(grid: Grid, arena: Arena | None):
@@ -381,11 +382,9 @@ def _fill(grid: Grid, boxes, diff, offsets, cursor, arena: Arena | None) -> np.n
     total = _offsets(diff, offsets, cursor)
     check_buffer("light index list", 4 * total)   # before allocating; keeps the uint32 cursor exact
     entries = empty(arena, "entries", total, np.uint32)
-    threads = numba.get_num_threads()
-    if threads > 1 and grid.tiles_y > 1:
-        _fill2(boxes, grid.tiles_x, grid.tiles_y, grid.slices, min(grid.tiles_y, threads), cursor, entries)
-    else:
-        _fill1(boxes, grid.tiles_x, grid.tiles_y, grid.slices, 1, cursor, entries)
+    # with threads, bands of tile rows (each band reads every box: more bands, more reads)
+    bands = min(grid.tiles_y, FILL_BANDS_A_THREAD * numba.get_num_threads()) if parallel() else 1
+    share.run(_fill_chunks, bands, boxes, grid.tiles_x, grid.tiles_y, grid.slices, cursor, entries)
     return entries
 
 

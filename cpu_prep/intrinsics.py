@@ -1,5 +1,6 @@
-"""Two things numba does not offer the CPU stage's kernels: a software prefetch for the
-pack's gather, and float32 bit access (next float up/down without a libm call).
+"""What numba does not offer the CPU stage's kernels: a software prefetch for the
+pack's gather, float32 bit access (next float up/down without a libm call), streaming
+stores, and an atomic add (the work sharing's chunk claim, cpu_prep.share).
 
 Prefetch.
 
@@ -218,3 +219,24 @@ def store_fence(typingctx):
         return context.get_dummy_value()
 
     return types.void(), codegen
+
+
+@intrinsic
+def fetch_add(typingctx, arr, idx, v):
+    """Atomically arr[idx] += v (a 1D int64 array), returning the value before: the chunk
+    claim of cpu_prep.share's kernels (numba has no atomics outside its parallel regions)."""
+    if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.dtype == types.int64
+            and isinstance(idx, types.Integer) and isinstance(v, types.Integer)):
+        return None
+    sig = types.int64(arr, idx, v)
+
+    def codegen(context, builder, signature, args):
+        aryty = signature.args[0]
+        ary = context.make_array(aryty)(context, builder, args[0])
+        i = context.cast(builder, args[1], signature.args[1], types.intp)
+        ptr = cgutils.get_item_pointer(context, builder, aryty, ary, [i],
+                                       wraparound=False, boundscheck=False)
+        val = context.cast(builder, args[2], signature.args[2], types.int64)
+        return builder.atomic_rmw("add", ptr, val, "seq_cst")
+
+    return sig, codegen

@@ -39,7 +39,7 @@ import numpy as np
 
 from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT
 
-from . import layouts, parallel
+from . import layouts, parallel, share
 from .arena import Arena, empty
 from .bounds import (grow, ndc_rect, project_axis_ahead, shape_bounds_call, sphere_only,
                      spot_sphere)
@@ -48,8 +48,8 @@ from .layouts import (LIGHT_COLOR_COS_INNER as COLOR, LIGHT_DIR_COS_OUTER as DIR
                       LIGHT_EXTENT_LENGTH as EXT, LIGHT_ID_TYPE as ID_TYPE,
                       LIGHT_POS_RADIUS as POS, LIGHT_RIGHT as RIGHT, LIGHT_WORDS)
 from .limits import PIXEL_MARGIN, RADIUS_REL_MARGIN
-from .intrinsics import (bits_to_f32, f32_to_bits, next_down_f32, next_up_f32, prefetch_ahead,
-                         store4_nt, store_fence)
+from .intrinsics import (bits_to_f32, f32_to_bits, fetch_add, next_down_f32, next_up_f32,
+                         prefetch_ahead, store4_nt, store_fence)
 
 
 @dataclass
@@ -337,6 +337,7 @@ def depth_order(depth: np.ndarray, buckets: int = 0) -> np.ndarray:
 _ROW_ORDER = tuple(int(k) for k in np.argsort([POS, COLOR, DIR, ID_TYPE, EXT, RIGHT]))
 assert sorted([POS, COLOR, DIR, ID_TYPE, EXT, RIGHT]) == list(range(0, LIGHT_WORDS, 4))
 PACK_BLOCK = 128      # lights a block: its temporaries stay in L1 between the block's loops
+PACK_CHUNKS = 32      # with threads: chunks of blocks to claim (a late thread leaves less)
 _WX, _WY, _WZ, _UX, _UY, _UZ, _RAD = 0, 1, 2, 3, 4, 5, 6        # gathered (world)
 _COS, _LEN, _EX, _EY, _EZ = 7, 8, 9, 10, 11                        # gathered (shape)
 _PX, _PY, _PZ, _DX, _DY, _DZ = 12, 13, 14, 15, 16, 17             # stored position, direction
@@ -465,28 +466,23 @@ def _pack_block(j0, j1, lights, sorted_ids, m, near, tan_x, tan_y, width, height
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _pack1(lights, sorted_ids, m, near, tan_x, tan_y, width, height,
-           rows, types, sphere, rect, bound, lo, hi):
+def _pack_chunks(claim, chunks, lights, sorted_ids, m, near, tan_x, tan_y, width, height,
+                 rows, types, sphere, rect, bound, lo, hi):
+    """The blocks of the chunks this thread claims (cpu_prep.share)."""
     n = sorted_ids.shape[0]
+    blocks = (n + PACK_BLOCK - 1) // PACK_BLOCK
     tmp = np.empty((_TEMPS, PACK_BLOCK))
     kind = np.empty(PACK_BLOCK, np.uint8)
     slow = np.empty(PACK_BLOCK, np.uint8)
-    for j0 in range(0, n, PACK_BLOCK):
-        _pack_block(j0, min(j0 + PACK_BLOCK, n), lights, sorted_ids, m, near, tan_x, tan_y,
-                    width, height, rows, types, sphere, rect, bound, lo, hi, tmp, kind, slow)
-
-
-@numba.njit(cache=True, nogil=True, parallel=True, error_model="numpy")
-def _pack2(lights, sorted_ids, m, near, tan_x, tan_y, width, height,
-           rows, types, sphere, rect, bound, lo, hi):
-    n = sorted_ids.shape[0]
-    for b in numba.prange((n + PACK_BLOCK - 1) // PACK_BLOCK):
-        j0 = b * PACK_BLOCK
-        tmp = np.empty((_TEMPS, PACK_BLOCK))
-        kind = np.empty(PACK_BLOCK, np.uint8)
-        slow = np.empty(PACK_BLOCK, np.uint8)
-        _pack_block(j0, min(j0 + PACK_BLOCK, n), lights, sorted_ids, m, near, tan_x, tan_y,
-                    width, height, rows, types, sphere, rect, bound, lo, hi, tmp, kind, slow)
+    k = fetch_add(claim, 0, 1)
+    while k < chunks:
+        for b in range(k * blocks // chunks, (k + 1) * blocks // chunks):
+            j0 = b * PACK_BLOCK
+            _pack_block(j0, min(j0 + PACK_BLOCK, n), lights, sorted_ids, m, near, tan_x,
+                        tan_y, width, height, rows, types, sphere, rect, bound, lo, hi, tmp,
+                        kind, slow)
+        fetch_add(claim, 1, 1)
+        k = fetch_add(claim, 0, 1)
 
 
 def pack(lights: np.ndarray, cam: FrameCamera, sorted_ids: np.ndarray,
@@ -500,9 +496,10 @@ def pack(lights: np.ndarray, cam: FrameCamera, sorted_ids: np.ndarray,
     bound = empty(arena, "gpu_bounds", (n, 4), np.float32)
     lo, hi = empty(arena, "depth_lo", n, np.float32), empty(arena, "depth_hi", n, np.float32)
     types = empty(arena, "light_types", n, np.uint8)
-    kernel = _pack2 if parallel() else _pack1
-    kernel(lights, sorted_ids, cam.view_from_world, cam.near, cam.tan_half_x, cam.tan_half_y,
-           float(cam.width), float(cam.height), gpu, types, spheres, rect, bound, lo, hi)
+    blocks = -(-n // PACK_BLOCK)
+    share.run(_pack_chunks, min(blocks, PACK_CHUNKS) if parallel() else 1, lights, sorted_ids,
+              cam.view_from_world, cam.near, cam.tan_half_x, cam.tan_half_y, float(cam.width),
+              float(cam.height), gpu, types, spheres, rect, bound, lo, hi)
     rec = gpu.view(layouts.GPU_LIGHT).reshape(n)
     return PreparedLights(ids=rec["id_type"][:, 0], type=types,
                           center=spheres[:, :3], bound_radius=spheres[:, 3], rect=rect, gpu=rec,

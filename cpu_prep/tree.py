@@ -40,9 +40,10 @@ from functools import lru_cache
 import numba
 import numpy as np
 
-from . import layouts, parallel
+from . import layouts, parallel, share
 from .arena import Arena, empty
 from .layouts import NODE_BITS, NODE_FIRST_LIGHT, NODE_MAX_DEPTH, NODE_MIN_DEPTH, NODE_WORDS, node_bits
+from .intrinsics import fetch_add
 from .limits import LimitError, NODE_MAX_LIGHTS, NODE_MAX_SKIP
 from .tree_topdown import NODE_COST, build_topdown
 
@@ -50,6 +51,8 @@ from .tree_topdown import NODE_COST, build_topdown
 # build with a split chosen per node (cpu_prep.tree_topdown).
 BUILD_BOTTOMUP, BUILD_TOPDOWN = 0, 1
 BUILDS = {BUILD_BOTTOMUP: "bottomup", BUILD_TOPDOWN: "topdown"}
+_NO_BOUNDS = np.zeros(0, np.float32)
+CELL_CHUNKS = 64      # with threads: chunks of cells to claim (a late thread leaves less)
 
 
 def _next_pow2(x: np.ndarray) -> np.ndarray:
@@ -141,7 +144,7 @@ def _log2(x):
 
 
 @numba.njit(inline="always")
-def _scan(o, n, entries, depth_lo, depth_hi, plan, lo_s, hi_s):
+def scan(o, n, entries, depth_lo, depth_hi, plan, lo_s, hi_s):
     """One pass over a cell's lights: the min and max of their depth ranges (the root's
     bounds) and, in plan mode, listing 2's sum of their depth extents clipped to the cell,
     in entry order as cpu_prep.hybrid.choose_trees sums them (the same bits)."""
@@ -199,10 +202,12 @@ def _emit(L, base, bf_min, bf_max, bf_first, bf_count, tab_order, tab_skip, tab_
 def _build_range(c_begin, c_end, offsets, entries, depth_lo, depth_hi, leaves, plan,
                  is_tree, slice_lo, slice_hi, slices, radius_scale, lights_per_leaf,
                  max_leaves, scratch, tab_order, tab_skip, tab_off, nodes_f, nodes_u,
-                 ranges_u, base, topdown, node_cost, n_max):
+                 ranges_u, base, topdown, node_cost, n_max, cell_lo, cell_hi):
     """Cells c_begin .. c_end-1, their trees written one after another from node `base`.
-    given mode (plan False): leaves[c] is each cell's leaf count; plan mode: leaves[c] and
-    is_tree[c] are written.  topdown: a cell of L > 1 leaves gets the top-down tree of at
+    given mode (plan False): leaves[c] is each cell's leaf count, and where cell_lo/hi are
+    not empty the min and max of each cell's depth ranges (listing 2's pass took them: a
+    list is then written without reading its lights); plan mode: leaves[c] and is_tree[c]
+    are written.  topdown: a cell of L > 1 leaves gets the top-down tree of at
     most L leaves (cpu_prep.tree_topdown; n_max: the most lights of a cell, for its scratch)
     instead of the full one.  Returns the node count written."""
     bf_min = np.empty(scratch, np.float32)
@@ -232,15 +237,17 @@ def _build_range(c_begin, c_end, offsets, entries, depth_lo, depth_hi, leaves, p
             continue
         if plan:
             lo_s, hi_s = slice_lo[s], slice_hi[s]
-            total, lo, hi = _scan(o, n, entries, depth_lo, depth_hi, True, lo_s, hi_s)
+            total, lo, hi = scan(o, n, entries, depth_lo, depth_hi, True, lo_s, hi_s)
             tree = total / n < 0.5 * (hi_s - lo_s) * radius_scale
             L = tree_leaves(n, lights_per_leaf, max_leaves) if tree else list_leaves(n)
             is_tree[c] = tree
             leaves[c] = L
         else:
             L = leaves[c]
-            if L == 1 or topdown:
-                total, lo, hi = _scan(o, n, entries, depth_lo, depth_hi, False, 0.0, 0.0)
+            if cell_lo.shape[0]:
+                lo, hi = cell_lo[c], cell_hi[c]
+            elif L == 1 or topdown:
+                total, lo, hi = scan(o, n, entries, depth_lo, depth_hi, False, 0.0, 0.0)
         if L == 1:
             # a list: one leaf over all the cell's lights (its bounds are the scan's)
             b = np.uint64(base)
@@ -265,29 +272,39 @@ def _build_range(c_begin, c_end, offsets, entries, depth_lo, depth_hi, leaves, p
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _build1(offsets, entries, depth_lo, depth_hi, leaves, plan, is_tree, slice_lo, slice_hi,
             slices, radius_scale, lights_per_leaf, max_leaves, scratch, tab_order, tab_skip,
-            tab_off, nodes_f, nodes_u, ranges_u, topdown, node_cost, n_max):
+            tab_off, nodes_f, nodes_u, ranges_u, topdown, node_cost, n_max, cell_lo, cell_hi):
     """One thread: every cell in order, trees back to back.  Returns the node count."""
     return _build_range(0, offsets.shape[0] - 1, offsets, entries, depth_lo, depth_hi, leaves,
                         plan, is_tree, slice_lo, slice_hi, slices, radius_scale,
                         lights_per_leaf, max_leaves, scratch, tab_order, tab_skip, tab_off,
-                        nodes_f, nodes_u, ranges_u, 0, topdown, node_cost, n_max)
+                        nodes_f, nodes_u, ranges_u, 0, topdown, node_cost, n_max, cell_lo,
+                        cell_hi)
 
 
-@numba.njit(cache=True, nogil=True, parallel=True, error_model="numpy")
-def _build_par(offsets, entries, depth_lo, depth_hi, leaves, node_start, slice_lo, slice_hi,
-               slices, lights_per_leaf, scratch, tab_order, tab_skip, tab_off, nodes_f,
-               nodes_u, ranges_u, chunks, topdown, node_cost, n_max):
-    """Threads: chunks of cells in parallel (trees are independent, paper 4.1), leaf counts
-    given, each chunk from its first cell's node_start (the full trees' offsets: a top-down
-    tree may be smaller, _compact closes the gaps)."""
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _build_chunks(claim, chunks, offsets, entries, depth_lo, depth_hi, leaves, node_start,
+                  slice_lo, slice_hi, slices, lights_per_leaf, scratch, tab_order, tab_skip,
+                  tab_off, nodes_f, nodes_u, ranges_u, topdown, node_cost, n_max, cell_lo,
+                  cell_hi):
+    """Threads (cpu_prep.share): the chunks of cells this thread claims (trees are
+    independent, paper 4.1), leaf counts given, each chunk from its first cell's node_start
+    (the full trees' offsets: a top-down tree may be smaller, _compact closes the gaps)."""
     cells = offsets.shape[0] - 1
     dummy = np.zeros(0, np.bool_)
-    for k in numba.prange(chunks):
+    k = fetch_add(claim, 0, 1)
+    while k < chunks:
         c0, c1 = k * cells // chunks, (k + 1) * cells // chunks
         _build_range(c0, c1, offsets, entries, depth_lo, depth_hi, leaves, False, dummy,
                      slice_lo, slice_hi, slices, 1.0, lights_per_leaf, 1, scratch, tab_order,
                      tab_skip, tab_off, nodes_f, nodes_u, ranges_u, node_start[c0], topdown,
-                     node_cost, n_max)
+                     node_cost, n_max, cell_lo, cell_hi)
+        fetch_add(claim, 1, 1)
+        k = fetch_add(claim, 0, 1)
+
+
+def cell_chunks(cells: int) -> int:
+    """Chunks of cells a threaded step is cut into (cpu_prep.share): 1 on one thread."""
+    return max(min(cells, CELL_CHUNKS), 1) if parallel() else 1
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -313,8 +330,9 @@ def _outputs(cells: int, nodes: int, arena: Arena | None):
 
 
 def _build_given(offsets, entries, depth_lo, depth_hi, leaves, arena, lights_per_leaf=1,
-                 topdown=False):
-    """Trees of known leaf counts (leaves_per_cell; top-down: at most those)."""
+                 topdown=False, cell_bounds=None):
+    """Trees of known leaf counts (leaves_per_cell; top-down: at most those); cell_bounds:
+    (lo, hi) float32 per cell, the min and max of its lights' depth ranges, or None."""
     cells = len(leaves)
     node_counts = np.where(leaves > 0, 2 * leaves - 1, 0)
     total = int(node_counts.sum())
@@ -324,20 +342,21 @@ def _build_given(offsets, entries, depth_lo, depth_hi, leaves, arena, lights_per
     tab_order, tab_skip, tab_off = _all_tables(max_l)
     no_slices = np.zeros(1)
     ranges_u = ranges.view(np.uint32).reshape(cells, 2)
+    cell_lo, cell_hi = cell_bounds if cell_bounds is not None else (_NO_BOUNDS, _NO_BOUNDS)
     if parallel():
         node_start = np.zeros(cells + 1, np.int64)
         np.cumsum(node_counts, out=node_start[1:])
-        _build_par(offsets, entries, depth_lo, depth_hi, leaves, node_start, no_slices,
-                   no_slices, 1, lights_per_leaf, 2 * max_l - 1, tab_order, tab_skip, tab_off,
-                   raw, raw.view(np.uint32), ranges_u,
-                   min(cells, 8 * numba.get_num_threads()) or 1, bool(topdown), NODE_COST, n_max)
+        share.run(_build_chunks, cell_chunks(cells), offsets, entries, depth_lo, depth_hi,
+                  leaves, node_start, no_slices, no_slices, 1, lights_per_leaf, 2 * max_l - 1,
+                  tab_order, tab_skip, tab_off, raw, raw.view(np.uint32), ranges_u,
+                  bool(topdown), NODE_COST, n_max, cell_lo, cell_hi)
         if topdown:
             total = _compact(raw.view(np.uint32), ranges_u)
     else:
         total = _build1(offsets, entries, depth_lo, depth_hi, leaves, False, np.zeros(0, np.bool_),
                         no_slices, no_slices, 1, 1.0, lights_per_leaf, 1, 2 * max_l - 1,
                         tab_order, tab_skip, tab_off, raw, raw.view(np.uint32), ranges_u,
-                        bool(topdown), NODE_COST, n_max)
+                        bool(topdown), NODE_COST, n_max, cell_lo, cell_hi)
     return ranges, raw[:total].view(layouts.TREE_NODE).reshape(-1)
 
 
@@ -349,19 +368,21 @@ def _leaves_built(ranges) -> np.ndarray:
 
 def build_trees(offsets, entries, depth_lo, depth_hi, is_tree,
                 lights_per_leaf: int, max_leaves: int, arena: Arena | None = None,
-                build: int = BUILD_BOTTOMUP):
+                build: int = BUILD_BOTTOMUP, cell_bounds=None):
     """Trees for every cell of a CSR binning.
 
     offsets/entries: per-cell lists (entries index the depth-sorted light arrays);
     depth_lo/hi: float32 conservative depth range of each light; is_tree: per-cell bool;
     build: BUILD_BOTTOMUP (full trees) or BUILD_TOPDOWN (cpu_prep.tree_topdown: at most the
-    full tree's leaves).  Returns (cell_ranges CELL_RANGE[cells], nodes TREE_NODE[], leaves
+    full tree's leaves); cell_bounds: (lo, hi) float32 per cell, the min and max of its
+    lights' depth ranges where a pass over them took those already (a list cell is then
+    not read again), or None.  Returns (cell_ranges CELL_RANGE[cells], nodes TREE_NODE[], leaves
     per cell as built)."""
     topdown = _check_build(build)
     counts = np.diff(offsets)
     leaves = leaves_per_cell(counts, is_tree, lights_per_leaf, max_leaves)
     ranges, nodes = _build_given(offsets, entries, depth_lo, depth_hi, leaves, arena,
-                                 lights_per_leaf, topdown)
+                                 lights_per_leaf, topdown, cell_bounds)
     return ranges, nodes, (_leaves_built(ranges) if topdown else leaves)
 
 
@@ -393,7 +414,7 @@ def plan_trees(offsets, entries, depth_lo, depth_hi, slice_lo, slice_hi, slices:
                     slice_lo, slice_hi, slices, float(radius_scale), lights_per_leaf,
                     max_leaves, 2 * w_max - 1, tab_order, tab_skip, tab_off, raw,
                     raw.view(np.uint32), ranges.view(np.uint32).reshape(cells, 2),
-                    topdown, NODE_COST, n_max if topdown else 0)
+                    topdown, NODE_COST, n_max if topdown else 0, _NO_BOUNDS, _NO_BOUNDS)
     if cells:
         _check_skip(int(leaves.max()))
     if topdown:
