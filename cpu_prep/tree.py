@@ -15,8 +15,7 @@ the 16-bit light count: a cell whose lights would overflow one leaf gets more le
 `build` BUILD_TOPDOWN (TreeOptions.tree_build 1) builds each tree cell (L > 1 leaves) top-down
 instead (cpu_prep.tree_topdown: a split per node by a surface-area-like cost over depth, at
 most the same L leaves, the same node layout, depth-first directly, not a complete tree);
-a one-leaf cell (a list) is unchanged.  With threads the trees are written at the full trees'
-offsets and moved together afterwards (_compact), so one thread and two give the same bits.
+a one-leaf cell (a list) is unchanged.
 
 One kernel builds every cell (`_build_range`), in one of two modes:
 
@@ -29,8 +28,10 @@ One kernel builds every cell (`_build_range`), in one of two modes:
           build_trees() read every light of every cell twice.
 
 On one thread the cells are built in order and each tree is written where the last one
-ended; with more threads (LAB_CPU_THREADS) chunks of cells are built in parallel at offsets
-known beforehand (plan mode: the listing-2 choice is made in a first parallel pass).
+ended; with more threads (LAB_CPU_THREADS) the threads claim chunks of cells (cpu_prep.share),
+each chunk written from the most nodes the chunks before it can take (the full trees' count;
+in plan mode every cell a tree), and _close_gaps moves the chunks together: one thread and
+two give the same bits.
 Leaf boundaries are shifts, not divisions (the leaf count is a power of two).
 """
 from __future__ import annotations
@@ -51,7 +52,6 @@ from .tree_topdown import NODE_COST, build_topdown
 # build with a split chosen per node (cpu_prep.tree_topdown).
 BUILD_BOTTOMUP, BUILD_TOPDOWN = 0, 1
 BUILDS = {BUILD_BOTTOMUP: "bottomup", BUILD_TOPDOWN: "topdown"}
-_NO_BOUNDS = np.zeros(0, np.float32)
 CELL_CHUNKS = 64      # with threads: chunks of cells to claim (a late thread leaves less)
 
 
@@ -202,12 +202,10 @@ def _emit(L, base, bf_min, bf_max, bf_first, bf_count, tab_order, tab_skip, tab_
 def _build_range(c_begin, c_end, offsets, entries, depth_lo, depth_hi, leaves, plan,
                  is_tree, slice_lo, slice_hi, slices, radius_scale, lights_per_leaf,
                  max_leaves, scratch, tab_order, tab_skip, tab_off, nodes_f, nodes_u,
-                 ranges_u, base, topdown, node_cost, n_max, cell_lo, cell_hi):
+                 ranges_u, base, topdown, node_cost, n_max):
     """Cells c_begin .. c_end-1, their trees written one after another from node `base`.
-    given mode (plan False): leaves[c] is each cell's leaf count, and where cell_lo/hi are
-    not empty the min and max of each cell's depth ranges (listing 2's pass took them: a
-    list is then written without reading its lights); plan mode: leaves[c] and is_tree[c]
-    are written.  topdown: a cell of L > 1 leaves gets the top-down tree of at
+    given mode (plan False): leaves[c] is each cell's leaf count; plan mode: leaves[c] and
+    is_tree[c] are written.  topdown: a cell of L > 1 leaves gets the top-down tree of at
     most L leaves (cpu_prep.tree_topdown; n_max: the most lights of a cell, for its scratch)
     instead of the full one.  Returns the node count written."""
     bf_min = np.empty(scratch, np.float32)
@@ -244,9 +242,7 @@ def _build_range(c_begin, c_end, offsets, entries, depth_lo, depth_hi, leaves, p
             leaves[c] = L
         else:
             L = leaves[c]
-            if cell_lo.shape[0]:
-                lo, hi = cell_lo[c], cell_hi[c]
-            elif L == 1 or topdown:
+            if L == 1 or topdown:
                 total, lo, hi = scan(o, n, entries, depth_lo, depth_hi, False, 0.0, 0.0)
         if L == 1:
             # a list: one leaf over all the cell's lights (its bounds are the scan's)
@@ -272,34 +268,52 @@ def _build_range(c_begin, c_end, offsets, entries, depth_lo, depth_hi, leaves, p
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _build1(offsets, entries, depth_lo, depth_hi, leaves, plan, is_tree, slice_lo, slice_hi,
             slices, radius_scale, lights_per_leaf, max_leaves, scratch, tab_order, tab_skip,
-            tab_off, nodes_f, nodes_u, ranges_u, topdown, node_cost, n_max, cell_lo, cell_hi):
+            tab_off, nodes_f, nodes_u, ranges_u, topdown, node_cost, n_max):
     """One thread: every cell in order, trees back to back.  Returns the node count."""
     return _build_range(0, offsets.shape[0] - 1, offsets, entries, depth_lo, depth_hi, leaves,
                         plan, is_tree, slice_lo, slice_hi, slices, radius_scale,
                         lights_per_leaf, max_leaves, scratch, tab_order, tab_skip, tab_off,
-                        nodes_f, nodes_u, ranges_u, 0, topdown, node_cost, n_max, cell_lo,
-                        cell_hi)
+                        nodes_f, nodes_u, ranges_u, 0, topdown, node_cost, n_max)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _build_chunks(claim, chunks, offsets, entries, depth_lo, depth_hi, leaves, node_start,
-                  slice_lo, slice_hi, slices, lights_per_leaf, scratch, tab_order, tab_skip,
-                  tab_off, nodes_f, nodes_u, ranges_u, topdown, node_cost, n_max, cell_lo,
-                  cell_hi):
+def _build_chunks(claim, chunks, chunk_base, chunk_count, offsets, entries, depth_lo, depth_hi,
+                  leaves, plan, is_tree, slice_lo, slice_hi, slices, radius_scale,
+                  lights_per_leaf, max_leaves, scratch, tab_order, tab_skip, tab_off, nodes_f,
+                  nodes_u, ranges_u, topdown, node_cost, n_max):
     """Threads (cpu_prep.share): the chunks of cells this thread claims (trees are
-    independent, paper 4.1), leaf counts given, each chunk from its first cell's node_start
-    (the full trees' offsets: a top-down tree may be smaller, _compact closes the gaps)."""
+    independent, paper 4.1), in either mode, chunk k's trees back to back from node
+    chunk_base[k] (at least the nodes of the chunks before it: the full trees' count, or
+    the worst case in plan mode), its node count into chunk_count[k]; _close_gaps then
+    moves the chunks together."""
     cells = offsets.shape[0] - 1
-    dummy = np.zeros(0, np.bool_)
     k = fetch_add(claim, 0, 1)
     while k < chunks:
-        c0, c1 = k * cells // chunks, (k + 1) * cells // chunks
-        _build_range(c0, c1, offsets, entries, depth_lo, depth_hi, leaves, False, dummy,
-                     slice_lo, slice_hi, slices, 1.0, lights_per_leaf, 1, scratch, tab_order,
-                     tab_skip, tab_off, nodes_f, nodes_u, ranges_u, node_start[c0], topdown,
-                     node_cost, n_max, cell_lo, cell_hi)
+        chunk_count[k] = _build_range(
+            k * cells // chunks, (k + 1) * cells // chunks, offsets, entries, depth_lo,
+            depth_hi, leaves, plan, is_tree, slice_lo, slice_hi, slices, radius_scale,
+            lights_per_leaf, max_leaves, scratch, tab_order, tab_skip, tab_off, nodes_f,
+            nodes_u, ranges_u, chunk_base[k], topdown, node_cost, n_max)
         fetch_add(claim, 1, 1)
         k = fetch_add(claim, 0, 1)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _close_gaps(nodes_u, ranges_u, chunk_base, chunk_count):
+    """_build_chunks' chunks moved down to lie back to back, in cell order, and their cells'
+    first nodes with them: the nodes and ranges one thread writes.  Returns the node count."""
+    cells, chunks = ranges_u.shape[0], chunk_base.shape[0]
+    w = 0
+    for k in range(chunks):
+        src, n = chunk_base[k], chunk_count[k]
+        if src != w:
+            for j in range(n):                      # w < src: a forward copy is safe
+                for q in range(nodes_u.shape[1]):
+                    nodes_u[w + j, q] = nodes_u[src + j, q]
+            for c in range(k * cells // chunks, (k + 1) * cells // chunks):
+                ranges_u[c, 0] -= np.uint32(src - w)
+        w += n
+    return w
 
 
 def cell_chunks(cells: int) -> int:
@@ -307,20 +321,9 @@ def cell_chunks(cells: int) -> int:
     return max(min(cells, CELL_CHUNKS), 1) if parallel() else 1
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _compact(nodes_u, ranges_u):
-    """The trees moved down to lie back to back, in cell order (an empty cell's range at
-    the next tree's start, as one thread writes it); returns the node count."""
-    w = 0
-    for c in range(ranges_u.shape[0]):
-        s, n = ranges_u[c, 0], ranges_u[c, 1]
-        if s != w:
-            for j in range(n):
-                for k in range(nodes_u.shape[1]):
-                    nodes_u[w + j, k] = nodes_u[s + j, k]
-        ranges_u[c, 0] = w
-        w += n
-    return w
+def _chunk_cells(cells: int, chunks: int) -> np.ndarray:
+    """The first cell of each of _build_chunks' chunks."""
+    return np.arange(chunks, dtype=np.int64) * cells // chunks
 
 
 def _outputs(cells: int, nodes: int, arena: Arena | None):
@@ -330,9 +333,8 @@ def _outputs(cells: int, nodes: int, arena: Arena | None):
 
 
 def _build_given(offsets, entries, depth_lo, depth_hi, leaves, arena, lights_per_leaf=1,
-                 topdown=False, cell_bounds=None):
-    """Trees of known leaf counts (leaves_per_cell; top-down: at most those); cell_bounds:
-    (lo, hi) float32 per cell, the min and max of its lights' depth ranges, or None."""
+                 topdown=False):
+    """Trees of known leaf counts (leaves_per_cell; top-down: at most those)."""
     cells = len(leaves)
     node_counts = np.where(leaves > 0, 2 * leaves - 1, 0)
     total = int(node_counts.sum())
@@ -342,21 +344,21 @@ def _build_given(offsets, entries, depth_lo, depth_hi, leaves, arena, lights_per
     tab_order, tab_skip, tab_off = _all_tables(max_l)
     no_slices = np.zeros(1)
     ranges_u = ranges.view(np.uint32).reshape(cells, 2)
-    cell_lo, cell_hi = cell_bounds if cell_bounds is not None else (_NO_BOUNDS, _NO_BOUNDS)
     if parallel():
+        chunks = cell_chunks(cells)
         node_start = np.zeros(cells + 1, np.int64)
         np.cumsum(node_counts, out=node_start[1:])
-        share.run(_build_chunks, cell_chunks(cells), offsets, entries, depth_lo, depth_hi,
-                  leaves, node_start, no_slices, no_slices, 1, lights_per_leaf, 2 * max_l - 1,
-                  tab_order, tab_skip, tab_off, raw, raw.view(np.uint32), ranges_u,
-                  bool(topdown), NODE_COST, n_max, cell_lo, cell_hi)
-        if topdown:
-            total = _compact(raw.view(np.uint32), ranges_u)
+        base, count = node_start[_chunk_cells(cells, chunks)], np.empty(chunks, np.int64)
+        share.run(_build_chunks, chunks, base, count, offsets, entries, depth_lo, depth_hi,
+                  leaves, False, np.zeros(0, np.bool_), no_slices, no_slices, 1, 1.0,
+                  lights_per_leaf, 1, 2 * max_l - 1, tab_order, tab_skip, tab_off, raw,
+                  raw.view(np.uint32), ranges_u, bool(topdown), NODE_COST, n_max)
+        total = _close_gaps(raw.view(np.uint32), ranges_u, base, count)
     else:
         total = _build1(offsets, entries, depth_lo, depth_hi, leaves, False, np.zeros(0, np.bool_),
                         no_slices, no_slices, 1, 1.0, lights_per_leaf, 1, 2 * max_l - 1,
                         tab_order, tab_skip, tab_off, raw, raw.view(np.uint32), ranges_u,
-                        bool(topdown), NODE_COST, n_max, cell_lo, cell_hi)
+                        bool(topdown), NODE_COST, n_max)
     return ranges, raw[:total].view(layouts.TREE_NODE).reshape(-1)
 
 
@@ -368,21 +370,19 @@ def _leaves_built(ranges) -> np.ndarray:
 
 def build_trees(offsets, entries, depth_lo, depth_hi, is_tree,
                 lights_per_leaf: int, max_leaves: int, arena: Arena | None = None,
-                build: int = BUILD_BOTTOMUP, cell_bounds=None):
+                build: int = BUILD_BOTTOMUP):
     """Trees for every cell of a CSR binning.
 
     offsets/entries: per-cell lists (entries index the depth-sorted light arrays);
     depth_lo/hi: float32 conservative depth range of each light; is_tree: per-cell bool;
     build: BUILD_BOTTOMUP (full trees) or BUILD_TOPDOWN (cpu_prep.tree_topdown: at most the
-    full tree's leaves); cell_bounds: (lo, hi) float32 per cell, the min and max of its
-    lights' depth ranges where a pass over them took those already (a list cell is then
-    not read again), or None.  Returns (cell_ranges CELL_RANGE[cells], nodes TREE_NODE[], leaves
+    full tree's leaves).  Returns (cell_ranges CELL_RANGE[cells], nodes TREE_NODE[], leaves
     per cell as built)."""
     topdown = _check_build(build)
     counts = np.diff(offsets)
     leaves = leaves_per_cell(counts, is_tree, lights_per_leaf, max_leaves)
     ranges, nodes = _build_given(offsets, entries, depth_lo, depth_hi, leaves, arena,
-                                 lights_per_leaf, topdown, cell_bounds)
+                                 lights_per_leaf, topdown)
     return ranges, nodes, (_leaves_built(ranges) if topdown else leaves)
 
 
@@ -396,8 +396,9 @@ def plan_trees(offsets, entries, depth_lo, depth_hi, slice_lo, slice_hi, slices:
                radius_scale: float, lights_per_leaf: int, max_leaves: int,
                arena: Arena | None = None, build: int = BUILD_BOTTOMUP):
     """The hybrid's cells: listing 2's choice (slice_lo/hi: each slice's depth range as
-    cpu_prep.hybrid.choose_trees clips it) and the trees, in one pass over the lights on one
-    thread.  Returns (cell_ranges, nodes, leaves per cell as built, is_tree)."""
+    cpu_prep.hybrid.choose_trees clips it) and the trees, in one pass over the lights (with
+    threads: chunks of cells, each from the worst case of the chunks before it, moved
+    together afterwards).  Returns (cell_ranges, nodes, leaves per cell as built, is_tree)."""
     topdown = _check_build(build)
     _check_leaf_args(lights_per_leaf, max_leaves)
     cells = len(offsets) - 1
@@ -405,16 +406,24 @@ def plan_trees(offsets, entries, depth_lo, depth_hi, slice_lo, slice_hi, slices:
     n_max = int(counts.max(initial=0))
     w_max = _np_tree_leaves(n_max, lights_per_leaf, max_leaves) if n_max else 1
     # the nodes buffer holds the worst case (every non-empty cell a tree of its W leaves)
-    bound = _node_bound(offsets, lights_per_leaf, max_leaves)
-    raw, ranges = _outputs(cells, bound, arena)
+    chunks = cell_chunks(cells)
+    base = np.empty(chunks + 1, np.int64)
+    _node_bound(offsets, lights_per_leaf, max_leaves, _chunk_cells(cells, chunks), base)
+    raw, ranges = _outputs(cells, int(base[-1]), arena)
     leaves = np.empty(cells, np.int64)
     is_tree = np.empty(cells, np.bool_)
     tab_order, tab_skip, tab_off = _all_tables(w_max)
-    total = _build1(offsets, entries, depth_lo, depth_hi, leaves, True, is_tree,
-                    slice_lo, slice_hi, slices, float(radius_scale), lights_per_leaf,
-                    max_leaves, 2 * w_max - 1, tab_order, tab_skip, tab_off, raw,
-                    raw.view(np.uint32), ranges.view(np.uint32).reshape(cells, 2),
-                    topdown, NODE_COST, n_max if topdown else 0, _NO_BOUNDS, _NO_BOUNDS)
+    ranges_u = ranges.view(np.uint32).reshape(cells, 2)
+    args = (offsets, entries, depth_lo, depth_hi, leaves, True, is_tree, slice_lo, slice_hi,
+            slices, float(radius_scale), lights_per_leaf, max_leaves, 2 * w_max - 1, tab_order,
+            tab_skip, tab_off, raw, raw.view(np.uint32), ranges_u, topdown, NODE_COST,
+            n_max if topdown else 0)
+    if chunks > 1:
+        count = np.empty(chunks, np.int64)
+        share.run(_build_chunks, chunks, base[:-1], count, *args)
+        total = _close_gaps(raw.view(np.uint32), ranges_u, base[:-1], count)
+    else:
+        total = _build1(*args)
     if cells:
         _check_skip(int(leaves.max()))
     if topdown:
@@ -429,10 +438,19 @@ def _np_tree_leaves(n: int, lights_per_leaf: int, max_leaves: int) -> int:
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _node_bound(offsets, lights_per_leaf, max_leaves):
+def _node_bound(offsets, lights_per_leaf, max_leaves, first_cells, out):
+    """The most nodes the cells before each of first_cells (ascending) can take, every non-
+    empty cell a tree of its W leaves, into out[:-1]; all cells' into out[-1]."""
     total = 0
+    k = 0
     for c in range(offsets.shape[0] - 1):
+        while k < first_cells.shape[0] and first_cells[k] == c:
+            out[k] = total
+            k += 1
         n = offsets[c + 1] - offsets[c]
         if n > 0:
             total += 2 * tree_leaves(n, lights_per_leaf, max_leaves) - 1
-    return total
+    while k < first_cells.shape[0]:
+        out[k] = total
+        k += 1
+    out[out.shape[0] - 1] = total
