@@ -1,11 +1,10 @@
 """CPU stage of the frame: numpy in, numpy GPU-layout arrays out.  No OpenGL here.
 
 The kernels are numba.  The pack, the fill of the binning, listing 2 and the tree build
-each have a serial kernel and a prange one; the CPU stage runs on ONE thread, with the
-serial kernels, unless LAB_CPU_THREADS (or `bench cpu --threads`) says otherwise: on a
-2-core machine whose other core is busy (the GPU driver, llvmpipe, a test runner) a
-parallel region waits for a time slice and costs more than it saves (docs/cpu_stage.md
-measures it).  The tree paper's figure 4 is single-threaded too.  Both give the same bits.
+cut their work into chunks that threads claim (cpu_prep.share: a helper that a busy core
+does not schedule claims nothing and stalls nothing); the CPU stage runs on ONE thread
+unless LAB_CPU_THREADS (or `bench cpu --threads`) says otherwise, as the tree paper's
+figure 4 does (docs/cpu_stage.md measures both).  Both give the same bits.
 """
 import hashlib
 import os
@@ -30,8 +29,6 @@ numba.set_num_threads(max(1, min(int(os.environ.get("LAB_CPU_THREADS", "1")), nu
 
 
 def parallel() -> bool:
-    """Whether the CPU stage runs its parallel kernels (LAB_CPU_THREADS / set_num_threads > 1).
-    With one thread every step calls a plain serial kernel: a parallel=True kernel run on
-    one thread still pays numba's parallel-region entry and compiles its loop as an
-    outlined gufunc."""
+    """Whether the CPU stage shares its steps among threads (LAB_CPU_THREADS /
+    set_num_threads > 1, cpu_prep.share); with one thread each step is one chunk."""
     return numba.get_num_threads() > 1
