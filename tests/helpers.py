@@ -183,12 +183,17 @@ class Results(dict):
     explained: dict
 
 
-def render_on(renderer, opts: dict | None = None, techniques=None, **kw) -> Results:
-    """render_all() on an open renderer (kw: frame, lights, frames, ... of Renderer.render)."""
+def render_on(renderer, opts: dict | None = None, techniques=None, reference=None,
+              **kw) -> Results:
+    """render_all() on an open renderer (kw: frame, lights, frames, ... of Renderer.render).
+    `reference`: the reference's result of this frame, rendered once for several option
+    sets that it does not take (the results hold it beside the techniques named)."""
     names = techniques or list(REGISTRY)
     frame = kw.pop("frame", 0)
     out = Results({n: renderer.render(REGISTRY[n], frame, options(n, **(opts or {})), **kw)
                    for n in names})
+    if reference is not None:
+        out[with_role("reference").name] = reference
     out.explained = explain(out, renderer, opts, dict(kw, frame=frame))
     return out
 

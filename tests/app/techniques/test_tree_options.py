@@ -12,12 +12,12 @@ import pytest
 
 from app.model import waves
 from app.pipeline.renderer import Renderer
-from app.techniques import REGISTRY
+from app.techniques import REGISTRY, with_role
 from app.techniques.blocks import SHARED_TREE_NODES
 from app.techniques.tree import group_tiles
 from scenes import BUILTIN_SCENES, load_scene
 from tests.app.model.replay_check import check, gl_order
-from tests.helpers import assert_exact, render_all
+from tests.helpers import assert_exact, render_on
 
 SIZE = (72, 48)                  # 9 x 6 groups, as test_waves: whole groups and 4-row halves
 LIGHTS = 1536
@@ -94,16 +94,27 @@ def test_shared_groups_and_barriers(gl, opts):
             assert f.loop("load")["lanes"] == int(count.sum())   # the image is whole groups
 
 
-@pytest.mark.parametrize("opts", [
-    dict(tree_build=1), dict(tree_build=1, tile=20, slices=4),
-    dict(shared_tree=False, tile=24, lights_per_leaf=1, max_leaves=256),
-    dict(tile=20, lights_per_leaf=2, max_leaves=128, tree_build=1, duplicated=True)],
-    ids=["topdown", "topdown-t20", "global-t24-big", "topdown-t20-big-dup"])
+# the option sets brute must agree with on every scene (brute takes none of them)
+EXACT_OPTIONS = {
+    "topdown": dict(tree_build=1),
+    "topdown-t20": dict(tree_build=1, tile=20, slices=4),
+    "global-t24-big": dict(shared_tree=False, tile=24, lights_per_leaf=1, max_leaves=256),
+    "topdown-t20-big-dup": dict(tile=20, lights_per_leaf=2, max_leaves=128, tree_build=1,
+                                duplicated=True)}
+
+
 @pytest.mark.parametrize("name", list(BUILTIN_SCENES))
-def test_options_exact_on_every_scene(gl, name, opts):
+def test_options_exact_on_every_scene(gl, name):
+    """One renderer and one brute frame a scene, every option set against it."""
     scene = load_scene(name, lights=8192, seed=1)
     scene.resolution = (192, 108)
-    assert_exact(render_all(scene, opts, techniques=["brute", "tree", "hybrid"]), f"{name} {opts}")
+    brute = with_role("reference").name
+    assert not set().union(*EXACT_OPTIONS.values()) & set(REGISTRY[brute].Options.names())
+    with Renderer(scene) as r:
+        ref = render_on(r, None, [brute])[brute]
+        for key, opts in EXACT_OPTIONS.items():
+            got = render_on(r, opts, ["tree", "hybrid"], reference=ref)
+            assert_exact(got, f"{name} {key} {opts}")
 
 
 def test_topdown_evaluates_fewer_lights_on_arena(gl):
