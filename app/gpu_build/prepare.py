@@ -97,6 +97,15 @@ def check_items(frame: FrameInput, what: str, item_bytes: int, count: int, unit:
             f"{limit // item_bytes:,} {unit})")
 
 
+def check_lights(frame: FrameInput, visible: int | None = None) -> None:
+    """The scene's light records (visible None) or the rows of `visible` lights against the
+    storage-block limit (check_items); also what Technique.refusal asks before a build."""
+    if visible is None:
+        check_items(frame, "the scene's light records", SCENE_ITEM_BYTES, len(frame.lights), "scene lights")
+    else:
+        check_items(frame, "the visible lights' rows", VISIBLE_ITEM_BYTES, visible, "visible lights")
+
+
 def scene_words(lights: np.ndarray) -> np.ndarray:
     """The scene's light records as the uint32 words the cull reads."""
     return np.ascontiguousarray(lights).view(np.uint32)
@@ -195,7 +204,7 @@ def visible_step(b: Build, then) -> HostStep:
     def run(read):
         c = read[COUNTERS]
         n = int(c[VISIBLE])
-        check_items(b.frame, "the visible lights' rows", VISIBLE_ITEM_BYTES, n, "visible lights")
+        check_lights(b.frame, n)
         b.lights = packed_lights(b.frame, n, int(c[TYPES]))
         b.stats["visible_lights"] = n
         return {}, [pack_pass(b.frame, n)] + list(then(b))
@@ -230,7 +239,7 @@ def start(frame: FrameInput, then, **stats) -> Build:
     """A Build whose lights the GPU culls, sorts and packs (the scene's records go up), then
     `then(b)`'s steps: build.data[BUILD_STEPS], which the renderer runs in place of the
     technique's passes.  stats: the build's own, beside build=gpu."""
-    check_items(frame, "the scene's light records", SCENE_ITEM_BYTES, len(frame.lights), "scene lights")
+    check_lights(frame)
     b = Build(frame=frame, lights=unbuilt_lights(frame))
     b.buffers["scene_lights"] = scene_words(frame.lights)
     b.stats.update(build="gpu", **stats)
