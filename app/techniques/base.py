@@ -14,6 +14,8 @@
                   frame (capture --maps, the report's technique maps)
     report_notes()  its paper's figures beside a benchmark run's (app.report.notes); none
                   by default
+    refusal()     why it would refuse a frame (a limit its build meets), from counts and
+                  options alone: the window's probe asks before building
     build()       the CPU stage: numpy in, GPU-layout arrays out, timed by step
     passes()      its GPU passes in order, the shading pass last (app.pipeline.passes)
     wave_program()  its shading pass as the wave replay's segments, over the frame's own
@@ -33,9 +35,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from cpu_prep import (caps, frame as cpuframe, grid as gridmod, layouts, limits,
-                      stochastic as stochmod)
+from cpu_prep import (caps, frame as cpuframe, grid as gridmod, layouts, lights as lightsmod,
+                      limits, stochastic as stochmod)
 
+from ..errors import UserError
+from ..gpu_build import prepare as gpuprep
 from ..pipeline.passes import Build, FrameInput, Pass, frame_outputs, image_groups
 from .options import TechniqueOptions, cap_policy, stochastic
 
@@ -103,6 +107,14 @@ class Technique:
         structure for a rendered frame (`read(name)`: a buffer of that frame read back)."""
         return {}
 
+    def refusal(self, frame: FrameInput, opts, visible: int) -> str | None:
+        """Why this technique refuses `frame` with `opts` when `visible` lights pass the cull
+        (visible_lights()), in the one line its build raises, else None: from counts and
+        options alone, no build, so the window's probe leaves a refusing technique out
+        unbuilt.  Every technique meets the light rows' limit (light_rows_refusal); one with
+        limits of its own adds them here and its build raises them through refuse()."""
+        return light_rows_refusal(frame, opts, visible)
+
     def build(self, frame: FrameInput, opts) -> Build:
         raise NotImplementedError
 
@@ -123,6 +135,43 @@ class Technique:
         technique's results rows (its meta stats in the `stats` column, JSON); empty text:
         no section (app.report.notes)."""
         return "", ""
+
+
+# ---- refusals: the limits a frame meets, asked before and in the build --------------------
+
+def visible_lights(frame: FrameInput, opts=None) -> int:
+    """How many lights prepare() packs for `frame` with `opts`, counted without sorting or
+    packing them: the stochastic draw's survivors (if on) through the cull, then the cap
+    policy's (tests hold it to len(prepare().lights)); the GPU build culls the same ones."""
+    lights, drawn = frame.lights, stochastic(opts)
+    if drawn is not None:
+        lights, _, _ = stochastic_ranges(frame, *drawn)
+    keyed, depth = lightsmod.cull(lights, frame.camera, frame.arena)
+    keyed, _, _ = caps.apply(cap_policy(opts), lights, frame.camera.view_from_world, keyed, depth)
+    return len(keyed)
+
+
+def light_rows_refusal(frame: FrameInput, opts, visible: int) -> str | None:
+    """The limit every build meets first, in its own words: the CPU stage's light buffer
+    (cpu_prep.frame.prepare_capped_lights' check_buffer of `visible` GPU_LIGHT rows), or the
+    GPU build's scene records and visible rows (app.gpu_build.prepare.check_lights)."""
+    from .gpu_build import on_gpu                  # app.techniques.gpu_build imports this module
+    try:
+        if on_gpu(opts):
+            gpuprep.check_lights(frame)
+            gpuprep.check_lights(frame, visible)
+        else:
+            limits.check_buffer("light buffer", visible * layouts.GPU_LIGHT.itemsize)
+    except limits.LimitError as exc:
+        return str(exc)
+    return None
+
+
+def refuse(technique: Technique, frame: FrameInput, opts, visible: int) -> None:
+    """The build's side of technique.refusal(): its line as a UserError."""
+    why = technique.refusal(frame, opts, visible)
+    if why:
+        raise UserError(why)
 
 
 # ---- steps and passes several techniques share ------------------------------------------
