@@ -13,9 +13,8 @@ from cpu_prep import layouts
 
 from ..model import waves
 from ..pipeline.passes import Buffer, Pass
-from ..errors import UserError
 from .base import (Technique, add_all_lights, add_cell_lists, cell_head, grid_uniforms, make_grid,
-                   prepare, shading_passes)
+                   prepare, refuse, shading_passes)
 from .options import CapOptions, FeatureVariantOptions, StochasticOptions, TileOptions
 from . import variants
 
@@ -38,6 +37,16 @@ class Tiled(Technique, register_at=20):
     class Options(TileOptions, CapOptions, StochasticOptions, FeatureVariantOptions):
         pass
 
+    def refusal(self, frame, opts, visible):
+        """The light rows, and tile_cull.comp's loops: each invocation loops over n / 256
+        lights twice, 9 iterations a chunk in the second loop."""
+        rows = super().refusal(frame, opts, visible)
+        if rows or not (frame.loop_budget and (visible + 255) // 256 * 10 > frame.loop_budget):
+            return rows
+        return (f"tiled: culling {visible} visible lights needs more loop iterations per "
+                f"invocation than this driver runs ({frame.loop_budget}); its lists would "
+                f"be truncated: use fewer lights or a GPU driver")
+
     def build(self, frame, opts):
         b = prepare(frame, opts=opts)
         b.buffers["bounds"] = b.lights.bounds
@@ -48,12 +57,7 @@ class Tiled(Technique, register_at=20):
     def passes(self, build, opts):
         g, cam = build.grid, build.frame.camera
         n = len(build.lights)
-        # tile_cull.comp: each invocation loops over n / 256 lights twice, 9 iterations a
-        # chunk in the second loop
-        if build.frame.loop_budget and (n + 255) // 256 * 10 > build.frame.loop_budget:
-            raise UserError(f"tiled: culling {n} visible lights needs more loop iterations per "
-                            f"invocation than this driver runs ({build.frame.loop_budget}); its "
-                            f"lists would be truncated: use fewer lights or a GPU driver")
+        refuse(self, build.frame, opts, n)
         cull = Pass(
             "tile_cull", "tile_cull.comp", reads=("bounds",),
             writes={"ranges": Buffer(g.cells * layouts.CELL_RANGE.itemsize, layouts.CELL_RANGE),
