@@ -96,6 +96,19 @@ class ZBin(Technique, register_at=60):
                                         "the GPU (the slides' tiles are depth tested); off: the "
                                         "CPU's screen rectangles alone", study=(True, False))
 
+    def refusal(self, frame, opts, visible):
+        """The light rows, the bit arrays' tile (zb.choose_tile refuses arrays past the
+        storage block even in one screen-sized tile) and the tile depth test's loops, in the
+        order either build meets them."""
+        rows = super().refusal(frame, opts, visible)
+        if rows:
+            return rows
+        try:
+            tile = zb.choose_tile(*frame.size, visible, opts.bit_tile, opts.budget_bytes)
+        except limits.LimitError as exc:
+            return str(exc)
+        return depth_loops_refusal(frame, tile, visible) if opts.tile_depth else None
+
     def build(self, frame, opts):
         opts = self.resolve_options(opts)
         if on_gpu(opts):
@@ -205,14 +218,21 @@ def _shaded_bits(opts) -> str:
     return "zbin_bits" if opts.tile_depth else "tile_bits"
 
 
-def check_depth_loops(frame, tile: int, lights: int) -> None:
+def depth_loops_refusal(frame, tile: int, lights: int) -> str | None:
     """zbin_tile_depth.comp's loops on a driver with a loop limit: a lane's pixels of the
     tile and its words' bits must stay under the budget (refused in one line, never cut)."""
     iters = (-(-tile // 8)) ** 2 + -(-zb.words_for(lights) // DEPTH_GROUP) * 33
     if frame.loop_budget and iters > frame.loop_budget:
-        raise UserError(f"zbin: the tile depth test of {lights} lights on {tile}-px tiles needs "
-                        f"{iters} loop iterations a lane, over this driver's {frame.loop_budget}; "
-                        f"use --no-tile-depth or fewer lights")
+        return (f"zbin: the tile depth test of {lights} lights on {tile}-px tiles needs "
+                f"{iters} loop iterations a lane, over this driver's {frame.loop_budget}; "
+                f"use --no-tile-depth or fewer lights")
+    return None
+
+
+def check_depth_loops(frame, tile: int, lights: int) -> None:
+    why = depth_loops_refusal(frame, tile, lights)
+    if why:
+        raise UserError(why)
 
 
 def _depth_counts(build, got):
