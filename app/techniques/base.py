@@ -39,7 +39,6 @@ from cpu_prep import (caps, frame as cpuframe, grid as gridmod, layouts, lights 
                       limits, stochastic as stochmod)
 
 from ..errors import UserError
-from ..gpu_build import prepare as gpuprep
 from ..pipeline.passes import Build, FrameInput, Pass, frame_outputs, image_groups
 from .options import TechniqueOptions, cap_policy, stochastic
 
@@ -152,19 +151,24 @@ def visible_lights(frame: FrameInput, opts=None) -> int:
 
 
 def light_rows_refusal(frame: FrameInput, opts, visible: int) -> str | None:
-    """The limit every build meets first, in its own words: the CPU stage's light buffer
-    (cpu_prep.frame.prepare_capped_lights' check_buffer of `visible` GPU_LIGHT rows), or the
-    GPU build's scene records and visible rows (app.gpu_build.prepare.check_lights)."""
-    from .gpu_build import on_gpu                  # app.techniques.gpu_build imports this module
+    """The limit every build meets first, in its own words: the rows of the visible lights,
+    checked where the options build them (BuildOptions.check_light_rows: --build gpu's
+    scene records and rows), else in the CPU stage (check_cpu_light_rows)."""
+    own = getattr(opts, "check_light_rows", None)
     try:
-        if on_gpu(opts):
-            gpuprep.check_lights(frame)
-            gpuprep.check_lights(frame, visible)
+        if own is not None:
+            own(frame, visible)
         else:
-            limits.check_buffer("light buffer", visible * layouts.GPU_LIGHT.itemsize)
+            check_cpu_light_rows(visible)
     except limits.LimitError as exc:
         return str(exc)
     return None
+
+
+def check_cpu_light_rows(visible: int) -> None:
+    """The CPU stage's light buffer check (cpu_prep.frame.prepare_capped_lights': `visible`
+    GPU_LIGHT rows through check_buffer), before the lights are packed."""
+    limits.check_buffer("light buffer", visible * layouts.GPU_LIGHT.itemsize)
 
 
 def refuse(technique: Technique, frame: FrameInput, opts, visible: int) -> None:
