@@ -23,7 +23,7 @@ from ..errors import UserError
 from ..pipeline import features as feat
 from ..pipeline.passes import HostStep, Pass
 from ..gpu_build import lists as gpulists, prepare, trees as gputrees, zbins as gpuzbins
-from .base import make_grid, windows
+from .base import check_cpu_light_rows, make_grid, windows
 from .bit_arrays import variant_flags
 from .options import TechniqueOptions, cap_policy, choice, stochastic
 
@@ -50,6 +50,15 @@ class BuildOptions(TechniqueOptions):
             raise UserError(f"--build gpu with {', '.join(taken)}: not offered together (the GPU "
                             f"build sorts exactly, builds the paper's bottom-up trees and index "
                             f"lists of every visible light; use --build cpu)")
+
+    def check_light_rows(self, frame, visible: int) -> None:
+        """The light rows' limit where this build makes them (base.light_rows_refusal): the
+        GPU's scene records and visible rows (prepare.check_lights), or the CPU stage's."""
+        if self.choice_name("build") == GPU:
+            prepare.check_lights(frame)
+            prepare.check_lights(frame, visible)
+        else:
+            check_cpu_light_rows(visible)
 
 
 def on_gpu(opts) -> bool:
