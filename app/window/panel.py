@@ -14,6 +14,7 @@ window shows as a message and the state keeps its value.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 import math
 from typing import Callable
 
@@ -147,12 +148,33 @@ class Control:
     set: Callable | None = None
 
 
-def spec_control(spec, label: str, value, section: str, set, help: str | None = None) -> Control:
+@lru_cache(maxsize=None)
+def accepted(options_cls, name: str) -> tuple[str, ...]:
+    """The values of choice option `name` that a technique's Options take with its other
+    options at their defaults: its own check decides (check_modes; e.g. only fptl's list
+    build takes the per-tile cap policies), so no second list says which."""
+    spec = options_cls.spec(name)
+    out = []
+    for k, value in enumerate(spec.choices):
+        try:
+            options_cls(**{name: k})
+        except UserError:
+            continue
+        out.append(value)
+    return tuple(out)
+
+
+def spec_control(spec, label: str, value, section: str, set, help: str | None = None,
+                 options_cls=None) -> Control:
     """The control of a declared option (app.techniques.options.OptionSpec): its kind,
     range and help as declared; a slider on a log scale where the range spans decades; a
-    choice()'s names in a combo (its setter takes the name, as the command line does)."""
+    choice()'s names in a combo (its setter takes the name, as the command line does): of a
+    technique's option (`options_cls`), the ones it takes (accepted()) and the current one."""
     if spec.choices:
-        return Control(spec.name, label, "choice", spec.label(value), choices=spec.choices,
+        current = spec.label(value)
+        choices = spec.choices if options_cls is None else tuple(
+            c for c in spec.choices if c in accepted(options_cls, spec.name) or c == current)
+        return Control(spec.name, label, "choice", current, choices=choices,
                        lo=spec.lo, hi=spec.hi, section=section, set=set,
                        help=help if help is not None else f"{flag(spec.name)}: {spec.help}")
     kind = {bool: "bool", int: "int", float: "float"}[spec.kind]
@@ -227,7 +249,7 @@ class Panel:
         opts, _ = s.options.for_technique(tech)
         for spec in tech.Options.specs():
             out.append(spec_control(spec, spec.name.replace("_", " "), getattr(opts, spec.name), "options",
-                                    lambda v, n=spec.name: self._set_option(n, v)))
+                                    lambda v, n=spec.name: self._set_option(n, v), options_cls=tech.Options))
         out.append(Control("defaults", "defaults", "button", help="this technique's declared defaults "
                            "(and the command line's flags)", section="options", set=self._defaults))
         if s.builtin:

@@ -5,6 +5,7 @@ test_campath.py)."""
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from types import SimpleNamespace
 
 import numpy as np
@@ -13,6 +14,8 @@ import pytest
 from app import images
 from app.errors import UserError
 from app.techniques import REGISTRY
+from app.techniques.base import Technique
+from app.techniques.options import TechniqueOptions, choice, option
 from app.window.hud import exposure_text, hud_lines
 from app.window.options import WindowOptions
 from app.window.panel import LabState, Panel, panel_keys
@@ -72,6 +75,46 @@ def test_a_choice_option_is_a_combo_of_its_names():
         p.apply("fptl_variant", "no such variant")
     assert s.options.hud_line(REGISTRY["fptl"]) == f'options: --fptl-variant "{spec.choices[2]}"'
 
+
+def test_each_technique_is_offered_the_choices_it_takes():
+    """A choice's combo holds the values the technique's Options take (the per-tile
+    hdrp-fptl-* cap policies: fptl's alone), each accepted and each left out refused by the
+    Options' own check; the current value stays offered."""
+    offered = {}
+    for t in REGISTRY.values():
+        for spec in (s for s in t.Options.specs() if s.choices):
+            got = Panel(state(t.name)).control(spec.name).choices
+            for k, name in enumerate(spec.choices):
+                if name in got:
+                    t.Options(**{spec.name: k})
+                else:
+                    with pytest.raises(UserError):
+                        t.Options(**{spec.name: k})
+            offered[t.name, spec.name] = got
+    tile_caps = {"hdrp-fptl-24", "hdrp-fptl-63"}
+    assert tile_caps <= set(offered["fptl", "cap_policy"])
+    assert not tile_caps & set(offered["tiled", "cap_policy"]) and "urp-16" in offered["tiled", "cap_policy"]
+
+
+@dataclass(frozen=True)
+class PairedOptions(TechniqueOptions):
+    mode: int = choice("plain", ("plain", "paired"), "a mode that needs `pair` on")
+    pair: bool = option(False, "what the paired mode needs")
+
+    def check_modes(self) -> None:
+        if self.mode == 1 and not self.pair:
+            raise UserError("--mode paired takes --pair")
+
+
+def test_a_choice_taken_only_with_another_option_is_offered_once_chosen():
+    class Paired(Technique):             # not registered: a test's own
+        name, Options = "paired", PairedOptions
+    s = LabState({"paired": Paired()}, technique="paired", options=WindowOptions({}), lights=16)
+    p = Panel(s)
+    assert p.control("mode").choices == ("plain",)
+    p.apply("pair", True)
+    p.apply("mode", "paired")                  # as --keys or the command line would set it
+    assert p.control("mode").choices == ("plain", "paired") and p.control("mode").value == "paired"
 
 
 def test_panel_display_and_lights_controls():
