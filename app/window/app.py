@@ -28,7 +28,7 @@ from ..errors import UserError
 from ..pipeline import gl
 from ..pipeline.renderer import Renderer
 from ..techniques import REGISTRY, with_role
-from . import keys, probe
+from . import keys, probe, progress
 from .camera import FlyCamera
 from .compose import REF_SETTLE_S, FrameComposer, Screenshots
 from .figures import UIModel, frame_figures, heat_scale
@@ -90,7 +90,7 @@ class LabWindow(mglw.WindowConfig):
         self.history: list[dict] = []
         self.timers, self.model, self.costs = Timers(), FrameModel(), probe.FrameCosts()
         self.seen: set = set()
-        self.started = ""
+        self.started: list[str] = []      # how the start chose the technique (probe.choose_start)
         if setup["technique"] is None:
             self._start_fastest(setup["candidates"])
         self.state.split_with = self.state.default_split()
@@ -118,7 +118,8 @@ class LabWindow(mglw.WindowConfig):
             self.args, self.renderer, candidates, self.state.options,
             lambda: self.lights.of(self.state), self.scene.camera, self.costs)
         if len(candidates) > 1:
-            print(f"window: {self.started}", file=sys.stderr, flush=True)
+            for line in self.started:
+                progress.say(line)
 
     @staticmethod
     def _parse_cursor(text):
@@ -416,7 +417,7 @@ class LabWindow(mglw.WindowConfig):
                          software=self.renderer.limits.software, map_shown=self.composer.map_shown,
                          overlay=c.overlay if c else None, reference=self.reference.name,
                          inspection=c.inspection if c else None)
-        started = self.started if self.frame < STARTED_FRAMES else ""
+        started = self.started if self.frame < STARTED_FRAMES else []
         return UIModel(
             hud=s.hud, panel=s.panel, hud_lines=hud, controls=self.panel.controls(),
             section_lines={"technique": technique_lines(s, started, predicted),

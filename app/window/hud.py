@@ -103,11 +103,10 @@ def window_hud(f: dict, state, *, message: str, warning: str, predicted_ms, stat
     return lines
 
 
-def technique_lines(state, started: str, predicted_ms) -> list[str]:
-    """The panel's technique section: its summary, how the start chose it, its frame cost."""
-    out = [f"{state.technique}: {state.tech.summary}"]
-    if started:
-        out.append(started)
+def technique_lines(state, started: list[str], predicted_ms) -> list[str]:
+    """The panel's technique section: its summary, how the start chose it (and what the
+    probe skipped, a line each), its frame cost."""
+    out = [f"{state.technique}: {state.tech.summary}"] + list(started)
     if predicted_ms is not None:
         out.append(f"about {predicted_ms:.0f} ms a frame here" + ("  (slow)" if predicted_ms > SLOW_MS else ""))
     return out

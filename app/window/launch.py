@@ -10,6 +10,7 @@ import time
 
 from .. import cli, images
 from ..errors import UserError
+from . import progress
 from .keys import parse_keys
 from .options import DISPLAY, DISPLAY_FLAGS
 from .views import ALL_VIEWS, views_of, with_view
@@ -187,7 +188,8 @@ def main(argv=None) -> None:
     from scenes import BUILTIN_SCENES
     given = cli.given_options(args)
     technique, candidates = start_candidates(args, given)
-    scene = load_scene_args(args)
+    with progress.step(f"scene {args.scene}" + (f", {args.lights:,} lights" if args.lights else "")):
+        scene = load_scene_args(args)
     if args.replay:
         from .campath import load
         load(args.replay)                            # a bad file: one line before any window
@@ -218,5 +220,6 @@ def main(argv=None) -> None:
     print(json.dumps({"exit": "ok", "window": name, "frames": app.frame,
                       "wall_s": round(time.perf_counter() - t0, 2), "sequence": sequence,
                       "size": list(app.renderer.size), "screenshots": app.shots.paths, "screenshot_hud": app.shots.huds,
-                      "paths": app.recorder.saved, "started": app.started,
+                      "paths": app.recorder.saved, "started": app.started[0] if app.started else "",
+                      "probe_skipped": app.started[1:],
                       "renderer": app.renderer.limits.renderer}), flush=True)

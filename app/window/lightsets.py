@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import progress
+
 KEPT = 8
 
 
@@ -25,8 +27,9 @@ class LightSets:
         key = self.key(state)
         if key not in self.sets:
             from scenes import load_scene
-            self.sets[key] = load_scene(self.scene_arg, lights=state.lights, seed=state.seed,
-                                        distribution=state.distribution).lights
+            with progress.step(f"drawing {state.lights:,} lights"):
+                self.sets[key] = load_scene(self.scene_arg, lights=state.lights, seed=state.seed,
+                                            distribution=state.distribution).lights
             if len(self.sets) > KEPT:
                 self.sets.pop(next(iter(self.sets)))
         return self.sets[key]

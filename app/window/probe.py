@@ -5,7 +5,13 @@
                 the window's size (at most PROBE_PIXELS of it) with the scene's first camera;
                 the fastest second frame (wall clock: what the window waits for) wins.  The
                 first frame compiles the technique's shaders and kernels, which the window
-                would pay anyway.  Nothing is named here: a new technique module takes part.
+                would pay anyway; a first frame whose GPU passes took over LONG_FRAME_MS is
+                its own measure (its compile a small share of it).  A
+                candidate that would refuse the frame (Technique.refusal: a limit it meets,
+                from the counts and options) is left out before it is built, one that
+                refuses in its build after it; the start's lines name each with its limit.
+                A frame that takes over a second has a console line (progress.step).
+                Nothing is named here: a new technique module takes part.
                 Why not a small size: a culling structure's tiles and cells cover more of the
                 view at a lower resolution, so its lists grow and the ranking can change
                 (tiled: 2x slower per pixel at half size on the city).  The probe stops
@@ -36,57 +42,123 @@ import time
 from cpu_prep.camera import frame_camera
 
 from ..errors import UserError
+from ..techniques.base import visible_lights
+from ..techniques.options import cap_policy, stochastic
+from . import progress
 
 PROBE_PIXELS = 960 * 540
 PROBE_BUDGET_S = float(os.environ.get("LAB_PROBE_BUDGET_S", 6.0))
 ESTIMATE_SCALE = 0.125
 PLAIN_ESTIMATE_SCALE = 0.5
 SLOW_MS = 1000.0
+# A first frame whose GPU passes took this long is its own measure: a software GL compiles a
+# technique's shaders on their first dispatch (seconds), a small share of such a frame, and a
+# second frame would double a probe of minutes (a million lights on llvmpipe: 216 s a frame)
+LONG_FRAME_MS = 30_000.0
 
 
 def _scaled(size, scale: float) -> tuple[int, int]:
     return max(8, int(round(size[0] * scale))), max(8, int(round(size[1] * scale)))
 
 
-def timed_frame(renderer, technique, opts, lights, cam, size) -> float:
-    """Wall ms of one frame of `technique` at `size` (the renderer is left at that size)."""
+def frame_ms(renderer, technique, opts, lights, cam, size) -> tuple[float, float]:
+    """(wall ms, GPU passes' ms) of one frame of `technique` at `size` (the renderer is
+    left at that size)."""
     if renderer.size != tuple(size):
         renderer.resize(size)
     t0 = time.perf_counter()
-    renderer.render(technique, 0, opts, lights=lights, readback=False,
-                    camera=frame_camera(cam, *size))
+    result = renderer.render(technique, 0, opts, lights=lights, readback=False,
+                             camera=frame_camera(cam, *size))
     renderer.ctx.finish()
-    return (time.perf_counter() - t0) * 1e3
+    return (time.perf_counter() - t0) * 1e3, float(sum(result.meta["gpu_ms"].values()))
+
+
+def timed_frame(renderer, technique, opts, lights, cam, size) -> float:
+    """Wall ms of one frame of `technique` at `size` (the renderer is left at that size)."""
+    return frame_ms(renderer, technique, opts, lights, cam, size)[0]
+
+
+def measured_ms(renderer, technique, opts, lights, cam, size, what: str,
+                expect_s: float | None = None) -> float:
+    """Wall ms of `technique`'s second frame at `size` (the first compiles), or of its first
+    when that frame's GPU passes alone took over LONG_FRAME_MS; each frame over a second
+    has its console lines (`what`: the step)."""
+    with progress.step(f"{what}, first frame (compiles)", expect_s):
+        wall, gpu = frame_ms(renderer, technique, opts, lights, cam, size)
+    if gpu > LONG_FRAME_MS:
+        return wall
+    with progress.step(f"{what}, timed frame", gpu / 1e3):      # the first's wall: its compile too
+        return timed_frame(renderer, technique, opts, lights, cam, size)
+
+
+class Refusals:
+    """Why each technique would refuse the frames the window renders, asked before building
+    (Technique.refusal on the counts of base.visible_lights: one cull per cap policy and
+    stochastic draw, and per frame size)."""
+
+    def __init__(self, frames):
+        self.frames = list(frames)
+        self._visible: dict = {}
+
+    def visible(self, k: int, opts) -> int:
+        key = (k, cap_policy(opts), stochastic(opts))
+        if key not in self._visible:
+            self._visible[key] = visible_lights(self.frames[k], opts)
+        return self._visible[key]
+
+    def of(self, technique, opts) -> str | None:
+        for k, frame in enumerate(self.frames):
+            why = technique.refusal(frame, opts, self.visible(k, opts))
+            if why:
+                return why
+        return None
 
 
 def fastest(renderer, candidates, opts_of, lights, cam, max_pixels: int = PROBE_PIXELS,
             budget_s: float = PROBE_BUDGET_S):
     """(name of the fastest candidate, {name: wall ms at the probe size}, probe size,
-    names not probed for want of time).  `opts_of(technique)` gives its options.  A
-    candidate that refuses the frame (a limit it cannot meet) is left out; the renderer is
-    back at its size afterwards."""
+    names not probed for want of time, {name: why it refused}).  `opts_of(technique)`
+    gives its options.  A candidate that refuses (its options; a limit its refusal()
+    names at the probe's size or the window's, then it is never built; a limit only its
+    build meets) is left out with its line; the renderer is back at its size afterwards."""
     full = renderer.size
     size = _scaled(full, min(1.0, (max_pixels / (full[0] * full[1])) ** 0.5))
+    sizes = [size] + ([full] if tuple(full) != tuple(size) else [])
+    refusals = Refusals(renderer.frame_input(0, 1, lights, frame_camera(cam, *s)) for s in sizes)
     times: dict[str, float] = {}
     skipped: list[str] = []
-    t0 = None          # the budget starts after the first compile frame: it pays what every
-    try:               # technique shares (the CPU stage's common kernels, the G-buffer's shaders)
-        for t in candidates:
+    refused: dict[str, str] = {}
+    progress.say(f"probe: timing {len(candidates)} techniques at {size[0]}x{size[1]}, "
+                 f"{len(lights):,} lights (--technique NAME starts without the probe)")
+    t0, last_s = None, None     # the budget starts after the first compile frame: it pays what
+    try:                        # every technique shares (common kernels, the G-buffer's shaders)
+        for k, t in enumerate(candidates, 1):
+            try:
+                opts = opts_of(t)
+                why = refusals.of(t, opts)
+            except UserError as exc:
+                why = str(exc)
+            if why:
+                refused[t.name] = why
+                continue
             if t0 is not None and times and time.perf_counter() - t0 > budget_s:
                 skipped.append(t.name)
                 continue
+            start = time.perf_counter()
             try:
-                timed_frame(renderer, t, opts_of(t), lights, cam, size)      # compiles
-                if t0 is None:
-                    t0 = time.perf_counter()
-                times[t.name] = timed_frame(renderer, t, opts_of(t), lights, cam, size)
-            except UserError:
+                ms = measured_ms(renderer, t, opts, lights, cam, size,
+                                 f"probe {k}/{len(candidates)}: {t.name} at {size[0]}x{size[1]}", last_s)
+            except UserError as exc:
+                refused[t.name] = str(exc)
                 continue
+            if t0 is None:      # a first frame that was its own measure spent the budget
+                t0 = start if ms > LONG_FRAME_MS else time.perf_counter() - ms / 1e3
+            times[t.name], last_s = ms, ms / 1e3
     finally:
         renderer.resize(full)
     if not times:
-        return None, times, size, skipped
-    return min(times, key=times.get), times, size, skipped
+        return None, times, size, skipped, refused
+    return min(times, key=times.get), times, size, skipped, refused
 
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -206,8 +278,8 @@ class FrameCosts:
         full = renderer.size
         small = _scaled(full, ESTIMATE_SCALE if technique.role != "technique" else PLAIN_ESTIMATE_SCALE)
         try:
-            timed_frame(renderer, technique, opts, lights, cam, small)       # compiles
-            ms = timed_frame(renderer, technique, opts, lights, cam, small)
+            ms = measured_ms(renderer, technique, opts, lights, cam, small,
+                             f"estimating {technique.name}'s frame at {small[0]}x{small[1]}")
         finally:
             renderer.resize(full)
         self.record(technique.name, ms, small[0] * small[1], len(lights))
@@ -215,32 +287,44 @@ class FrameCosts:
 
 
 def choose_start(args, renderer, candidates, options, lights_of, camera, costs: FrameCosts):
-    """(the starting technique, a line saying why): the only candidate, the one the last
-    probe chose for the same scene (and file), lights, size, renderer, techniques and code
-    version, or the fastest of the candidates now (fastest()); the times measured go into
-    `costs`.  lights_of(): the scene's lights as the window draws them."""
+    """(the starting technique, lines saying why: how it was chosen, then each technique
+    the probe left out for a limit, "skipped NAME: the limit"): the only candidate, the one
+    the last probe chose for the same scene (and file), lights, size, renderer, techniques
+    and code version, or the fastest of the candidates now (fastest()); the times measured
+    go into `costs`.  lights_of(): the scene's lights as the window draws them."""
     if len(candidates) == 1:
-        return candidates[0], f"{candidates[0]}: the only technique that takes the given options"
+        return candidates[0], [f"{candidates[0]}: the only technique that takes the given options"]
     from ..techniques import REGISTRY
     n = len(lights_of())
     key = start_key(args, n, renderer.size, renderer.limits.renderer, candidates, options.given)
     got = None if args.reprobe else remembered(key)
     if got and got.get("technique") in candidates:
         name, times, size = got["technique"], got.get("times", {}), tuple(got.get("size", renderer.size))
+        refused, skipped = got.get("refused", {}), []
         how = f"at the last probe, {got.get('when', '?')}; --reprobe measures again"
     else:
         t0 = time.perf_counter()
-        name, times, size, skipped = fastest(renderer, [REGISTRY[c] for c in candidates],
-                                             lambda t: options.for_technique(t)[0], lights_of(), camera)
+        name, times, size, skipped, refused = fastest(
+            renderer, [REGISTRY[c] for c in candidates], lambda t: options.for_technique(t)[0],
+            lights_of(), camera)
         if name is None:
-            raise UserError("no technique can render this scene here (every one refused the probe frame)")
+            raise UserError(f"no technique can render this scene here: {every_refusal(refused)}")
         how = f"probe at {size[0]}x{size[1]}, {time.perf_counter() - t0:.1f} s"
         if skipped:
             how += f"; not probed for time: {', '.join(skipped)}"
         else:
-            remember(key, {"technique": name, "times": times, "size": list(size),
+            remember(key, {"technique": name, "times": times, "size": list(size), "refused": refused,
                            "when": time.strftime("%Y-%m-%d %H:%M")})
     for k, ms in times.items():
         costs.record(k, ms, size[0] * size[1], n)
     ranked = ", ".join(f"{k} {v:.0f} ms" for k, v in sorted(times.items(), key=lambda kv: kv[1]))
-    return name, f"started on {name}, the fastest exact technique here ({ranked}; {how})"
+    which = "the fastest of those probed" if skipped else "the fastest exact technique here"
+    return name, ([f"started on {name}, {which} ({ranked}; {how})"]
+                  + [f"skipped {k}: {why}" for k, why in refused.items()])
+
+
+def every_refusal(refused: dict[str, str]) -> str:
+    """The candidates' refusals in one line: the limit once when they all meet the same."""
+    if len(set(refused.values())) == 1:
+        return f"{', '.join(refused)}: {next(iter(refused.values()))}"
+    return "; ".join(f"{k}: {why}" for k, why in refused.items())

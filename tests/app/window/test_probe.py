@@ -1,7 +1,17 @@
-"""The start-up probe's memory is only reused by the code and scene file that measured it."""
+"""The start-up probe: its memory is only reused by the code and scene file that measured it;
+it leaves a technique that would refuse out before building it, and says why."""
 from types import SimpleNamespace
 
+import pytest
+
+from app.errors import UserError
+from app.pipeline.passes import FrameInput
+from app.techniques import REGISTRY
+from app.techniques.base import visible_lights
 from app.window import probe
+from app.window.options import WindowOptions
+from cpu_prep.camera import frame_camera
+from scenes import load_scene
 
 
 def test_code_version_follows_the_sources_a_frame_costs(tmp_path):
@@ -44,3 +54,87 @@ def test_file_stamp_changes_with_the_scene_file(tmp_path):
     scene.write_text("{ }")
     assert probe.file_stamp(str(scene)) != first
     assert probe.file_stamp("city") is None
+
+
+class ProbeRenderer:
+    """What the probe asks of a renderer, without GL: the frames rendered, by technique; a
+    technique named in `build_refuses` refuses in its build (a limit refusal() cannot see)."""
+
+    def __init__(self, scene, loop_budget, build_refuses=()):
+        self.scene, self.loop_budget, self.build_refuses = scene, loop_budget, set(build_refuses)
+        self.size, self.rendered = (64, 36), []
+        self.ctx = SimpleNamespace(finish=lambda: None)
+        self.limits = SimpleNamespace(renderer="probe test")
+
+    def resize(self, size):
+        self.size = tuple(size)
+
+    def frame_input(self, frame, frames, lights, camera):
+        return FrameInput(lights, camera, self.scene.max_depth, loop_budget=self.loop_budget)
+
+    def render(self, technique, frame, opts, lights, readback, camera):
+        self.rendered.append(technique.name)
+        if technique.name in self.build_refuses:
+            raise UserError(f"{technique.name}: a limit only its build meets")
+        return SimpleNamespace(meta={"gpu_ms": {"shade": 1.0}})
+
+
+def probe_setup(build_refuses=()):
+    """city at 600 lights with a loop budget one under what tiled's cull needs for them: tiled
+    and zbin (its tile depth test) refuse, from the counts alone."""
+    scene = load_scene("city", lights=600)
+    v = visible_lights(FrameInput(scene.lights, frame_camera(scene.camera, 64, 36), scene.max_depth))
+    return scene, ProbeRenderer(scene, (v + 255) // 256 * 10 - 1, build_refuses)
+
+
+def test_the_probe_skips_a_refusing_technique_without_building_it():
+    scene, r = probe_setup(build_refuses=["tree"])
+    names = ["tiled", "clustered", "tree", "hybrid", "zbin"]
+
+    def opts_of(t):
+        if t.name == "hybrid":
+            raise UserError("hybrid: options it refuses")
+        return t.Options()
+    name, times, _, skipped, refused = probe.fastest(r, [REGISTRY[n] for n in names], opts_of,
+                                                     scene.lights, scene.camera, budget_s=1e9)
+    assert name == "clustered" and list(times) == ["clustered"] and not skipped
+    assert r.rendered == ["clustered", "clustered", "tree"]       # tiled and zbin never built
+    assert refused["tiled"].startswith("tiled: culling") and refused["zbin"].startswith("zbin: the tile depth")
+    assert refused["tree"] == "tree: a limit only its build meets"
+    assert refused["hybrid"] == "hybrid: options it refuses"
+
+
+def test_the_start_names_each_skipped_technique_and_its_limit_also_when_remembered():
+    scene, r = probe_setup()
+    args = SimpleNamespace(scene="city", seed=0, distribution=None, reprobe=False)
+    start = lambda: probe.choose_start(args, r, ["tiled", "clustered", "zbin"], WindowOptions({}),
+                                       lambda: scene.lights, scene.camera, probe.FrameCosts())
+    name, lines = start()
+    assert name == "clustered" and lines[0].startswith("started on clustered, the fastest exact")
+    skipped = lines[1:]
+    assert [l.split(":")[0] for l in skipped] == ["skipped tiled", "skipped zbin"]
+    assert all(l.count("\n") == 0 and "loop iterations" in l for l in skipped)
+    r.rendered.clear()
+    name, again = start()                     # the remembered choice: no frame, the same lines
+    assert not r.rendered and "at the last probe" in again[0] and again[1:] == skipped
+    with pytest.raises(UserError, match="^no technique can render this scene here: tiled: .*; zbin: "):
+        probe.choose_start(SimpleNamespace(**dict(vars(args), reprobe=True)), r, ["tiled", "zbin"],
+                           WindowOptions({}), lambda: scene.lights, scene.camera, probe.FrameCosts())
+
+
+def test_progress_lines_before_an_expected_slow_step_and_after_a_slow_one(monkeypatch, capsys):
+    import time
+    from app.window import progress
+    monkeypatch.setattr(progress, "AFTER_S", 0.05)
+    with progress.step("quick"):
+        pass
+    with progress.step("expected slow", expect_s=0.1):
+        time.sleep(0.06)
+    with pytest.raises(UserError):
+        with progress.step("slow, then refused"):
+            time.sleep(0.06)
+            raise UserError("a limit")
+    lines = capsys.readouterr().err.splitlines()
+    assert [l.split(",")[0].split(":")[1].strip() for l in lines] == ["expected slow", "expected slow",
+                                                                      "slow"]
+    assert lines[0].endswith("about 0 s ...") and lines[1].startswith("window: expected slow: 0.")
