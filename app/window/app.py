@@ -425,7 +425,7 @@ class LabWindow(mglw.WindowConfig):
                            "inspect": inspect_lines(s, c.inspection if c else None)},
             timers=self.timers.rows(),
             heat_scale=heat_scale(self.figures, self.composer.view_shown, s, self.composer.map_shown),
-            keys=keys.HELP, frame_dt=self.frame_dt)
+            keys=keys.HELP, frame_dt=self.frame_dt, legend=self.composer.variant_legend())
 
     def _draw(self, target, viewport, for_shot: bool = False) -> UIModel:
         """The current view and the UI over it into `target` (a moderngl framebuffer)."""

@@ -178,14 +178,20 @@ class FrameComposer:
 
     def _upload_variants(self, result) -> None:
         """The variants view: each variant tile's colour (VARIANT_VIEW) from this frame's
-        tile masks, and the legend for the HUD; none when the frame ran no variants."""
+        tile masks, the HUD's note and the panel's legend; none when the frame ran no variants."""
         stats = result.meta["stats"]
-        self.map_shown = ("variants", variant_view.legend_text(stats), 0.0)
+        self.map_shown = ("variants", variant_view.legend_note(stats), 0.0)
         self._variants = None
         if "variant_masks" in stats and "tile_masks" in self.renderer.provided():
             colors = variant_view.tile_colors(stats, self.renderer.read("tile_masks"))
             self.renderer.upload(variant_view.VARIANT_VIEW, colors)
             self._variants = stats
+
+    def variant_legend(self) -> list:
+        """The variants view's legend (variant_view.legend) while it is shown, else []."""
+        if self.view_shown != "variants" or self._variants is None:
+            return []
+        return variant_view.legend(self._variants)
 
     # ---- drawing -------------------------------------------------------------------------------
     def present(self, c: Composed, state, fc, size, heat_max: float, split_x: int) -> None:

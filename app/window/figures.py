@@ -97,4 +97,5 @@ class UIModel:
     timers: list = field(default_factory=list)             # (name, median, min, n, history | None)
     heat_scale: tuple[float, str] | None = None
     keys: list = field(default_factory=list)               # (key label, what it does)
+    legend: list = field(default_factory=list)             # the variants view's (variant_view.Entry)
     frame_dt: float = 1 / 60

@@ -3,7 +3,8 @@ integration (moderngl_window.integrations.imgui_bundle):
 
     HUD        top left: the frame's figures (app.window.hud), the messages
     panel      right: every control of app.window.panel (technique, its declared options,
-               lights, display, compare, inspect, camera), the timers (rolling median, min
+               lights, display, compare, inspect, camera), the variants view's legend
+               (app.window.variant_view: a swatch, the tiles and the mask each), the timers (rolling median, min
                and a history graph per GPU pass and CPU stage), the cursor's inspection
     colour bar bottom left, in the heat and maps views: app.images' ramp and ticks
 
@@ -168,6 +169,8 @@ class LabUI:
         imgui.begin("lab", None, flags)
         imgui.push_item_width(-110)
         for section, title, open_ in SECTIONS:
+            if section == "options" and model.legend:      # under the technique, when shown
+                self._legend(model.legend)
             mine = [c for c in model.controls if c.section == section]
             lines = model.section_lines.get(section, [])
             if not mine and not lines:
@@ -228,6 +231,20 @@ class LabUI:
             imgui.set_item_tooltip(c.help)
         if changed and not self.for_shot:
             self.queued.append((c.key, value))
+
+    def _legend(self, entries) -> None:
+        """The variants view's legend: per mask its colour's swatch, its tiles and the mask;
+        a colour several masks share says why (grey: no lights, white: the general program)."""
+        imgui = self.imgui
+        imgui.set_next_item_open(True, imgui.Cond_.once)
+        if not imgui.collapsing_header("Feature variants"):
+            return
+        imgui.text_wrapped("tiles  mask (one colour a program)")
+        for i, e in enumerate(entries):
+            rgb = imgui.ImVec4(*(c / 255.0 for c in e.rgb), 1.0)
+            imgui.color_button(f"##variant{i}", rgb, imgui.ColorEditFlags_.no_tooltip, imgui.ImVec2(14, 14))
+            imgui.same_line()
+            imgui.text_wrapped(f"{e.tiles:5d}  {e.label}" + (f"  ({e.shares})" if e.shares else ""))
 
     def _timers(self, timers) -> None:
         imgui = self.imgui

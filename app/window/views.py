@@ -12,7 +12,7 @@
     maps     the technique's own structure (Technique.maps: fptl's coarse and pruned lists
              per tile, zbin's bit arrays and z-bin ranges, raster's marked tiles), M: next
     variants each tile's feature variant (--feature-variants), colour-coded, the legend in
-             the HUD; drawn by its own pass over the shaded image (app.window.variant_view)
+             the panel; drawn by its own pass over the shaded image (app.window.variant_view)
 
 A technique offers the views in its `views` attribute (app.techniques.base.Technique.views:
 shaded, heat, diff, split for every one; tiles, slices, classes where it has that structure):

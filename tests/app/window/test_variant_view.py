@@ -1,9 +1,10 @@
-"""The window's feature-variant view (app/window/variant_view.py): its legend names each
-program's colour, mask and tiles, and the view, driven in a headless scripted run, tints the
-shaded image tile by tile."""
+"""The window's feature-variant view (app/window/variant_view.py): its legend (the panel's
+list) gives each program's colour, mask and tiles, every program a colour of its own, and the
+view, driven in a headless scripted run, tints the shaded image tile by tile."""
 import numpy as np
 
 from app.pipeline import features as feat
+from app.techniques.variants import MAX_PROGRAMS
 from app.window import variant_view as vv
 from app.window.views import Overlay, view_note
 from tests.app.window.test_window import LIT, load_rgb, run_window
@@ -12,24 +13,35 @@ STATS = {"variant_masks": [31, 0, 14], "feature_variants": 2, "variant_tile": 16
          "variant_tiles": {"point+spot+capsule+box, specular": 5, "empty": 3, "spot+capsule+box": 1}}
 
 
-def test_the_legend_names_colour_mask_and_tiles():
+def test_the_legend_lists_colour_mask_and_tiles():
     entries = vv.legend(STATS)
-    assert [(m, name, t) for m, name, _, t in entries] == \
-        [(31, "red", 5), (0, vv.EMPTY[0], 3), (14, vv.GENERAL[0], 1)]
-    text = vv.legend_text(STATS)
-    assert text.startswith("16 px tiles: red point+spot+capsule+box, specular (5)")
-    assert "white spot+capsule+box (1)" in text
-    assert vv.legend_text({"variant_fallback": "no indirect dispatch"}) == "off (no indirect dispatch)"
+    assert [(e.mask, e.rgb, e.tiles, e.shares) for e in entries] == \
+        [(31, vv.PALETTE[0], 5, ""), (0, vv.EMPTY, 3, "no lights"), (14, vv.GENERAL, 1, "general program")]
+    assert entries[0].label == "point+spot+capsule+box, specular"
+    note = vv.legend_note(STATS)
+    assert note.startswith("16 px tiles, 3 masks (2 programs, 1 by the general program")
+    assert vv.legend_note({"variant_fallback": "no indirect dispatch"}) == "off (no indirect dispatch)"
+    assert view_note("variants", "tiled", Overlay(), 0.0, map_label=note) == "variants: " + note
 
 
-def test_the_hud_note_is_the_legend():
-    note = view_note("variants", "tiled", Overlay(), 0.0, map_label=vv.legend_text(STATS))
-    assert note == "variants: " + vv.legend_text(STATS)
+def test_every_program_of_a_frame_has_its_own_colour():
+    """As many shaded masks as a frame gives programs (MAX_PROGRAMS), every non-empty one:
+    each its own colour, none grey or white; past the cap they share the general white."""
+    shaded = [m for m in range(feat.MASKS) if m & feat.SHAPE_MASK][:MAX_PROGRAMS + 3]
+    stats = {"variant_masks": shaded, "feature_variants": MAX_PROGRAMS, "variant_tile": 8,
+             "variant_tiles": {feat.mask_label(m): 1 for m in shaded}}
+    entries = vv.legend(stats)
+    own = [e.rgb for e in entries[:MAX_PROGRAMS]]
+    assert len(set(own)) == MAX_PROGRAMS and not {vv.EMPTY, vv.GENERAL} & set(own)
+    assert all(e.rgb == vv.GENERAL and e.shares for e in entries[MAX_PROGRAMS:])
+    lab = vv._lab(np.array(own))
+    gaps = np.linalg.norm(lab[:, None] - lab[None], axis=2) + np.eye(len(own)) * 1e9
+    assert gaps.min() > 20, gaps.min()            # CIELAB: told apart at a glance
 
 
 def test_tile_colours_follow_the_masks():
     colors = vv.tile_colors(STATS, np.array([31, 0, 14, 31], np.uint32))
-    assert np.allclose(colors[0, :3] * 255, vv.PALETTE[0][1]) and np.allclose(colors[1, :3] * 255, vv.EMPTY[1])
+    assert np.allclose(colors[0, :3] * 255, vv.PALETTE[0]) and np.allclose(colors[1, :3] * 255, vv.EMPTY)
     assert np.array_equal(colors[0], colors[3]) and (colors[:, 3] == vv.ALPHA).all()
     assert feat.mask_label(0) == "empty"
 
