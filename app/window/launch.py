@@ -163,7 +163,8 @@ def open_window(args, size):
 def start_candidates(args, given: dict) -> tuple[str | None, list[str]]:
     """(the starting technique when --technique names it, else None; the techniques the
     start may choose from: every one but the reference and the floor that takes every option
-    flag given and has the --view asked for).  One line and exit status 2 when none can."""
+    flag given, together (its Options' own check: --cap-policy hdrp-fptl-24 is fptl's), and
+    has the --view asked for).  One line and exit status 2 when none can."""
     from ..techniques import REGISTRY, get
     if args.technique:
         t = get(args.technique)
@@ -175,12 +176,24 @@ def start_candidates(args, given: dict) -> tuple[str | None, list[str]]:
         return t.name, [t.name]
     names = set(given)
     plain = [t for t in REGISTRY.values() if t.role == "technique"]
-    ok = [t.name for t in plain if names <= set(t.Options.names()) and args.view in views_of(t)]
+    named = [t for t in plain if names <= set(t.Options.names()) and args.view in views_of(t)]
+    refusals = {t.name: _refusal(t, given) for t in named}
+    ok = [name for name, why in refusals.items() if why is None]
     if not ok:
         flags = " ".join("--" + n.replace("_", "-") for n in given)
-        raise UserError(f"no technique takes {flags or 'these options'} and has the {args.view} view: "
-                        f"give --technique")
+        why = f" ({next(iter(refusals.values()))})" if refusals else ""
+        raise UserError(f"no technique takes {flags or 'these options'} and has the {args.view} view"
+                        f"{why}: give --technique")
     return None, ok
+
+
+def _refusal(technique, given: dict) -> str | None:
+    """Why `technique`'s Options refuse the given flags together (its own check), or None."""
+    try:
+        technique.Options.make(given, technique.name)
+    except UserError as exc:
+        return str(exc)
+    return None
 
 
 def main(argv=None) -> None:

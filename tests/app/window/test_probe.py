@@ -138,3 +138,13 @@ def test_progress_lines_before_an_expected_slow_step_and_after_a_slow_one(monkey
     assert [l.split(",")[0].split(":")[1].strip() for l in lines] == ["expected slow", "expected slow",
                                                                       "slow"]
     assert lines[0].endswith("about 0 s ...") and lines[1].startswith("window: expected slow: 0.")
+
+
+def test_the_start_chooses_among_the_techniques_that_take_the_flags_together():
+    from app.window.launch import start_candidates
+    args = SimpleNamespace(technique=None, view="shaded")
+    assert start_candidates(args, {"cap_policy": "hdrp-fptl-24"}) == (None, ["fptl"])
+    viewcap = start_candidates(args, {"cap_policy": "urp-16"})[1]
+    assert {"tiled", "fptl"} <= set(viewcap)
+    with pytest.raises(UserError, match="no technique takes --cap-policy --fptl-variant .*caps the fine-pruned"):
+        start_candidates(args, {"cap_policy": "hdrp-fptl-24", "fptl_variant": "coarse per tile"})
