@@ -308,7 +308,8 @@ def choose_start(args, renderer, candidates, options, lights_of, camera, costs: 
             renderer, [REGISTRY[c] for c in candidates], lambda t: options.for_technique(t)[0],
             lights_of(), camera)
         if name is None:
-            raise UserError(f"no technique can render this scene here: {every_refusal(refused)}")
+            raise UserError(f"no technique can render {n:,} lights of this scene here: "
+                            f"{every_refusal(refused)}")
         how = f"probe at {size[0]}x{size[1]}, {time.perf_counter() - t0:.1f} s"
         if skipped:
             how += f"; not probed for time: {', '.join(skipped)}"

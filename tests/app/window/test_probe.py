@@ -117,7 +117,7 @@ def test_the_start_names_each_skipped_technique_and_its_limit_also_when_remember
     r.rendered.clear()
     name, again = start()                     # the remembered choice: no frame, the same lines
     assert not r.rendered and "at the last probe" in again[0] and again[1:] == skipped
-    with pytest.raises(UserError, match="^no technique can render this scene here: tiled: .*; zbin: "):
+    with pytest.raises(UserError, match="^no technique can render 600 lights of this scene here: tiled: .*; zbin: "):
         probe.choose_start(SimpleNamespace(**dict(vars(args), reprobe=True)), r, ["tiled", "zbin"],
                            WindowOptions({}), lambda: scene.lights, scene.camera, probe.FrameCosts())
 
