@@ -6,12 +6,12 @@
                 the fastest second frame (wall clock: what the window waits for) wins.  The
                 first frame compiles the technique's shaders and kernels, which the window
                 would pay anyway; a first frame whose GPU passes took over LONG_FRAME_MS is
-                its own measure (its compile a small share of it).  A
-                candidate that would refuse the frame (Technique.refusal: a limit it meets,
-                from the counts and options) is left out before it is built, one that
-                refuses in its build after it; the start's lines name each with its limit.
-                A frame that takes over a second has a console line (progress.step).
-                Nothing is named here: a new technique module takes part.
+                its own measure (its compile a small share of it).  A candidate that would
+                refuse the frame (Technique.refusal: a limit it meets, from the counts and
+                options) is left out before it is built, one that refuses in its build
+                after it; the start's lines name each with its limit.  A frame over a
+                second has console lines (progress.step).  Nothing is named here: a new
+                technique module takes part.
                 Why not a small size: a culling structure's tiles and cells cover more of the
                 view at a lower resolution, so its lists grow and the ranking can change
                 (tiled: 2x slower per pixel at half size on the city).  The probe stops
@@ -321,7 +321,7 @@ def choose_start(args, renderer, candidates, options, lights_of, camera, costs: 
     ranked = ", ".join(f"{k} {v:.0f} ms" for k, v in sorted(times.items(), key=lambda kv: kv[1]))
     which = "the fastest of those probed" if skipped else "the fastest exact technique here"
     return name, ([f"started on {name}, {which} ({ranked}; {how})"]
-                  + [f"skipped {k}: {why}" for k, why in refused.items()])
+                  + [f"skipped {k}: {why.removeprefix(k + ': ')}" for k, why in refused.items()])
 
 
 def every_refusal(refused: dict[str, str]) -> str:
