@@ -82,8 +82,9 @@ def measured_ms(renderer, technique, opts, lights, cam, size, what: str,
                 expect_s: float | None = None) -> float:
     """Wall ms of `technique`'s second frame at `size` (the first compiles), or of its first
     when that frame's GPU passes alone took over LONG_FRAME_MS; each frame over a second
-    has its console lines (`what`: the step)."""
-    with progress.step(f"{what}, first frame (compiles)", expect_s):
+    has its console lines (`what`: the step; expect_s: what the first may take, None:
+    unknown, said before it)."""
+    with progress.step(f"{what}, first frame (compiles)", expect_s, unknown=expect_s is None):
         wall, gpu = frame_ms(renderer, technique, opts, lights, cam, size)
     if gpu > LONG_FRAME_MS:
         return wall
@@ -277,9 +278,12 @@ class FrameCosts:
             return got
         full = renderer.size
         small = _scaled(full, ESTIMATE_SCALE if technique.role != "technique" else PLAIN_ESTIMATE_SCALE)
+        # what its frames may take, for the console: the slowest technique measured so far
+        others = [self.predict(k, small[0] * small[1], len(lights)) for k in self.known]
         try:
             ms = measured_ms(renderer, technique, opts, lights, cam, small,
-                             f"estimating {technique.name}'s frame at {small[0]}x{small[1]}")
+                             f"estimating {technique.name}'s frame at {small[0]}x{small[1]}",
+                             max(others) / 1e3 if others else None)
         finally:
             renderer.resize(full)
         self.record(technique.name, ms, small[0] * small[1], len(lights))

@@ -17,11 +17,14 @@ def say(text: str) -> None:
 
 
 @contextmanager
-def step(what: str, expect_s: float | None = None):
-    """`what` said before the work when `expect_s` is over AFTER_S, and with its time after
-    the work (done or refused) when it took over AFTER_S."""
+def step(what: str, expect_s: float | None = None, unknown: bool = False):
+    """`what` said before the work when `expect_s` is over AFTER_S (or `unknown`: nothing
+    measured yet says how long), and with its time after the work (done or refused) when
+    it took over AFTER_S."""
     if expect_s is not None and expect_s > AFTER_S:
         say(f"{what}, about {expect_s:.0f} s ...")
+    elif unknown:
+        say(f"{what} ...")
     t0 = time.perf_counter()
     try:
         yield

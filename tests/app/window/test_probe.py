@@ -128,6 +128,8 @@ def test_progress_lines_before_an_expected_slow_step_and_after_a_slow_one(monkey
     monkeypatch.setattr(progress, "AFTER_S", 0.05)
     with progress.step("quick"):
         pass
+    with progress.step("not measured yet", unknown=True):
+        pass
     with progress.step("expected slow", expect_s=0.1):
         time.sleep(0.06)
     with pytest.raises(UserError):
@@ -135,9 +137,10 @@ def test_progress_lines_before_an_expected_slow_step_and_after_a_slow_one(monkey
             time.sleep(0.06)
             raise UserError("a limit")
     lines = capsys.readouterr().err.splitlines()
-    assert [l.split(",")[0].split(":")[1].strip() for l in lines] == ["expected slow", "expected slow",
-                                                                      "slow"]
-    assert lines[0].endswith("about 0 s ...") and lines[1].startswith("window: expected slow: 0.")
+    assert lines[0] == "window: not measured yet ..."
+    assert [l.split(",")[0].split(":")[1].strip() for l in lines[1:]] == ["expected slow", "expected slow",
+                                                                          "slow"]
+    assert lines[1].endswith("about 0 s ...") and lines[2].startswith("window: expected slow: 0.")
 
 
 def test_the_start_chooses_among_the_techniques_that_take_the_flags_together():
