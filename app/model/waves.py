@@ -688,7 +688,10 @@ def _replay_segments(wave, lane, step, hoff, first, count, call, calls,
         # heads of the plain segments: one issued iteration
         stamp += 1
         kind, heads, lines, scalar, lds = -1, 0, 0, False, False
-        m, trees = 0, 0
+        # m is _issue_lists' n: typed, not the literal 0, or numba compiles _issue_lists
+        # twice, once for n = Literal[int](0) (a call's literal argument is its own
+        # specialization: ~6 s more of a cold compile, the same code)
+        m, trees = np.int64(0), 0
         for s in range(i, j):
             c = call[s]
             if calls[c, 7]:                              # a tree: walked below
@@ -720,7 +723,7 @@ def _replay_segments(wave, lane, step, hoff, first, count, call, calls,
         # the group's traversals in lockstep
         while trees > 0:
             stamp += 1
-            heads, lines, m = 0, 0, 0
+            heads, lines, m = 0, 0, np.int64(0)          # m typed: see above
             kind, lds = -1, False
             for q in range(trees):
                 s = t_seg[q]
