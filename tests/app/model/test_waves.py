@@ -83,14 +83,58 @@ def test_widths_change_only_what_they_should(gl):
         assert np.array_equal(a.contrib, b.contrib)
 
 
+def list_lines(prog: waves.Program) -> tuple[int, dict[str, int]]:
+    """The light loops' 64-byte lines counted from the program's segments alone (numpy, no
+    tree segments): per issued iteration (a (wave, branch, step) group's t-th) the distinct
+    lines of the entries and lights its lanes fetch, summed; and the bytes of each buffer's
+    distinct lines over the frame."""
+    seg, calls = prog.segments()
+    assert not calls[:, 7].any(), "tree traversals: their leaves' lists are the replay's walk"
+    group = (prog.wave[seg["lane"]] * 4 + calls[seg["call"], 0]) << 24 | seg["step"]
+    lid, rows = calls[seg["call"], 5], []
+    for k in np.unique(lid[(lid >= 0) & (seg["count"] > 0)]):
+        sel = np.nonzero((lid == k) & (seg["count"] > 0))[0]
+        n = seg["count"][sel]
+        s = np.repeat(sel, n)
+        t = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)      # the iteration
+        L = prog.lists[k]
+        p = seg["first"][s] + t
+        e = L.entry_off[p] >= 0
+        rows.append(np.stack([group[s][e], t[e], np.full(e.sum(), L.entry_buf), L.entry_off[p][e] // 64], 1))
+        off = L.slot[p] * waves.LIGHT_BYTES
+        for d in range(3):                                  # a light's lines (96 B: at most 3)
+            line = off // 64 + d
+            m = line <= (off + waves.LIGHT_BYTES - 1) // 64
+            rows.append(np.stack([group[s][m], t[m], np.full(m.sum(), L.light_buf), line[m]], 1))
+    rows = np.concatenate(rows)
+    names = list(prog.buffers)
+    lines = np.unique(rows[:, 2:], axis=0)
+    return len(np.unique(rows, axis=0)), {names[b]: int((lines[:, 0] == b).sum()) * 64
+                                          for b in np.unique(lines[:, 0])}
+
+
+def assert_list_lines(prog: waves.Program, f: waves.Figures, what: str) -> None:
+    """The replay's light-loop lines (its line set) and unique bytes equal list_lines'."""
+    light = f.loop("light")
+    per_iteration, unique = list_lines(prog)
+    assert light["vector_lines"] + light["scalar_lines"] == per_iteration, (what, light, per_iteration)
+    heads = {list(prog.buffers)[b] for b in prog.segments()[1][:, 2] if b >= 0}
+    for name, nbytes in unique.items():
+        if name not in heads:                                       # read by the light loops only
+            assert f.unique_bytes[name] == nbytes, (what, name, f.unique_bytes[name], nbytes)
+
+
 def test_figures_count_what_the_loops_do(gl):
     """brute: one scalar load of each light per busy wave, every shading lane active; a
-    list technique's light iterations are its longest lanes', its vector loads two each."""
+    list technique's light iterations are its longest lanes', its vector loads two each;
+    the light loops' distinct lines per iteration and per frame are list_lines' count."""
     sc = load_scene("arena", lights=256, seed=1)
     with Renderer(sc, SIZE) as r:
         res = r.render(REGISTRY["brute"], 0)
         fr = waves.frame_data(r, res, REGISTRY["brute"].resolve_options(None))
-        f = waves.replay(REGISTRY["brute"].wave_program(fr, 64)).figures
+        prog = REGISTRY["brute"].wave_program(fr, 64)
+        f = waves.replay(prog).figures
+        assert_list_lines(prog, f, "brute")
         n = len(res.build.lights)
         light = f.loop("light")
         assert light["issued"] == n * f.busy_waves
@@ -100,7 +144,9 @@ def test_figures_count_what_the_loops_do(gl):
         assert f.unique_bytes["lights"] == -(-n * 96 // 64) * 64
         res = r.render(REGISTRY["clustered"], 0)
         fr = waves.frame_data(r, res, REGISTRY["clustered"].resolve_options(None))
-        f = waves.replay(REGISTRY["clustered"].wave_program(fr, 64)).figures
+        prog = REGISTRY["clustered"].wave_program(fr, 64)
+        f = waves.replay(prog).figures
+        assert_list_lines(prog, f, "clustered")
         ev = gl_order(res.evaluated)
         per_wave = np.zeros(f.waves, np.int64)
         wave, _, _ = waves.lanes(SIZE, 64)
@@ -109,6 +155,12 @@ def test_figures_count_what_the_loops_do(gl):
         assert f.loop("light")["lanes"] == ev.sum()
         assert f.loop("light")["vector_loads"] == 2 * per_wave.sum()    # entry, then light
         assert f.loop("cell")["issued"] == f.busy_waves
+        for opts in ({"scalarize": True}, {"duplicated": True}):      # scalar lists; one list a lane
+            tech = REGISTRY["clustered"]
+            fr = waves.frame_data(r, r.render(tech, 0, opts), tech.resolve_options(opts))
+            for width in (32, 64):
+                prog = tech.wave_program(fr, width)
+                assert_list_lines(prog, waves.replay(prog).figures, f"clustered {opts} W={width}")
 
 
 def test_culling_pass_figures(gl):
