@@ -9,8 +9,10 @@ panel (imgui-bundle, through moderngl-window's integration).
 
 Start: without --technique, the fastest exact technique for the scene (probe.fastest: every
 technique but the reference and the floor, two frames each at the window's size, at most
-960x540 pixels; a technique is never named here).  A technique whose frame is predicted over a second is announced in the HUD before it
-renders.
+960x540 pixels; one that would refuse the frame, Technique.refusal, is left out unbuilt and
+named with its limit; a technique is never named here).  A technique whose frame is predicted
+over a second is announced in the HUD before it renders; start-up work over a second has a
+console line (progress.py).
 
 Panel (right; F1 hides it, H hides all the UI): the technique and every option it declares
 (its Options.specs(): flag, range, help), its views, light count / seed / distribution,
@@ -44,6 +46,7 @@ to an EGL framebuffer with no display (backend egl by default).
     camera.py   the fly camera                        campath.py  camera path files
     inspect.py  what is under the cursor              lightsets.py the light draws
     probe.py    start-up probe, frame costs           timers.py   timer history
+    progress.py console lines for slow work           variant_view.py the variants view, legend
 """
 from .camera import FlyCamera
 from .keys import KEY_NAMES, key_names, parse_keys
