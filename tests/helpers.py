@@ -237,3 +237,14 @@ def assert_exact(results: dict, where: str = "") -> None:
         elif (m := check(res, ref)) is not None:
             bad.append(m.message())
     assert not bad, f"{where}: " + "; ".join(bad)
+
+
+def with_threads(n: int, fn):
+    """fn() with numba's thread count set to n (at most what numba has), restored after."""
+    import numba
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(min(n, numba.config.NUMBA_NUM_THREADS))
+        return fn()
+    finally:
+        numba.set_num_threads(before)

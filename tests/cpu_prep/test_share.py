@@ -8,6 +8,7 @@ import pytest
 
 from cpu_prep import share
 from cpu_prep.intrinsics import fetch_add
+from tests.helpers import with_threads
 
 
 @numba.njit(nogil=True)
@@ -20,15 +21,6 @@ def count_chunks(claim, chunks, hits, spin):
         fetch_add(hits, k, 1 if acc >= 0 else 2)
         fetch_add(claim, 1, 1)
         k = fetch_add(claim, 0, 1)
-
-
-def with_threads(n, fn):
-    before = numba.get_num_threads()
-    try:
-        numba.set_num_threads(min(n, numba.config.NUMBA_NUM_THREADS))
-        return fn()
-    finally:
-        numba.set_num_threads(before)
 
 
 @pytest.mark.parametrize("threads,chunks", [(1, 1), (1, 9), (2, 1), (2, 64), (2, 0)])

@@ -4,7 +4,6 @@ depth-first with skip counts = subtree sizes, within the bottom-up tree's leaf b
 the 16-bit light count; listing 3 over them finds exactly the covering lights; its splits
 follow the cost (a gap between two clusters, no split where nothing culls), and it evaluates
 fewer lights per pixel than the bottom-up tree where the lights are spread."""
-import numba
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
@@ -13,6 +12,7 @@ from cpu_prep import grid as gridmod, hybrid, layouts, limits, tree, tree_topdow
 from cpu_prep.camera import frame_camera
 from scenes.model import Camera
 from tests.cpu_prep.test_tree import traverse
+from tests.helpers import with_threads
 
 TOPDOWN = tree.BUILD_TOPDOWN
 
@@ -89,15 +89,6 @@ def random_cells(rng, cells=6, n_lights=400, most=300, spread=100.0):
     entries = np.concatenate([np.sort(rng.choice(n_lights, c, replace=False))
                               for c in counts]).astype(np.uint32)
     return offsets, entries, lo, hi
-
-
-def with_threads(n, fn):
-    before = numba.get_num_threads()
-    try:
-        numba.set_num_threads(min(n, numba.config.NUMBA_NUM_THREADS))
-        return fn()
-    finally:
-        numba.set_num_threads(before)
 
 
 def check_shape(ranges, nodes, offsets, entries, budget):
