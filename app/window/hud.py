@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from .keys import help_line
-from .probe import SLOW_MS
+from .probe import SLOW_MS, duration
 from .views import view_note
 
 HELP = help_line()
@@ -108,7 +108,7 @@ def technique_lines(state, started: list[str], predicted_ms) -> list[str]:
     probe skipped, a line each), its frame cost."""
     out = [f"{state.technique}: {state.tech.summary}"] + list(started)
     if predicted_ms is not None:
-        out.append(f"about {predicted_ms:.0f} ms a frame here" + ("  (slow)" if predicted_ms > SLOW_MS else ""))
+        out.append(f"about {duration(predicted_ms)} a frame here" + ("  (slow)" if predicted_ms > SLOW_MS else ""))
     return out
 
 

@@ -57,6 +57,13 @@ SLOW_MS = 1000.0
 LONG_FRAME_MS = 30_000.0
 
 
+def duration(ms: float) -> str:
+    """A frame's time as a person reads it: '355 ms', '1.5 s', '395 s'."""
+    if ms < SLOW_MS:
+        return f"{ms:.0f} ms"
+    return f"{ms / 1000:.1f} s" if ms < 10 * SLOW_MS else f"{ms / 1000:.0f} s"
+
+
 def _scaled(size, scale: float) -> tuple[int, int]:
     return max(8, int(round(size[0] * scale))), max(8, int(round(size[1] * scale)))
 
@@ -322,7 +329,7 @@ def choose_start(args, renderer, candidates, options, lights_of, camera, costs: 
                            "when": time.strftime("%Y-%m-%d %H:%M")})
     for k, ms in times.items():
         costs.record(k, ms, size[0] * size[1], n)
-    ranked = ", ".join(f"{k} {v:.0f} ms" for k, v in sorted(times.items(), key=lambda kv: kv[1]))
+    ranked = ", ".join(f"{k} {duration(v)}" for k, v in sorted(times.items(), key=lambda kv: kv[1]))
     which = "the fastest of those probed" if skipped else "the fastest exact technique here"
     return name, ([f"started on {name}, {which} ({ranked}; {how})"]
                   + [f"skipped {k}: {why.removeprefix(k + ': ')}" for k, why in refused.items()])

@@ -151,3 +151,7 @@ def test_the_start_chooses_among_the_techniques_that_take_the_flags_together():
     assert {"tiled", "fptl"} <= set(viewcap)
     with pytest.raises(UserError, match="no technique takes --cap-policy --fptl-variant .*caps the fine-pruned"):
         start_candidates(args, {"cap_policy": "hdrp-fptl-24", "fptl_variant": "coarse per tile"})
+
+
+def test_frame_times_read_in_the_unit_that_fits():
+    assert [probe.duration(ms) for ms in (355.4, 1500.0, 395163.0)] == ["355 ms", "1.5 s", "395 s"]
