@@ -1,26 +1,41 @@
 """How long a technique's frame takes, before the window commits to it.
 
     fastest()   the start-up probe: every candidate technique (not the reference, not the
-                floor: both are there to compare against, not to fly with) rendered twice at
-                the window's size (at most PROBE_PIXELS of it) with the scene's first camera;
-                the fastest second frame (wall clock: what the window waits for) wins.  The
-                first frame compiles the technique's shaders and kernels, which the window
-                would pay anyway; a first frame whose GPU passes took over LONG_FRAME_MS is
-                its own measure (its compile a small share of it).  A candidate that would
-                refuse the frame (Technique.refusal: a limit it meets, from the counts and
-                options) is left out before it is built, one that refuses in its build
-                after it; the start's lines name each with its limit.  A frame over a
-                second has console lines (progress.step).  Nothing is named here: a new
-                technique module takes part.
-                Why not a small size: a culling structure's tiles and cells cover more of the
-                view at a lower resolution, so its lists grow and the ranking can change
-                (tiled: 2x slower per pixel at half size on the city).  The probe stops
-                after PROBE_BUDGET_S (6 s; LAB_PROBE_BUDGET_S sets it): a cold numba cache
-                compiles each technique's kernels on its first frame, seconds each.  A
-                complete probe's choice is remembered per scene, light draw, size, renderer,
-                technique set and code version (code_version: an edited shader or kernel
-                probes again) in the user's cache folder (cache_file), so a later start takes
-                no probe at all (--reprobe measures again).
+                floor: both are there to compare against, not to fly with) timed at the
+                window's size (at most PROBE_PIXELS of it) with the scene's first camera, the
+                likely fastest first; the fastest frame there (wall clock: what the window
+                waits for) wins.  Two steps:
+                  ranking: two frames each at RANK_SCALE of the probe's size (1/64 of its
+                  pixels), the first compiling the technique's shaders and kernels (which
+                  the window would pay anyway, on its first frame of it: seconds each from
+                  a cold numba cache; not in the budget), the second ranking it; a first
+                  frame whose GPU passes took over LONG_FRAME_MS is its own rank (its
+                  compile a small share of it).  The ranking has its console line.
+                  timing: one frame each at the probe size, in the ranking's order (a second
+                  one when that frame built new GL programs: a variant only this size needs),
+                  while the probe is within PROBE_BUDGET_S (6 s; LAB_PROBE_BUDGET_S sets
+                  it) from the start of this step, the first always; a candidate whose
+                  expected frame (the last timed one's, scaled by their ranking frames) is
+                  over the whole budget is not started either.  What the budget leaves out is
+                  then the ranking's slow end (a million lights: tiled, whose per-tile cull
+                  loops over every visible light, 395 s a frame on llvmpipe), not whatever
+                  the registry lists first.
+                Why not rank and choose at the small size: a culling structure's tiles and
+                cells cover more of the view at a lower resolution, so its lists grow and the
+                ranking can change between close techniques (tiled: 2x slower per pixel at
+                half size on the city); the small frame only orders, the choice is measured
+                at the probe size.  A candidate that would refuse the frame
+                (Technique.refusal: a limit it meets at the probe's size or the window's,
+                from the counts and options) is left out before it is built, one that
+                refuses in its build after it; the start's lines name each with its limit.
+                One that refuses only at the small size is timed after the ranked ones (two
+                frames: its first compiles).  A frame over a second has console lines
+                (progress.step).  Nothing is named here: a new
+                technique module takes part.  A complete probe's choice is remembered per
+                scene, light draw, size, renderer, technique set and code version
+                (code_version: an edited shader or kernel probes again) in the user's cache
+                folder (cache_file), so a later start takes no probe at all (--reprobe
+                measures again).
     FrameCosts  the wall time of each technique's frames as measured (the probe's, the
                 window's own), scaled to another pixel and light count; a technique never
                 measured is estimated from one frame at a reduced size (after one that
@@ -50,6 +65,7 @@ PROBE_PIXELS = 960 * 540
 PROBE_BUDGET_S = float(os.environ.get("LAB_PROBE_BUDGET_S", 6.0))
 ESTIMATE_SCALE = 0.125
 PLAIN_ESTIMATE_SCALE = 0.5
+RANK_SCALE = 0.125          # the probe's ranking frames: 1/64 of its pixels
 SLOW_MS = 1000.0
 # A first frame whose GPU passes took this long is its own measure: a software GL compiles a
 # technique's shaders on their first dispatch (seconds), a small share of such a frame, and a
@@ -122,13 +138,73 @@ class Refusals:
         return None
 
 
+def programs_built(renderer) -> int:
+    """How many GL programs the renderer has built so far (0 for one that does not say)."""
+    return len(getattr(getattr(renderer, "programs", None), "sources", ()))
+
+
+def settled_ms(renderer, technique, opts, lights, cam, size, what: str,
+               expect_s: float | None = None) -> float:
+    """Wall ms of a frame at `size` of a technique whose shaders and kernels an earlier
+    frame (at another size) compiled: that frame, or a second one when it built new GL
+    programs (a variant this size needs: its compile is in the frame) and its GPU passes
+    took under LONG_FRAME_MS.  Console lines as measured_ms's."""
+    built = programs_built(renderer)
+    with progress.step(what, expect_s, unknown=expect_s is None):
+        wall, gpu = frame_ms(renderer, technique, opts, lights, cam, size)
+    if programs_built(renderer) == built or gpu > LONG_FRAME_MS:
+        return wall
+    with progress.step(f"{what}, again (that frame compiled)", gpu / 1e3):
+        return timed_frame(renderer, technique, opts, lights, cam, size)
+
+
+def _refusal(refusals: Refusals, t, opts) -> str | None:
+    try:
+        return refusals.of(t, opts)
+    except UserError as exc:
+        return str(exc)
+
+
+def rank(renderer, able, lights, cam, size) -> tuple[list[str], dict[str, float]]:
+    """(the names of `able` [(technique, opts)], the likely fastest first, {name: wall ms of
+    its ranking frame at `size`}): two frames each at `size` (measured_ms: the first
+    compiles, or is its own measure when over LONG_FRAME_MS); one that refuses there (its
+    refusal() at this size, or its build) comes after the ranked ones, in the given order."""
+    refusals = Refusals([renderer.frame_input(0, 1, lights, frame_camera(cam, *size))])
+    ranked: dict[str, float] = {}
+    unranked: list[str] = []
+    last_s = None
+    for k, (t, opts) in enumerate(able, 1):
+        if _refusal(refusals, t, opts) is None:
+            try:
+                ms = measured_ms(renderer, t, opts, lights, cam, size,
+                                 f"ranking {k}/{len(able)}: {t.name} at {size[0]}x{size[1]}", last_s)
+            except UserError:
+                pass
+            else:
+                ranked[t.name], last_s = ms, ms / 1e3
+                continue
+        unranked.append(t.name)
+    order = sorted(ranked, key=ranked.get) + unranked      # stable: ties in the given order
+    progress.say(f"probe: ranked at {size[0]}x{size[1]}: "
+                 + ", ".join(f"{n} {duration(ranked[n])}" if n in ranked else f"{n} (refused there)"
+                             for n in order))
+    return order, ranked
+
+
 def fastest(renderer, candidates, opts_of, lights, cam, max_pixels: int = PROBE_PIXELS,
-            budget_s: float = PROBE_BUDGET_S):
+            budget_s: float | None = None):
     """(name of the fastest candidate, {name: wall ms at the probe size}, probe size,
     names not probed for want of time, {name: why it refused}).  `opts_of(technique)`
     gives its options.  A candidate that refuses (its options; a limit its refusal()
     names at the probe's size or the window's, then it is never built; a limit only its
-    build meets) is left out with its line; the renderer is back at its size afterwards."""
+    build meets) is left out with its line.  Two or more that take the frame are ranked
+    first (rank(): a frame each at RANK_SCALE of the probe size) and timed at the probe
+    size in that order (settled_ms) within `budget_s` from the first of those frames; a
+    lone one, or one that refused at the ranking's size, is timed with measured_ms (its
+    first frame compiles).  `budget_s` None: PROBE_BUDGET_S.  The renderer is back at its
+    size afterwards."""
+    budget_s = PROBE_BUDGET_S if budget_s is None else budget_s
     full = renderer.size
     size = _scaled(full, min(1.0, (max_pixels / (full[0] * full[1])) ** 0.5))
     sizes = [size] + ([full] if tuple(full) != tuple(size) else [])
@@ -136,34 +212,52 @@ def fastest(renderer, candidates, opts_of, lights, cam, max_pixels: int = PROBE_
     times: dict[str, float] = {}
     skipped: list[str] = []
     refused: dict[str, str] = {}
-    progress.say(f"probe: timing {len(candidates)} techniques at {size[0]}x{size[1]}, "
-                 f"{len(lights):,} lights (--technique NAME starts without the probe)")
-    t0, last_s = None, None     # the budget starts after the first compile frame: it pays what
-    try:                        # every technique shares (common kernels, the G-buffer's shaders)
-        for k, t in enumerate(candidates, 1):
+    able = {}                                           # name: (technique, options), given order
+    for t in candidates:
+        try:
+            opts = opts_of(t)
+        except UserError as exc:
+            refused[t.name] = str(exc)
+            continue
+        why = _refusal(refusals, t, opts)
+        if why:
+            refused[t.name] = why
+        else:
+            able[t.name] = (t, opts)
+    small = _scaled(size, RANK_SCALE)
+    line = f"{len(able)} techniques at {size[0]}x{size[1]}"
+    if len(able) > 1:
+        line += f", the likely fastest first (ranked by a frame each at {small[0]}x{small[1]})"
+    progress.say(f"probe: timing {line}, {len(lights):,} lights "
+                 f"(--technique NAME starts without the probe)")
+    try:
+        order, ranked = rank(renderer, list(able.values()), lights, cam, small) if len(able) > 1 \
+            else (list(able), {})
+        t0, last, last_s = time.perf_counter(), None, None  # the budget: after every compile frame
+        for k, name in enumerate(order, 1):
+            t, opts = able[name]
+            expect = times[last] * ranked[name] / max(ranked[last], 1e-3) \
+                if last is not None and name in ranked else None
+            if times and (time.perf_counter() - t0 > budget_s
+                          or (expect is not None and expect > budget_s * 1e3)):
+                skipped.append(name)
+                continue
+            what = f"probe {k}/{len(order)}: {name} at {size[0]}x{size[1]}"
             try:
-                opts = opts_of(t)
-                why = refusals.of(t, opts)
+                if name in ranked:
+                    ms = settled_ms(renderer, t, opts, lights, cam, size, what,
+                                    None if expect is None else expect / 1e3)
+                else:
+                    ms = measured_ms(renderer, t, opts, lights, cam, size, what, last_s)
             except UserError as exc:
-                why = str(exc)
-            if why:
-                refused[t.name] = why
+                refused[name] = str(exc)
                 continue
-            if t0 is not None and times and time.perf_counter() - t0 > budget_s:
-                skipped.append(t.name)
-                continue
-            start = time.perf_counter()
-            try:
-                ms = measured_ms(renderer, t, opts, lights, cam, size,
-                                 f"probe {k}/{len(candidates)}: {t.name} at {size[0]}x{size[1]}", last_s)
-            except UserError as exc:
-                refused[t.name] = str(exc)
-                continue
-            if t0 is None:      # a first frame that was its own measure spent the budget
-                t0 = start if ms > LONG_FRAME_MS else time.perf_counter() - ms / 1e3
-            times[t.name], last_s = ms, ms / 1e3
+            times[name], last_s = ms, ms / 1e3
+            if name in ranked:
+                last = name
     finally:
         renderer.resize(full)
+    refused = {t.name: refused[t.name] for t in candidates if t.name in refused}   # given order
     if not times:
         return None, times, size, skipped, refused
     return min(times, key=times.get), times, size, skipped, refused
