@@ -1,5 +1,6 @@
 """The start-up probe: its memory is only reused by the code and scene file that measured it;
-it leaves a technique that would refuse out before building it, and says why."""
+it leaves a technique that would refuse out before building it, and says why; it times the
+likely fastest first (ranked by a small frame each), so the budget leaves out the slow ones."""
 from types import SimpleNamespace
 
 import pytest
@@ -7,7 +8,7 @@ import pytest
 from app.errors import UserError
 from app.pipeline.passes import FrameInput
 from app.techniques import REGISTRY
-from app.techniques.base import visible_lights
+from app.techniques.base import Technique, register, unregister, visible_lights
 from app.window import probe
 from app.window.options import WindowOptions
 from cpu_prep.camera import frame_camera
@@ -157,3 +158,170 @@ def test_the_start_chooses_among_the_techniques_that_take_the_flags_together():
 
 def test_frame_times_read_in_the_unit_that_fits():
     assert [probe.duration(ms) for ms in (355.4, 1500.0, 395163.0)] == ["355 ms", "1.5 s", "395 s"]
+
+
+# ---- the probe's order: ranked by a small frame each, timed at the probe size in that order ----
+
+class Clock:
+    """probe.time's stand-in: the frames' costs on a fake clock, no wall-clock time."""
+
+    def __init__(self):
+        self.now = 0.0
+
+    def perf_counter(self):
+        return self.now
+
+    @staticmethod
+    def strftime(fmt):
+        return "then"
+
+
+class TimedRenderer(ProbeRenderer):
+    """ProbeRenderer whose frames cost `cost[name](pixels)` ms on `clock` (GPU ms the same),
+    `compile_ms` more for the frame that builds a technique's GL program: its first, and, for
+    one in `variants`, its first at each size (a size-dependent shader variant)."""
+
+    def __init__(self, scene, cost, clock, variants=(), compile_ms=5000.0, build_refuses=()):
+        super().__init__(scene, None, build_refuses)
+        self.cost, self.clock, self.variants, self.compile_ms = cost, clock, set(variants), compile_ms
+        self.programs = SimpleNamespace(sources={})
+        self.frames = []                                  # (name, size) of each frame
+
+    def render(self, technique, frame, opts, lights, readback, camera):
+        self.frames.append((technique.name, self.size))
+        super().render(technique, frame, opts, lights, readback, camera)
+        name = technique.name
+        keys = [(name,)] + ([(name, self.size)] if name in self.variants else [])
+        new = [k for k in keys if k not in self.programs.sources]
+        self.programs.sources.update(dict.fromkeys(new, "text"))
+        ms = self.cost[name](self.size[0] * self.size[1]) + self.compile_ms * len(new)
+        self.clock.now += ms / 1e3
+        return SimpleNamespace(meta={"gpu_ms": {"shade": ms}})
+
+
+SMALL, PROBE = (8, 8), (64, 36)          # RANK_SCALE of the fake's 64x36 (8 pixels at least)
+
+
+def per_pixel(ms, fixed=0.0):
+    return lambda pixels: fixed + ms * pixels
+
+
+@pytest.fixture
+def timed(monkeypatch):
+    """(scene, make(cost, **kw) -> a TimedRenderer on a fake clock that probe.time reads)."""
+    clock = Clock()
+    monkeypatch.setattr(probe, "time", clock)
+    scene = load_scene("city", lights=64)
+    return scene, lambda cost, **kw: TimedRenderer(scene, cost, clock, **kw)
+
+
+def probed(r, scene, names, budget_s):
+    ts = [n if isinstance(n, Technique) else REGISTRY[n] for n in names]
+    return probe.fastest(r, ts, lambda t: t.Options(), scene.lights, scene.camera, budget_s=budget_s)
+
+
+def test_a_slow_technique_listed_first_is_timed_last_and_left_out_for_time(timed):
+    # tiled first in the registry and 10x clustered's cost: the registry's order would time
+    # it alone; ranked by a frame each at 8x8, clustered and tree are timed first (23 + 69 ms),
+    # and the budget (80 ms from the first frame at 64x36: the compile frames, 5 s each,
+    # are behind) is spent before hybrid, ranked a little slower than tree, and tiled
+    scene, make = timed
+    r = make({"tiled": per_pixel(0.1), "clustered": per_pixel(0.01), "tree": per_pixel(0.03),
+              "hybrid": per_pixel(0.031)})
+    names = ["tiled", "clustered", "tree", "hybrid"]
+    name, times, size, skipped, refused = probed(r, scene, names, 0.08)
+    assert name == "clustered" and list(times) == ["clustered", "tree"] and skipped == ["hybrid", "tiled"]
+    assert size == PROBE and not refused and r.size == PROBE
+    assert r.frames == ([(n, SMALL) for n in names for _ in (0, 1)]
+                        + [("clustered", PROBE), ("tree", PROBE)])
+    assert times["clustered"] == pytest.approx(0.01 * 64 * 36)       # one frame, no compile in it
+
+
+def test_a_technique_expected_over_the_whole_budget_is_not_started(timed):
+    # tiled's ranking frame says 10x clustered's: 230 ms expected at the probe size, over the
+    # 100 ms budget although clustered's 23 ms left most of it
+    scene, make = timed
+    r = make({"tiled": per_pixel(0.1), "clustered": per_pixel(0.01)})
+    name, times, _, skipped, _ = probed(r, scene, ["tiled", "clustered"], 0.1)
+    assert name == "clustered" and list(times) == ["clustered"] and skipped == ["tiled"]
+    assert [f for f in r.frames if f[1] == PROBE] == [("clustered", PROBE)]
+
+
+def test_the_order_follows_the_ranking_frames_and_the_choice_the_probe_size(timed):
+    # costs falling in registry order: timed in the reverse order.  hybrid ranks first at
+    # 8x8 (no fixed cost) but zbin's fixed cost is a small share at 64x36: zbin is chosen
+    scene, make = timed
+    names = ["tiled", "clustered", "tree", "hybrid", "zbin"]
+    cost = {n: per_pixel(0.05 - 0.01 * k) for k, n in enumerate(names[:3])}
+    cost["hybrid"] = per_pixel(0.01)
+    cost["zbin"] = per_pixel(0.005, fixed=1.0)
+    r = make(cost)
+    name, times, _, skipped, _ = probed(r, scene, names, 1e9)
+    assert list(times) == ["hybrid", "zbin", "tree", "clustered", "tiled"] and not skipped
+    assert name == "zbin"
+    assert [f for f in r.frames if f[1] == SMALL] == [(n, SMALL) for n in names for _ in (0, 1)]
+
+
+def test_a_variant_built_at_the_probe_size_gets_a_second_frame_there(timed):
+    scene, make = timed
+    r = make({"clustered": per_pixel(0.01), "hybrid": per_pixel(0.02)}, variants=["hybrid"])
+    _, times, _, _, _ = probed(r, scene, ["clustered", "hybrid"], 1e9)
+    assert [f for f in r.frames if f[1] == PROBE] == [("clustered", PROBE)] + [("hybrid", PROBE)] * 2
+    assert times["hybrid"] == pytest.approx(0.02 * 64 * 36)          # not its compile frame
+
+
+def test_a_ranking_frame_over_the_long_frame_limit_is_its_own_rank(timed):
+    # tiled's first 8x8 frame takes 64 s (over LONG_FRAME_MS): no second one; last in the
+    # order, and expected far over the budget, it is never timed at the probe size
+    scene, make = timed
+    r = make({"tiled": per_pixel(1000.0), "clustered": per_pixel(0.01)}, compile_ms=1.0)
+    name, _, _, skipped, _ = probed(r, scene, ["tiled", "clustered"], 6.0)
+    assert name == "clustered" and skipped == ["tiled"]
+    assert r.frames == [("tiled", SMALL), ("clustered", SMALL), ("clustered", SMALL), ("clustered", PROBE)]
+
+
+def test_no_candidate_or_one_takes_no_ranking_frame(timed):
+    scene, make = timed
+    r = make({"clustered": per_pixel(0.01)})
+    assert probed(r, scene, [], 6.0) == (None, {}, PROBE, [], {}) and not r.frames
+    name, times, _, skipped, _ = probed(r, scene, ["clustered"], 6.0)
+    assert name == "clustered" and list(times) == ["clustered"] and not skipped
+    assert r.frames == [("clustered", PROBE)] * 2                     # the first compiles
+    assert times["clustered"] == pytest.approx(0.01 * 64 * 36)
+
+
+def test_refusals_are_left_out_unbuilt_and_a_lone_survivor_is_not_ranked(monkeypatch):
+    clock = Clock()
+    monkeypatch.setattr(probe, "time", clock)
+    scene, base = probe_setup()                     # tiled and zbin refuse at this loop budget
+    r = TimedRenderer(scene, {"clustered": per_pixel(0.01)}, clock)
+    r.loop_budget = base.loop_budget
+    name, _, _, skipped, refused = probed(r, scene, ["tiled", "clustered", "zbin"], 6.0)
+    assert name == "clustered" and not skipped and list(refused) == ["tiled", "zbin"]
+    assert r.frames == [("clustered", PROBE)] * 2
+
+
+class Slowpoke(Technique):
+    """A technique module nobody told the probe about, registered before every other."""
+    name = "slowpoke"
+
+
+def test_a_new_slow_technique_registered_first_is_the_one_the_start_skips(timed, capsys):
+    scene, make = timed
+    r = make({"slowpoke": per_pixel(0.1), "clustered": per_pixel(0.01), "tree": per_pixel(0.03)})
+    register(Slowpoke(), at=0)
+    try:
+        args = SimpleNamespace(scene="city", seed=0, distribution=None, reprobe=True)
+        with pytest.MonkeyPatch.context() as m:
+            m.setattr(probe, "PROBE_BUDGET_S", 0.08)
+            name, lines = probe.choose_start(args, r, ["slowpoke", "clustered", "tree"], WindowOptions({}),
+                                             lambda: scene.lights, scene.camera, probe.FrameCosts())
+    finally:
+        unregister("slowpoke")
+    assert name == "clustered" and len(lines) == 1
+    assert lines[0].startswith("started on clustered, the fastest of those probed (clustered 23 ms, tree 69 ms; ")
+    assert lines[0].endswith("; not probed for time: slowpoke)")
+    err = capsys.readouterr().err.splitlines()
+    assert "window: probe: timing 3 techniques at 64x36, the likely fastest first (ranked by a frame " \
+           "each at 8x8), 64 lights (--technique NAME starts without the probe)" in err
+    assert "window: probe: ranked at 8x8: clustered 1 ms, tree 2 ms, slowpoke 6 ms" in err
