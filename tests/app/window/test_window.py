@@ -344,7 +344,7 @@ def test_record_replay_and_bench_along_the_path(tmp_path):
 
 
 def test_slow_technique_is_announced_before_it_renders():
-    proc = run(["app.window", "--window", "headless", "--scene", "city", "--lights", "32768",
+    proc = run(["app.window", "--window", "headless", "--scene", "city", "--lights", "8192",
                 "--size", "160x90", "--technique", "brute", "--frames", "1"])
     assert proc.returncode == 0, proc.stderr
     assert "slow: brute needs about" in proc.stderr
