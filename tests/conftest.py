@@ -22,9 +22,11 @@ its own session fixtures.  What the workers would share is made safe, or made th
 
 Tests of a module whose module-scoped fixture is expensive (the concurrent CLI runs of
 test_bad_input and test_long_run, the bench sweep, a rendered frame) share one worker, so
-that fixture runs once (GROUPED below, scheduled as groups under --dist loadgroup).
+that fixture runs once (GROUPED below, scheduled as groups under --dist loadgroup); so do
+the tests of one builtin scene that share its reference frame (SHARED_REFERENCE).
 """
 import os
+import re
 import shutil
 import tempfile
 
@@ -66,6 +68,25 @@ def _lock_numba_cache_saves() -> None:
 GROUPED = ("tests/app/test_bad_input.py", "tests/app/test_long_run.py",
            "tests/app/bench/test_bench_sweep.py", "tests/app/techniques/test_zbin_technique.py",
            "tests/app/window/test_present.py")
+
+# Tests that share one reference frame (tests.helpers.builtin_reference: rendered once per
+# process) run on one worker: node id pattern -> the scope's name ({0}: the pattern's group).
+SHARED_REFERENCE = (
+    (r"tests/app/techniques/test_exactness\.py::test_builtin_scenes_are_exact\[(\w+)-uniform\]$",
+     "reference {0}"),
+    (r"tests/app/techniques/test_tree_options\.py::test_options_exact_on_every_scene\[(\w+)\]$",
+     "reference {0}"),
+    (r"tests/app/techniques/test_exactness\.py::test_options_keep_exactness\[", "reference arena 4096"),
+)
+
+
+def shared_reference_scope(nodeid: str) -> str | None:
+    for pattern, scope in SHARED_REFERENCE:
+        m = re.match(pattern, nodeid)
+        if m:
+            return scope.format(*m.groups())
+    return None
+
 
 MAX_WORKERS = 8     # each worker holds a GL context, its shaders and numba kernels (0.3-0.8 GB)
 
@@ -113,7 +134,9 @@ def pytest_xdist_make_scheduler(config, log):
     class Grouped(LoadGroupScheduling):
         def _split_scope(self, nodeid: str) -> str:
             path = nodeid.split("::", 1)[0]
-            return path if path in GROUPED else super()._split_scope(nodeid)
+            if path in GROUPED:
+                return path
+            return shared_reference_scope(nodeid) or super()._split_scope(nodeid)
 
     return Grouped(config, log)
 

@@ -1,6 +1,7 @@
 """Scene builders and the exactness check used across the tests."""
 from __future__ import annotations
 
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -196,6 +197,21 @@ def render_on(renderer, opts: dict | None = None, techniques=None, reference=Non
         out[with_role("reference").name] = reference
     out.explained = explain(out, renderer, opts, dict(kw, frame=frame))
     return out
+
+
+@lru_cache(maxsize=8)
+def builtin_reference(name: str, lights: int, seed: int, distribution: str,
+                      size: tuple[int, int]):
+    """(scene, the reference's result of its frame 0 at `size`) for one draw of a builtin
+    scene, rendered once per test process: the tests that check every technique and every
+    option set on the builtin scenes share it (the reference takes none of their options),
+    and tests/conftest.py schedules the tests of one scene on one worker (SHARED_SCENE)."""
+    from app.pipeline.renderer import Renderer
+    from scenes import load_scene
+    scene = load_scene(name, lights=lights, seed=seed, distribution=distribution)
+    scene.resolution = tuple(size)
+    with Renderer(scene) as r:
+        return scene, r.render(with_role("reference"))
 
 
 def render_all(scene, opts: dict | None = None, techniques=None, **kw) -> Results:

@@ -8,3 +8,22 @@ from pathlib import Path
 def test_test_module_names_are_unique():
     names = Counter(p.name for p in Path(__file__).parent.rglob("test_*.py"))
     assert not [n for n, k in names.items() if k > 1], names.most_common(3)
+
+
+def test_shared_reference_scopes_name_real_tests():
+    """conftest's SHARED_REFERENCE patterns match the node ids of the tests that share a
+    reference frame: a renamed test or parameter would otherwise spread them over workers
+    again, each rendering the reference itself."""
+    import subprocess
+    import sys
+    from conftest import shared_reference_scope
+    from scenes import BUILTIN_SCENES
+    root = Path(__file__).parent
+    ids = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", "-n", "0",
+                          str(root / "app/techniques/test_exactness.py"),
+                          str(root / "app/techniques/test_tree_options.py")],
+                         capture_output=True, text=True, cwd=root.parent).stdout.split()
+    scopes = Counter(shared_reference_scope(i) for i in ids if "::" in i)
+    for name in BUILTIN_SCENES:       # the exactness check's uniform draw and the tree options
+        assert scopes[f"reference {name}"] == 2, (name, scopes)
+    assert scopes["reference arena 4096"] >= 10, scopes

@@ -5,9 +5,12 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
+from app.pipeline.renderer import Renderer
+from app.techniques import REGISTRY, with_role
 from scenes import BUILTIN_SCENES, load_scene
 from scenes.model import Camera
-from tests.helpers import assert_exact, make_scene, random_lights, render_all
+from tests.helpers import (assert_exact, builtin_reference, make_scene, random_lights, render_all,
+                           render_on)
 
 SIZE = (192, 108)
 
@@ -15,11 +18,16 @@ SIZE = (192, 108)
 @pytest.mark.parametrize("distribution", ["uniform", "geometry"])
 @pytest.mark.parametrize("name", list(BUILTIN_SCENES))
 def test_builtin_scenes_are_exact(gl, name, distribution):
-    scene = load_scene(name, lights=8192, seed=1, distribution=distribution)
-    scene.resolution = SIZE
-    results = render_all(scene)
+    scene, ref = builtin_reference(name, 8192, 1, distribution, SIZE)
+    with Renderer(scene) as r:
+        results = render_on(r, None, _techniques(), reference=ref)
     assert_exact(results, f"{name}/{distribution}")
-    assert results["brute"].contrib_count.sum() > 0, "scene lights touch nothing: test is void"
+    assert ref.contrib_count.sum() > 0, "scene lights touch nothing: test is void"
+
+
+def _techniques() -> list[str]:
+    """Every registered technique but the reference (rendered once, builtin_reference)."""
+    return [n for n in REGISTRY if n != with_role("reference").name]
 
 
 @pytest.mark.parametrize("opts", [
@@ -30,16 +38,15 @@ def test_builtin_scenes_are_exact(gl, name, distribution):
     ids=["t16s8", "t64s24", "duplicated", "buckets", "tiny-leaves", "tree-heavy", "native-wave", "t20",
          "scalarized-cells", "scalarized-cells-native", "general-paths"])
 def test_options_keep_exactness(gl, opts):
-    scene = load_scene("arena", lights=4096, seed=3)
-    scene.resolution = SIZE
-    assert_exact(render_all(scene, opts), str(opts))
+    assert not set(opts) & set(with_role("reference").Options.names())    # one reference for all
+    scene, ref = builtin_reference("arena", 4096, 3, None, SIZE)
+    with Renderer(scene) as r:
+        assert_exact(render_on(r, opts, _techniques(), reference=ref), str(opts))
 
 
 def test_camera_path_frames_are_exact(gl):
     scene = load_scene("city", lights=4096, seed=2)
     scene.resolution = (160, 90)
-    from app.pipeline.renderer import Renderer
-    from app.techniques import REGISTRY
     with Renderer(scene) as r:
         for frame in (5, 17, 40):
             assert_exact({n: r.render(t, frame, frames=48) for n, t in REGISTRY.items()}, f"frame {frame}")
