@@ -416,17 +416,37 @@ def _raster_counters(build, got):
     hi = depth[:, 1].view(np.float32).reshape(g.tiles_y, g.tiles_x)
     covered = depth[:, 1].reshape(g.tiles_y, g.tiles_x) != 0
     unmarked = np.nonzero((per_light == 0) & (rect_tiles > 0))[0]
-    occluded = 0
-    for i in unmarked:         # would a tile depth-bounds test (tiled) keep the light?
-        x0, x1, y0, y1 = boxes[i, :4]
-        sl = np.s_[y0:y1 + 1, x0:x1 + 1]
-        keep = covered[sl] & (lo[sl] <= pl.depth_hi[i]) & (hi[sl] >= pl.depth_lo[i])
-        occluded += bool(keep.any())
+    occluded = _kept_by_tile_depth(boxes[unmarked], pl.depth_lo[unmarked], pl.depth_hi[unmarked],
+                                   covered, lo, hi)
     build.stats.update(
         raster_fragments=int(c[0]), raster_atomics=int(c[1]), raster_marks=int(per_light.sum()),
         rect_marks=int(rect_tiles.sum()), unmarked_lights=int(len(unmarked)),
         occluded_lights=int(occluded), raster_pixel_marks=int(c[2]))
     return {}, []
+
+
+def _kept_by_tile_depth(boxes, depth_lo, depth_hi, covered, lo, hi,
+                        pairs_per_step: int = 1 << 22) -> int:
+    """How many of these lights a tile depth-bounds test (tiled's) would keep: some covered
+    tile of the light's rectangle (boxes: x0, x1, y0, y1 inclusive) whose depth range meets
+    the light's.  Every (light, tile) pair at once, in steps of at most `pairs_per_step`
+    pairs (one light's rectangle may be the whole screen)."""
+    w = (boxes[:, 1] - boxes[:, 0] + 1).astype(np.int64)
+    h = (boxes[:, 3] - boxes[:, 2] + 1).astype(np.int64)
+    n = w * h
+    ends = np.cumsum(n)
+    kept, first = 0, 0
+    while first < len(n):
+        last = max(first + 1, int(np.searchsorted(ends, ends[first] - n[first] + pairs_per_step, "right")))
+        own = np.repeat(np.arange(first, last), n[first:last])
+        starts = ends[first:last] - n[first:last]
+        k = np.arange(len(own)) + starts[0] - np.repeat(starts, n[first:last])   # tile of its box
+        tx = boxes[own, 0] + k % w[own]
+        ty = boxes[own, 2] + k // w[own]
+        keep = covered[ty, tx] & (lo[ty, tx] <= depth_hi[own]) & (hi[ty, tx] >= depth_lo[own])
+        kept += len(np.unique(own[keep]))
+        first = last
+    return kept
 
 
 # ---- the slides' figures beside this run's (app/report/notes.py) ------------------------

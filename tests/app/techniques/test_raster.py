@@ -488,3 +488,26 @@ def test_notes_set_the_slides_tables_beside_the_run(gl):
     assert "tiles evaluate 4.5 lights a pixel" in text and "17 lights a pixel with the depth bound" in text
     assert "leaves the evaluations as they are" in text and "500 atomics against 700" in text
     assert "32 px clusters against 8 px tiles" in text
+
+
+def test_occluded_lights_count_equals_the_per_light_test():
+    """The unmarked lights a tile depth-bounds test would keep (meta occluded_lights), counted
+    over every (light, tile) pair at once in steps, against the plain per-light test: random
+    grids, rectangles up to the whole grid, steps from one pair to all."""
+    from app.techniques.raster import _kept_by_tile_depth
+    rng = np.random.default_rng(1)
+    for _ in range(100):
+        ty, tx = (int(v) for v in rng.integers(1, 30, 2))
+        covered = rng.random((ty, tx)) < 0.7
+        lo = rng.uniform(0, 50, (ty, tx)).astype(np.float32)
+        hi = lo + rng.uniform(0, 20, (ty, tx)).astype(np.float32)
+        m = int(rng.integers(0, 60))
+        x0, y0 = rng.integers(0, tx, m), rng.integers(0, ty, m)
+        x1, y1 = np.minimum(x0 + rng.integers(0, tx, m), tx - 1), np.minimum(y0 + rng.integers(0, ty, m), ty - 1)
+        boxes = np.column_stack([x0, x1, y0, y1]).astype(np.int32)
+        dl = rng.uniform(0, 60, m).astype(np.float32)
+        dh = dl + rng.uniform(0, 10, m).astype(np.float32)
+        want = sum(bool((covered[sl] & (lo[sl] <= dh[i]) & (hi[sl] >= dl[i])).any())
+                   for i in range(m) for sl in [np.s_[y0[i]:y1[i] + 1, x0[i]:x1[i] + 1]])
+        for step in (1, 7, 1 << 22):
+            assert _kept_by_tile_depth(boxes, dl, dh, covered, lo, hi, step) == want
