@@ -11,6 +11,7 @@ from app.bench.cpu import GROWTH
 from app.results import CPU_PREFIX, columns, option_studies, read_csv
 from app.techniques import REGISTRY, with_role
 from app.techniques.base import Technique
+from tests.app.techniques.test_frame_graph import Throwaway, registered
 
 TINY = ["--quick", "--size", "64x36", "--scenes", "arena", "--frames", "1", "--lights", "256",
         "--repeat", "1", "--cpu-lights", "256", "--cpu-size", "96x54", "--growth-lights", "256,512"]
@@ -21,9 +22,21 @@ FIXED_PLOTS = ("accuracy_cost.png", "gpu_path.png", "cpu_stages.png", "heatmaps.
 
 @pytest.fixture(scope="module")
 def sweep(gl, tmp_path_factory):
+    """The tiny sweep, with test_frame_graph's throw-away technique registered: a technique
+    module takes part in every study with no other file changed (the registry is its
+    only link), checked by every test here against REGISTRY."""
     out = tmp_path_factory.mktemp("bench")
-    bench.main(TINY + ["--out", str(out)])
-    return out, read_csv(out / "results.csv")
+    with registered(Throwaway()):
+        bench.main(TINY + ["--out", str(out)])
+        yield out, read_csv(out / "results.csv")
+
+
+def test_a_new_technique_module_takes_part(sweep):
+    out, rows = sweep
+    mine = [r for r in rows if r["technique"] == "throwaway"]
+    assert {r["study"] for r in mine} >= {"path", "cutoff", "cpu"}
+    assert all(r["mismatch_count"] == 0 and r["mismatch_hash"] == 0 for r in mine if r["study"] == "path")
+    assert "throwaway" in (out / "report.md").read_text()
 
 
 def test_results_columns_and_rows(sweep):
