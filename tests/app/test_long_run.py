@@ -9,7 +9,8 @@
   before and after the run shows how many objects of its kind were created in between.
 - Creating and releasing renderers (scene switches) returns their GL objects.
 - Determinism: the same scene, seed and technique give a bit-identical dump, across two
-  capture processes and across renderers in one process.
+  processes (a capture subprocess and the capture's entry point in the test process) and
+  across renderers in one process.
 """
 from __future__ import annotations
 
@@ -152,14 +153,29 @@ def _capture(technique: str, out: Path) -> subprocess.CompletedProcess:
                           timeout=300)
 
 
+def _capture_here(technique: str, out: Path) -> subprocess.CompletedProcess:
+    """The same capture through its entry point in this (the test) process: another
+    process than the subprocess's, with its own GL context and everything run before it."""
+    import contextlib
+    import io
+    from app import capture
+    argv = [*CAPTURE, "--technique", technique, "--dump", str(out)]
+    stdout = io.StringIO()
+    with contextlib.redirect_stdout(stdout):
+        capture.main(argv)
+    return subprocess.CompletedProcess(argv, 0, stdout.getvalue(), "")
+
+
 @pytest.fixture(scope="module")
-def dumps(tmp_path_factory):
-    """Two capture processes per technique, all run concurrently: {technique: (a, b)}."""
+def dumps(gl, tmp_path_factory):
+    """Each technique captured in two processes: a capture subprocess (all of them
+    concurrently) and this one: {technique: (a, b)}."""
     d = tmp_path_factory.mktemp("dumps")
     jobs = {(n, i): d / f"{n}-{i}.npz" for n in REGISTRY for i in (0, 1)}
     with ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2)) as ex:
-        procs = {k: ex.submit(_capture, k[0], p) for k, p in jobs.items()}
-        procs = {k: f.result() for k, f in procs.items()}
+        procs = {(n, 0): ex.submit(_capture, n, jobs[(n, 0)]) for n in REGISTRY}
+        here = {(n, 1): _capture_here(n, jobs[(n, 1)]) for n in REGISTRY}
+        procs = {**here, **{k: f.result() for k, f in procs.items()}}
     for k, p in procs.items():
         assert p.returncode == 0, f"capture {k} failed: {p.stderr}"
     return {n: tuple((read_dump(jobs[(n, i)]), json.loads(procs[(n, i)].stdout)) for i in (0, 1))
