@@ -117,10 +117,11 @@ def test_builtin_frames_at_full_hd(scene, lights):
         grid = gridmod.make_grid(cam, 48, 16, sc.max_depth, 5.0)
         box = ref.boxes(grid, pl.rect, pl.depth_lo, pl.depth_hi)
         o, e = cpuframe.bin_cells(pl, cam, grid, cpuframe.StageTimes())
-        assert np.array_equal(o[1:] - o[:-1], np.bincount(
-            [(ty * grid.tiles_x + tx) * grid.slices + s for x0, x1, y0, y1, s0, s1 in box.tolist()
-             for ty in range(y0, y1 + 1) for tx in range(x0, x1 + 1) for s in range(s0, s1 + 1)],
-            minlength=grid.cells))
+        want = np.zeros((grid.tiles_y, grid.tiles_x, grid.slices), np.int64)
+        for x0, x1, y0, y1, s0, s1 in box.tolist():      # each box's cells, one slice op a box
+            if x0 <= x1 and y0 <= y1 and s0 <= s1:         # (an empty box may end below 0)
+                want[y0:y1 + 1, x0:x1 + 1, s0:s1 + 1] += 1
+        assert np.array_equal(o[1:] - o[:-1], want.reshape(-1))
         is_tree = ref.choose(grid, o, e, pl.depth_lo, pl.depth_hi, sc.max_depth)
         got = hybrid.plan_and_build(grid, o, e, pl.depth_lo, pl.depth_hi, sc.max_depth, 1.0, 6, 64)
         assert same(got[3], is_tree)
