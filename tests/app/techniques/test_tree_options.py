@@ -109,7 +109,7 @@ def test_options_exact_on_every_scene(gl, name):
     rendered once for both: tests.helpers.builtin_reference)."""
     brute = with_role("reference").name
     assert not set().union(*EXACT_OPTIONS.values()) & set(REGISTRY[brute].Options.names())
-    scene, ref = builtin_reference(name, 8192, 1, "uniform", (192, 108))    # test_exactness's
+    scene, ref = builtin_reference(name, 8192, 1, "uniform", (160, 90))    # test_exactness's
     with Renderer(scene) as r:
         for key, opts in EXACT_OPTIONS.items():
             got = render_on(r, opts, ["tree", "hybrid"], reference=ref)
