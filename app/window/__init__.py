@@ -8,9 +8,10 @@ panel (imgui-bundle, through moderngl-window's integration).
                          [technique options] [--window pyglet|glfw|headless] [--backend egl]
 
 Start: without --technique, the fastest exact technique for the scene (probe.fastest: every
-technique but the reference and the floor, two frames each at the window's size, at most
-960x540 pixels; one that would refuse the frame, Technique.refusal, is left out unbuilt and
-named with its limit; a technique is never named here).  A technique whose frame is predicted
+technique but the reference and the floor, ranked by two frames each at 1/64 of the probe's
+pixels, then timed at the window's size, at most 960x540 pixels, in that order within the
+budget; one that would refuse the frame, Technique.refusal, is left out unbuilt and named
+with its limit; a technique is never named here).  A technique whose frame is predicted
 over a second is announced in the HUD before it renders; start-up work over a second has a
 console line (progress.py).
 
