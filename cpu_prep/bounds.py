@@ -109,7 +109,7 @@ def project_axis_general(ca, cz, r, near_z, tan_half):
     return lo, hi
 
 
-@numba.njit(inline="always")
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def pixel_rect(cx, cy, cz, r, near, tan_x, tan_y, width, height):
     """Pixel rectangle (x0, x1, y0, y1), GL convention (y up), continuous pixel units,
     PIXEL_MARGIN included, of the sphere's part in front of the near plane."""
@@ -174,7 +174,7 @@ SHAPE_PIECES = 4              # spheres covering a capsule's segment
 WIDE_CONE_COS = 0.2           # past ~78 degrees a cone's pyramid is wider than its sphere
 
 
-@numba.njit(inline="always")
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def spot_pyramid(px, py, pz, dx, dy, dz, radius, cos_outer, near, tan_x, tan_y, width, height):
     """Bounds of the square pyramid around a spot's volume (the cone of half-angle a cut by
     the sphere): apex at the light, axis `radius` long, half side radius * tan(a) at its
@@ -202,7 +202,7 @@ def _cover(x0, x1, y0, y1, d0, d1, cx, cy, cz, r, near, tan_x, tan_y, width, hei
             min(d0, -cz - r), max(d1, -cz + r))
 
 
-@numba.njit(inline="always")
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def capsule_pieces(px, py, pz, dx, dy, dz, radius, length, near, tan_x, tan_y, width, height):
     """Bounds of SHAPE_PIECES spheres along the segment, each of the capsule radius plus half
     its piece of the segment (so it holds the capsule around that piece)."""
@@ -237,7 +237,7 @@ def _corner(k, px, py, pz, rx, ry, rz, ux, uy, uz, dx, dy, dz, ex, ey, ez, back)
             pz + rz * sx + uz * sy + dz * sz)
 
 
-@numba.njit(inline="always")
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def box_bounds(px, py, pz, dx, dy, dz, rx, ry, rz, ex, ey, ez, near, tan_x, tan_y, width, height,
                back=1.0):
     """Bounds of the oriented box's part in front of the near plane: its corners in front, and
@@ -300,6 +300,9 @@ def shape_bounds_call(t, px, py, pz, dx, dy, dz, rx, ry, rz, radius, cos_outer, 
     inline="always" function by copying its IR at every call site, and shape_bounds' tree
     of inlined covers (eight box corners, the cone, the capsule) made the pack's two kernels
     take 30-80 s each to compile (cold test runs, a fresh clone); called, it compiles once,
-    and the common path's SIMD helpers stay inlined.  The same IEEE operations either way."""
+    and the common path's SIMD helpers stay inlined.  The covers it reaches (pixel_rect,
+    spot_pyramid, capsule_pieces, box_bounds) are plain calls too, for the same reason: as
+    inlined IR (pixel_rect twice, box_bounds twice, project_axis four times) this function
+    alone took 12 s to compile cold, as calls 4 s.  The same IEEE operations either way."""
     return shape_bounds(t, px, py, pz, dx, dy, dz, rx, ry, rz, radius, cos_outer, length, ex, ey, ez,
                         cx, cy, cz, r, near, tan_x, tan_y, width, height)
