@@ -198,7 +198,7 @@ def _emit(L, base, bf_min, bf_max, bf_first, bf_count, tab_order, tab_skip, tab_
         nodes_u[base + q, NODE_BITS] = node_bits(leaf, bf_count[src] * leaf, skip)
 
 
-@numba.njit(inline="always")
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _build_range(c_begin, c_end, offsets, entries, depth_lo, depth_hi, leaves, plan,
                  is_tree, slice_lo, slice_hi, slices, radius_scale, lights_per_leaf,
                  max_leaves, scratch, tab_order, tab_skip, tab_off, nodes_f, nodes_u,
@@ -269,11 +269,14 @@ def _build_range(c_begin, c_end, offsets, entries, depth_lo, depth_hi, leaves, p
 def _build1(offsets, entries, depth_lo, depth_hi, leaves, plan, is_tree, slice_lo, slice_hi,
             slices, radius_scale, lights_per_leaf, max_leaves, scratch, tab_order, tab_skip,
             tab_off, nodes_f, nodes_u, ranges_u, topdown, node_cost, n_max):
-    """One thread: every cell in order, trees back to back.  Returns the node count."""
-    return _build_range(0, offsets.shape[0] - 1, offsets, entries, depth_lo, depth_hi, leaves,
+    """One thread: every cell in order, trees back to back.  Returns the node count.
+    (_build_range is a plain call, one compiled body for this and _build_chunks, not numba-
+    inlined into each; its first cell and base node are typed zeros, np.int64(0), since a
+    call's literal argument would be a specialization of its own.)"""
+    return _build_range(np.int64(0), offsets.shape[0] - 1, offsets, entries, depth_lo, depth_hi, leaves,
                         plan, is_tree, slice_lo, slice_hi, slices, radius_scale,
                         lights_per_leaf, max_leaves, scratch, tab_order, tab_skip, tab_off,
-                        nodes_f, nodes_u, ranges_u, 0, topdown, node_cost, n_max)
+                        nodes_f, nodes_u, ranges_u, np.int64(0), topdown, node_cost, n_max)
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
