@@ -369,14 +369,13 @@ def _row_nt(rows, j, tmp, jj, i, t):
         store4_nt(rows, j, w, a, b, c, d)
 
 
-# (inlined, not a call: as a plain call it compiles ~3 s faster cold, but the warm pack
-# took 0.5 ms more at 65,536 lights, min 3.2-3.5 against 2.7-2.8 ms, two interleaved runs.
-# The radix sort's h.max() as a loop, ~0.7 s less cold, cost its warm sort ~0.05 ms: kept.)
-@numba.njit(inline="always")
-def _pack_block(j0, j1, lights, sorted_ids, m, near, tan_x, tan_y, width, height,
-                rows, types, sphere, rect, bound, lo, hi, tmp, kind, slow):
-    """Lights j0 .. j1-1 of the depth order, as a few loops over the block.  The scalar
-    loops gather scene records and write the GPU rows, one 16-byte field at a time with
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _pack_chunks(claim, chunks, lights, sorted_ids, m, near, tan_x, tan_y, width, height,
+                 rows, types, sphere, rect, bound, lo, hi):
+    """The blocks of the chunks this thread claims (cpu_prep.share).
+
+    Each block, lights j0 .. j1-1 of the depth order, as a few loops over the block.  The
+    scalar loops gather scene records and write the GPU rows, one 16-byte field at a time with
     streaming stores (through the word offsets generated from the dtype); the arithmetic of
     the common case runs in loops over block temporaries laid out one array per value,
     which LLVM turns into SIMD code (the view transform, the direction's square root and
@@ -385,93 +384,6 @@ def _pack_block(j0, j1, lights, sorted_ids, m, near, tan_x, tan_y, width, height
     a shape with its own cover) are then redone by the scalar functions: every value is
     the one _view_light() and shape_bounds() give, bit for bit (the same IEEE operations
     in the same order; no fastmath, so no reassociation or fused multiply-add)."""
-    nb = j1 - j0
-    J0 = np.uint64(j0)
-    # 1. gather: scene record -> temporaries, and the GPU row's fields copied from it
-    for j in range(J0, np.uint64(j1)):                 # unsigned: no wraparound code
-        jj = j - J0
-        prefetch_ahead(lights, sorted_ids, j)
-        i = sorted_ids[j] & np.uint64(0xFFFFFFFF)
-        li = lights[i]
-        tmp[_WX, jj], tmp[_WY, jj], tmp[_WZ, jj] = float(li.position[0]), float(li.position[1]), float(li.position[2])
-        tmp[_UX, jj], tmp[_UY, jj], tmp[_UZ, jj] = float(li.direction[0]), float(li.direction[1]), float(li.direction[2])
-        tmp[_RAD, jj], tmp[_COS, jj], tmp[_LEN, jj] = float(li.radius), float(li.cos_outer), float(li.length)
-        tmp[_EX, jj], tmp[_EY, jj], tmp[_EZ, jj] = float(li.extent[0]), float(li.extent[1]), float(li.extent[2])
-        t = li.type
-        kind[jj] = t
-        types[j] = t
-        slow[jj] = 0 if sphere_only(t, float(li.cos_outer), float(li.length)) else 1
-        tmp[_CR, jj], tmp[_CG, jj] = li.color[0] * li.intensity, li.color[1] * li.intensity
-        tmp[_CB, jj], tmp[_CIN, jj] = li.color[2] * li.intensity, li.cos_inner
-    # 2. SIMD: view transform, unit direction, a point light's culling sphere
-    m00, m01, m02, m03 = m[0, 0], m[0, 1], m[0, 2], m[0, 3]
-    m10, m11, m12, m13 = m[1, 0], m[1, 1], m[1, 2], m[1, 3]
-    m20, m21, m22, m23 = m[2, 0], m[2, 1], m[2, 2], m[2, 3]
-    for jj in range(np.uint64(nb)):
-        x, y, z = tmp[_WX, jj], tmp[_WY, jj], tmp[_WZ, jj]
-        # (np.float64, not float(): numba's float() of a float32 stays a float32)
-        px = np.float64(np.float32(m00 * x + m01 * y + m02 * z + m03))
-        py = np.float64(np.float32(m10 * x + m11 * y + m12 * z + m13))
-        pz = np.float64(np.float32(m20 * x + m21 * y + m22 * z + m23))
-        x, y, z = tmp[_UX, jj], tmp[_UY, jj], tmp[_UZ, jj]
-        ux, uy, uz = (m00 * x + m01 * y + m02 * z, m10 * x + m11 * y + m12 * z,
-                      m20 * x + m21 * y + m22 * z)
-        ux, uy, uz = _unit(ux, uy, uz)
-        tmp[_PX, jj], tmp[_PY, jj], tmp[_PZ, jj] = px, py, pz
-        tmp[_DX, jj], tmp[_DY, jj], tmp[_DZ, jj] = np.float32(ux), np.float32(uy), np.float32(uz)
-        tmp[_RX, jj], tmp[_RY, jj], tmp[_RZ, jj] = 0.0, 0.0, 0.0
-        tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj] = px, py, pz
-        tmp[_R, jj] = grow(tmp[_RAD, jj], px, py, pz)
-    # 3. scalar: the other shapes' spheres (and a box's right axis); the rows' view fields
-    for j in range(J0, np.uint64(j1)):
-        jj = j - J0
-        if kind[jj] != LIGHT_POINT:
-            li = lights[sorted_ids[j] & np.uint64(0xFFFFFFFF)]
-            _, _, _, _, _, _, rx, ry, rz, cx, cy, cz, r = _view_light_call(li, m)
-            tmp[_RX, jj], tmp[_RY, jj], tmp[_RZ, jj] = rx, ry, rz
-            tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj], tmp[_R, jj] = cx, cy, cz, r
-        # the whole row, its 16-byte fields in memory order, so that the streaming stores of
-        # consecutive rows fill whole cache lines in the write-combining buffers
-        _row_nt(rows, j, tmp, jj, sorted_ids[j] & np.uint64(0xFFFFFFFF), kind[jj])
-        cx, cy, cz, r = tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj], tmp[_R, jj]
-        store4_nt(sphere, j, 0, cx, cy, cz, r)     # (not read again in the CPU stage)
-        # float32, rounded outwards: the GPU's float32 comparisons stay conservative.
-        # (The stored centre's rounding is in grow()'s 4-ulp term; round the radius up.)
-        store4_nt(bound, j, 0, np.float32(cx), np.float32(cy), np.float32(cz), next_up_f32(np.float32(r)))
-    # 4. SIMD: the rectangle and depth range of a sphere in front of the near plane
-    zn = -near
-    for jj in range(np.uint64(nb)):
-        cx, cy, cz, r = tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj], tmp[_R, jj]
-        lx, hx = project_axis_ahead(cx, cz, r, tan_x)
-        ly, hy = project_axis_ahead(cy, cz, r, tan_y)
-        tmp[_X0, jj], tmp[_X1, jj], tmp[_Y0, jj], tmp[_Y1, jj] = ndc_rect(lx, hx, ly, hy, width, height)
-        lo[J0 + jj] = next_down_f32(np.float32(-cz - r))
-        hi[J0 + jj] = next_up_f32(np.float32(-cz + r))
-        slow[jj] |= 0 if cz + r < zn else 1
-    # 5. scalar: the rest through shape_bounds() (on the stored float32 values, as the
-    #    GPU tests them); the rectangles
-    for j in range(J0, np.uint64(j1)):
-        jj = j - J0
-        if slow[jj]:
-            x0, x1, y0, y1, d0, d1 = shape_bounds_call(
-                kind[jj], _f32(tmp, _PX, jj), _f32(tmp, _PY, jj), _f32(tmp, _PZ, jj),
-                _f32(tmp, _DX, jj), _f32(tmp, _DY, jj), _f32(tmp, _DZ, jj),
-                _f32(tmp, _RX, jj), _f32(tmp, _RY, jj), _f32(tmp, _RZ, jj),
-                _f32(tmp, _RAD, jj), _f32(tmp, _COS, jj), _f32(tmp, _LEN, jj),
-                _f32(tmp, _EX, jj), _f32(tmp, _EY, jj), _f32(tmp, _EZ, jj),
-                tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj], tmp[_R, jj],
-                near, tan_x, tan_y, width, height)
-            tmp[_X0, jj], tmp[_X1, jj], tmp[_Y0, jj], tmp[_Y1, jj] = x0, x1, y0, y1
-            lo[j] = next_down_f32(np.float32(d0))
-            hi[j] = next_up_f32(np.float32(d1))
-        rect[j, 0], rect[j, 1], rect[j, 2], rect[j, 3] = tmp[_X0, jj], tmp[_X1, jj], tmp[_Y0, jj], tmp[_Y1, jj]
-    store_fence()
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _pack_chunks(claim, chunks, lights, sorted_ids, m, near, tan_x, tan_y, width, height,
-                 rows, types, sphere, rect, bound, lo, hi):
-    """The blocks of the chunks this thread claims (cpu_prep.share)."""
     n = sorted_ids.shape[0]
     blocks = (n + PACK_BLOCK - 1) // PACK_BLOCK
     tmp = np.empty((_TEMPS, PACK_BLOCK))
@@ -481,9 +393,91 @@ def _pack_chunks(claim, chunks, lights, sorted_ids, m, near, tan_x, tan_y, width
     while k < chunks:
         for b in range(k * blocks // chunks, (k + 1) * blocks // chunks):
             j0 = b * PACK_BLOCK
-            _pack_block(j0, min(j0 + PACK_BLOCK, n), lights, sorted_ids, m, near, tan_x,
-                        tan_y, width, height, rows, types, sphere, rect, bound, lo, hi, tmp,
-                        kind, slow)
+            j1 = min(j0 + PACK_BLOCK, n)
+            # (the block's loops written out here, not an inline="always" function:
+            # numba deep-copied that function's IR, scope and all, into this kernel,
+            # 3-4 s of the cold compile; as a plain call the warm pack took 0.5 ms more)
+            nb = j1 - j0
+            J0 = np.uint64(j0)
+            # 1. gather: scene record -> temporaries, and the GPU row's fields copied from it
+            for j in range(J0, np.uint64(j1)):                 # unsigned: no wraparound code
+                jj = j - J0
+                prefetch_ahead(lights, sorted_ids, j)
+                i = sorted_ids[j] & np.uint64(0xFFFFFFFF)
+                li = lights[i]
+                tmp[_WX, jj], tmp[_WY, jj], tmp[_WZ, jj] = float(li.position[0]), float(li.position[1]), float(li.position[2])
+                tmp[_UX, jj], tmp[_UY, jj], tmp[_UZ, jj] = float(li.direction[0]), float(li.direction[1]), float(li.direction[2])
+                tmp[_RAD, jj], tmp[_COS, jj], tmp[_LEN, jj] = float(li.radius), float(li.cos_outer), float(li.length)
+                tmp[_EX, jj], tmp[_EY, jj], tmp[_EZ, jj] = float(li.extent[0]), float(li.extent[1]), float(li.extent[2])
+                t = li.type
+                kind[jj] = t
+                types[j] = t
+                slow[jj] = 0 if sphere_only(t, float(li.cos_outer), float(li.length)) else 1
+                tmp[_CR, jj], tmp[_CG, jj] = li.color[0] * li.intensity, li.color[1] * li.intensity
+                tmp[_CB, jj], tmp[_CIN, jj] = li.color[2] * li.intensity, li.cos_inner
+            # 2. SIMD: view transform, unit direction, a point light's culling sphere
+            m00, m01, m02, m03 = m[0, 0], m[0, 1], m[0, 2], m[0, 3]
+            m10, m11, m12, m13 = m[1, 0], m[1, 1], m[1, 2], m[1, 3]
+            m20, m21, m22, m23 = m[2, 0], m[2, 1], m[2, 2], m[2, 3]
+            for jj in range(np.uint64(nb)):
+                x, y, z = tmp[_WX, jj], tmp[_WY, jj], tmp[_WZ, jj]
+                # (np.float64, not float(): numba's float() of a float32 stays a float32)
+                px = np.float64(np.float32(m00 * x + m01 * y + m02 * z + m03))
+                py = np.float64(np.float32(m10 * x + m11 * y + m12 * z + m13))
+                pz = np.float64(np.float32(m20 * x + m21 * y + m22 * z + m23))
+                x, y, z = tmp[_UX, jj], tmp[_UY, jj], tmp[_UZ, jj]
+                ux, uy, uz = (m00 * x + m01 * y + m02 * z, m10 * x + m11 * y + m12 * z,
+                              m20 * x + m21 * y + m22 * z)
+                ux, uy, uz = _unit(ux, uy, uz)
+                tmp[_PX, jj], tmp[_PY, jj], tmp[_PZ, jj] = px, py, pz
+                tmp[_DX, jj], tmp[_DY, jj], tmp[_DZ, jj] = np.float32(ux), np.float32(uy), np.float32(uz)
+                tmp[_RX, jj], tmp[_RY, jj], tmp[_RZ, jj] = 0.0, 0.0, 0.0
+                tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj] = px, py, pz
+                tmp[_R, jj] = grow(tmp[_RAD, jj], px, py, pz)
+            # 3. scalar: the other shapes' spheres (and a box's right axis); the rows' view fields
+            for j in range(J0, np.uint64(j1)):
+                jj = j - J0
+                if kind[jj] != LIGHT_POINT:
+                    li = lights[sorted_ids[j] & np.uint64(0xFFFFFFFF)]
+                    _, _, _, _, _, _, rx, ry, rz, cx, cy, cz, r = _view_light_call(li, m)
+                    tmp[_RX, jj], tmp[_RY, jj], tmp[_RZ, jj] = rx, ry, rz
+                    tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj], tmp[_R, jj] = cx, cy, cz, r
+                # the whole row, its 16-byte fields in memory order, so that the streaming stores of
+                # consecutive rows fill whole cache lines in the write-combining buffers
+                _row_nt(rows, j, tmp, jj, sorted_ids[j] & np.uint64(0xFFFFFFFF), kind[jj])
+                cx, cy, cz, r = tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj], tmp[_R, jj]
+                store4_nt(sphere, j, 0, cx, cy, cz, r)     # (not read again in the CPU stage)
+                # float32, rounded outwards: the GPU's float32 comparisons stay conservative.
+                # (The stored centre's rounding is in grow()'s 4-ulp term; round the radius up.)
+                store4_nt(bound, j, 0, np.float32(cx), np.float32(cy), np.float32(cz), next_up_f32(np.float32(r)))
+            # 4. SIMD: the rectangle and depth range of a sphere in front of the near plane
+            zn = -near
+            for jj in range(np.uint64(nb)):
+                cx, cy, cz, r = tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj], tmp[_R, jj]
+                lx, hx = project_axis_ahead(cx, cz, r, tan_x)
+                ly, hy = project_axis_ahead(cy, cz, r, tan_y)
+                tmp[_X0, jj], tmp[_X1, jj], tmp[_Y0, jj], tmp[_Y1, jj] = ndc_rect(lx, hx, ly, hy, width, height)
+                lo[J0 + jj] = next_down_f32(np.float32(-cz - r))
+                hi[J0 + jj] = next_up_f32(np.float32(-cz + r))
+                slow[jj] |= 0 if cz + r < zn else 1
+            # 5. scalar: the rest through shape_bounds() (on the stored float32 values, as the
+            #    GPU tests them); the rectangles
+            for j in range(J0, np.uint64(j1)):
+                jj = j - J0
+                if slow[jj]:
+                    x0, x1, y0, y1, d0, d1 = shape_bounds_call(
+                        kind[jj], _f32(tmp, _PX, jj), _f32(tmp, _PY, jj), _f32(tmp, _PZ, jj),
+                        _f32(tmp, _DX, jj), _f32(tmp, _DY, jj), _f32(tmp, _DZ, jj),
+                        _f32(tmp, _RX, jj), _f32(tmp, _RY, jj), _f32(tmp, _RZ, jj),
+                        _f32(tmp, _RAD, jj), _f32(tmp, _COS, jj), _f32(tmp, _LEN, jj),
+                        _f32(tmp, _EX, jj), _f32(tmp, _EY, jj), _f32(tmp, _EZ, jj),
+                        tmp[_CX, jj], tmp[_CY, jj], tmp[_CZ, jj], tmp[_R, jj],
+                        near, tan_x, tan_y, width, height)
+                    tmp[_X0, jj], tmp[_X1, jj], tmp[_Y0, jj], tmp[_Y1, jj] = x0, x1, y0, y1
+                    lo[j] = next_down_f32(np.float32(d0))
+                    hi[j] = next_up_f32(np.float32(d1))
+                rect[j, 0], rect[j, 1], rect[j, 2], rect[j, 3] = tmp[_X0, jj], tmp[_X1, jj], tmp[_Y0, jj], tmp[_Y1, jj]
+            store_fence()
         fetch_add(claim, 1, 1)
         k = fetch_add(claim, 0, 1)
 
