@@ -205,7 +205,7 @@ def builtin_reference(name: str, lights: int, seed: int, distribution: str,
     """(scene, the reference's result of its frame 0 at `size`) for one draw of a builtin
     scene, rendered once per test process: the tests that check every technique and every
     option set on the builtin scenes share it (the reference takes none of their options),
-    and tests/conftest.py schedules the tests of one scene on one worker (SHARED_SCENE)."""
+    and tests/conftest.py schedules the tests of one scene on one worker (SHARED_REFERENCE)."""
     from app.pipeline.renderer import Renderer
     from scenes import load_scene
     scene = load_scene(name, lights=lights, seed=seed, distribution=distribution)
