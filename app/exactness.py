@@ -45,8 +45,13 @@ FIRST = (255, 230, 0)         # the first differing pixel
 
 def differing(result, reference) -> np.ndarray:
     """(H, W) bool: pixels whose count or hash differs from the reference's."""
-    return (result.contrib_count != reference.contrib_count) | \
-           (result.contrib_hash != reference.contrib_hash)
+    return differing_figures(result.contrib_count, result.contrib_hash,
+                             reference.contrib_count, reference.contrib_hash)
+
+
+def differing_figures(count, hashes, want_count, want_hash) -> np.ndarray:
+    """(H, W) bool: pixels whose (count, hash) differ from (want_count, want_hash)."""
+    return (count != want_count) | (hashes != want_hash)
 
 
 @dataclass
@@ -213,16 +218,14 @@ def _check_tile_capped(result, reference, policy, renderer, technique, render_ar
         m.missing = sorted(set(want) - set(got.tolist()))
         m.extra = sorted(set(got.tolist()) - set(want))
         if out_dir is not None:
-            m.images = write_images(Path(out_dir), result, reference, _differs(result, exp), m.first)
+            m.images = write_images(Path(out_dir), result, reference,
+                                    differing_figures(result.contrib_count, result.contrib_hash,
+                                                      exp.count, exp.hash), m.first)
         return m
     lost = reference.contrib_count.astype(np.int64) - result.contrib_count.astype(np.int64)
     return IntendedLoss(name, reference.meta.get("technique", "?"), policy,
                         int(differing(result, reference).sum()), int(lost.size), exp.lights,
                         int(lost.sum()), entries=exp.entries, tiles=exp.tiles)
-
-
-def _differs(result, exp) -> np.ndarray:
-    return (result.contrib_count != exp.count) | (result.contrib_hash != exp.hash)
 
 
 def _figures_mismatch(name, against, count, hashes, reference, want_count=None,
@@ -231,7 +234,7 @@ def _figures_mismatch(name, against, count, hashes, reference, want_count=None,
     figures (or want_count, want_hash), else None."""
     if reference is not None:
         want_count, want_hash = reference.contrib_count, reference.contrib_hash
-    mask = (count != want_count) | (hashes != want_hash)
+    mask = differing_figures(count, hashes, want_count, want_hash)
     if not mask.any():
         return None
     row, x = (int(v) for v in np.argwhere(mask)[0])
