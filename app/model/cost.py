@@ -56,7 +56,8 @@ from scenes.model import LIGHT_TYPES
 
 from .waves import FIELDS, KINDS, LINE, Figures
 
-MODEL_VERSION = "1"
+# 2: evaluate_all_lights (brute, overflowed tiles) shades in a set-bit loop after its masks
+MODEL_VERSION = "2"
 
 
 @dataclass(frozen=True)
@@ -132,7 +133,11 @@ INSTRUCTIONS = {
                             # popcount, the wave OR (a few cross-lane steps), loop
     "load": (6, 0),         # load_shared_tree: one node a lane
     "light": (13, 0),       # the light loop: counter, entry and light addresses, 4 loads,
-                            # s.evaluated, d = P - L (the test's shared part)
+                            # s.evaluated, d = P - L (the test's shared part); in
+                            # evaluate_all_lights' mask loop the entry address (it has no
+                            # entry) stands for the mask bit's shift and OR
+    "set_bit": (18, 0),     # evaluate_all_lights' set-bit loop: loop 3, findLSB, clearing
+                            # the bit 2, the light's address 2, 4 loads, d = P - L and d2 again
     # culling passes
     "depth": (6, 0),        # a tile's min/max depth: one texel, two shared atomics
     "cull_test": (40, 2),   # tile_cull's sphere test (four planes, inversesqrt each pair) /

@@ -34,7 +34,10 @@ tested and shaded (a shape's code runs when any active lane needs it) and whethe
 lane is specular (GGX).  Two loops are walked by the replay itself rather than given as
 segments, which would cost more than the loops: a lane's tree traversal (Program.add_tree:
 one segment a lane, the kernel steps the lanes' traversals in lockstep, a node visit a
-step) and a bit-array technique's word loop (Program.bit_words: zbin, raster).
+step) and a bit-array technique's word loop (Program.bit_words: zbin, raster).  A list
+walked as evaluate_all_lights walks every light (LightList.runs: brute, overflowed tiles)
+is tested light by light as one list, and each run of 32 lights then issues its set-bit
+loop: as many iterations as the run's busiest lane has affecting lights (set_bit).
 
 Per pixel it adds up what the lane evaluated, visited and found affecting, so a test can hold
 the replay to the shader's own counters (PixelStats.evaluated, .nodes; contrib_count up to
@@ -61,8 +64,10 @@ LIGHT_BYTES = layouts.GPU_LIGHT.itemsize
 # shading pass's (the kernels below index the first six by number), then the culling
 # passes' (Technique.cull_figures: counted from their fixed loops, analytic()).
 KINDS = ("cell", "node", "lds_node", "word", "load", "light",
-         "depth", "cull_test", "prune", "aabb", "vertex", "fragment")
+         "depth", "cull_test", "prune", "aabb", "vertex", "fragment", "set_bit")
 CELL, NODE, LDS_NODE, WORD, LOAD, LIGHT = range(6)
+SET_BIT = KINDS.index("set_bit")   # evaluate_all_lights' set-bit loop (LightList.runs)
+RUN = 32                           # its lights a mask (glsl/pixel.glsl LIGHT_RUN)
 # Fields per kind: issued iterations, active lane-iterations, vector load instructions,
 # scalar load instructions, distinct lines of the vector loads, of the scalar loads, lanes
 # reading shared memory (LDS).
@@ -132,12 +137,16 @@ class FrameData:
 class LightList:
     """Lights a step's inner loop walks: per position the light (index into lights[], for
     the affects test), its slot in the light buffer it is fetched from, and the byte offset
-    of the entry fetched first (-1: none, e.g. brute's loop or a bit array's set bits)."""
+    of the entry fetched first (-1: none, e.g. brute's loop or a bit array's set bits).
+    runs: walked as evaluate_all_lights walks every light (glsl/pixel.glsl): per run of RUN
+    positions the affects tests (light iterations), then the shading of each lane's
+    affecting lights in order (set_bit iterations: as many as the run's busiest lane has)."""
     light: np.ndarray
     slot: np.ndarray
     entry_off: np.ndarray
     light_buf: int
     entry_buf: int
+    runs: bool = False
 
 
 class Program:
@@ -161,7 +170,7 @@ class Program:
     def all_lights(self) -> int:
         """The list of every visible light in order (brute; tiles that shade every light)."""
         if self._all is None:
-            self._all = self.add_list(np.arange(len(self.frame.build.lights)))
+            self._all = self.add_list(np.arange(len(self.frame.build.lights)), runs=True)
         return self._all
 
     @property
@@ -175,14 +184,15 @@ class Program:
         return list(self.buffers).index(name)
 
     def add_list(self, light, entry_off=None, entry_buf: str | None = None,
-                 slot=None, light_buf: str = "lights", light_buf_bytes: int | None = None) -> int:
+                 slot=None, light_buf: str = "lights", light_buf_bytes: int | None = None,
+                 runs: bool = False) -> int:
         light = np.asarray(light, np.int64)
         ebuf = -1 if entry_buf is None else self.buffer(entry_buf, self.frame.size_of(entry_buf))
         lbuf = self.buffer(light_buf, light_buf_bytes or self.frame.size_of(light_buf))
         self.lists.append(LightList(
             light, light.copy() if slot is None else np.asarray(slot, np.int64),
             np.full(len(light), -1, np.int64) if entry_off is None else np.asarray(entry_off, np.int64),
-            lbuf, ebuf))
+            lbuf, ebuf, bool(runs)))
         return len(self.lists) - 1
 
     def add(self, lane, step=0, branch=0, head=None, lights=None, tree: bool = False) -> None:
@@ -414,6 +424,7 @@ def _flatten(lists: list[LightList]):
                          if lists else np.zeros(0, dt))
     return (starts, np.array([L.light_buf for L in lists], np.int64),
             np.array([L.entry_buf for L in lists], np.int64),
+            np.array([L.runs for L in lists], np.bool_),
             cat("light", np.int64), cat("slot", np.int64), cat("entry_off", np.int64))
 
 
@@ -497,9 +508,9 @@ def _misses_box(i, L, bound, lo, hi) -> bool:
 
 @numba.njit(cache=True)
 def _issue_lists(n, e_lane, e_list, e_first, e_count, e_scalar, list_start, list_lbuf, list_ebuf,
-                 flat_light, flat_slot, flat_eoff, P, spec, L, types, bound,
+                 list_runs, flat_light, flat_slot, flat_eoff, P, spec, L, types, bound,
                  unbounded, keys, stamps, stamp, lo, hi, shapes, shaded, line_base, seen, loops,
-                 types_acc, per_pixel, wx, wy, wz, wacc) -> int:
+                 types_acc, per_pixel, wx, wy, wz, wacc, wbits) -> int:
     """The inner light loops of n lanes run together: max(count) issued iterations, each
     the lanes' entry and light fetches and affects tests; returns the set's stamp.  The
     lanes' positions and hit counts live in the work arrays w* while the loops run."""
@@ -524,6 +535,7 @@ def _issue_lists(n, e_lane, e_list, e_first, e_count, e_scalar, list_start, list
     if same:            # one list walked alike (brute's loop, a tile's list): per light, not lane
         lid, f0 = e_list[0], e_first[0]
         col = 3 if e_scalar[0] else 2                   # its loads: scalar or vector
+        runs = list_runs[lid]
         loops[5, 0] += longest
         loops[5, 1] += longest * n
         for t in range(longest):
@@ -541,16 +553,26 @@ def _issue_lists(n, e_lane, e_list, e_first, e_count, e_scalar, list_start, list
             loops[5, col] += 1
             loops[5, col + 2] += lines
             types_acc[0, types[li]] += 1
-            if not unbounded and _misses_box(li, L, bound, lo, hi):
-                continue
-            hit, sp = False, False
-            for q in range(n):
-                if affects(wx[q], wy[q], wz[q], li, L, types, unbounded):
-                    wacc[q] += 1
-                    hit = True
-                    sp |= spec[e_lane[q]]
-            types_acc[1, types[li]] += hit
-            types_acc[2, 0] += sp
+            if runs and t % RUN == 0:
+                wbits[:n] = 0
+            if unbounded or not _misses_box(li, L, bound, lo, hi):
+                hit, sp = False, False
+                for q in range(n):
+                    if affects(wx[q], wy[q], wz[q], li, L, types, unbounded):
+                        if runs:
+                            wbits[q] |= 1 << (t % RUN)
+                        else:
+                            wacc[q] += 1
+                            hit = True
+                            sp |= spec[e_lane[q]]
+                if not runs:
+                    types_acc[1, types[li]] += hit
+                    types_acc[2, 0] += sp
+            if runs and (t % RUN == RUN - 1 or t == longest - 1):
+                stamp = _issue_set_bits(n, e_lane, wbits, list_start[lid] + f0 + t - t % RUN,
+                                        line_base[list_lbuf[lid]], flat_light, flat_slot, spec,
+                                        types, keys, stamps, stamp, seen, shaded, loops,
+                                        types_acc, wacc)
     else:
         for t in range(longest):
             stamp += 1
@@ -585,6 +607,42 @@ def _issue_lists(n, e_lane, e_list, e_first, e_count, e_scalar, list_start, list
     for q in range(n):
         per_pixel[e_lane[q], 2] += wacc[q]
     return stamp
+
+
+@numba.njit(inline="always")
+def _issue_set_bits(n, e_lane, wbits, p0, lbase, flat_light, flat_slot, spec, types, keys,
+                    stamps, stamp, seen, shaded, loops, types_acc, wacc) -> int:
+    """evaluate_all_lights' set-bit loop over one run (glsl/pixel.glsl): per issued
+    iteration every lane with bits left shades its lowest one (a vector load of its light,
+    the shapes the lanes are at); as many iterations as the busiest lane has bits (none for
+    an empty run: a GPU tests the loop before its body).  Returns the stamp."""
+    while True:
+        stamp += 1
+        active, lines, any_spec = 0, 0, False
+        shaded[:] = False
+        for q in range(n):
+            m = wbits[q]
+            if m == 0:
+                continue
+            bit = 0
+            while not (m >> bit) & 1:
+                bit += 1
+            wbits[q] = m & (m - 1)
+            p = p0 + bit
+            li = flat_light[p]
+            active += 1
+            lines += _lines(keys, stamps, stamp, seen, lbase, flat_slot[p] * 96, 96)
+            shaded[types[li]] = True
+            any_spec |= spec[e_lane[q]]
+            wacc[q] += 1
+        if active == 0:
+            return stamp
+        loops[SET_BIT, 0] += 1
+        loops[SET_BIT, 1] += active
+        _count_loads(SET_BIT, 1, lines, False, loops)
+        for ty in range(types_acc.shape[1]):
+            types_acc[1, ty] += shaded[ty]
+        types_acc[2, 0] += any_spec
 
 
 @numba.njit(inline="always")
@@ -653,8 +711,8 @@ def _issue_lights(active, loads, lines, scalar, shapes, shaded, any_spec, loops,
 
 @numba.njit(cache=True)
 def _replay_segments(wave, lane, step, hoff, first, count, call, calls,
-                     list_start, list_lbuf, list_ebuf, flat_light, flat_slot, flat_eoff,
-                     nmin, nmax, nfirst, nbits, depth,
+                     list_start, list_lbuf, list_ebuf, list_runs, flat_light, flat_slot,
+                     flat_eoff, nmin, nmax, nfirst, nbits, depth,
                      P, spec, L, types, bound, unbounded,
                      line_base, seen, loops, types_acc, per_pixel):
     """Groups of segments of one (wave, branch, step): their heads as one issued iteration,
@@ -673,9 +731,9 @@ def _replay_segments(wave, lane, step, hoff, first, count, call, calls,
     stamp = 0
     # per segment of a group: its list entry (lane, list, first, count), tree walk (segment,
     # cursor) and lights affecting it; the lane's position
-    ints = np.zeros((7, biggest), np.int64)
-    e_lane, e_list, e_first, e_count, t_seg, t_cur, wacc = \
-        ints[0], ints[1], ints[2], ints[3], ints[4], ints[5], ints[6]
+    ints = np.zeros((8, biggest), np.int64)
+    e_lane, e_list, e_first, e_count, t_seg, t_cur, wacc, wbits = \
+        ints[0], ints[1], ints[2], ints[3], ints[4], ints[5], ints[6], ints[7]
     e_scalar = np.zeros(biggest, np.bool_)
     wx, wy, wz = _positions(biggest)
     cmask = (1 << _COUNT_BITS) - 1
@@ -716,10 +774,10 @@ def _replay_segments(wave, lane, step, hoff, first, count, call, calls,
         if kind >= 0:
             _issue_head(kind, heads, lines, scalar, lds, loops)
         stamp = _issue_lists(m, e_lane, e_list, e_first, e_count, e_scalar, list_start,
-                             list_lbuf, list_ebuf, flat_light, flat_slot, flat_eoff, P, spec,
-                             L, types, bound, unbounded, keys, stamps,
+                             list_lbuf, list_ebuf, list_runs, flat_light, flat_slot, flat_eoff, P,
+                             spec, L, types, bound, unbounded, keys, stamps,
                              stamp, lo, hi, shapes, shaded, line_base, seen, loops, types_acc,
-                             per_pixel, wx, wy, wz, wacc)
+                             per_pixel, wx, wy, wz, wacc, wbits)
         # the group's traversals in lockstep
         while trees > 0:
             stamp += 1
@@ -752,10 +810,10 @@ def _replay_segments(wave, lane, step, hoff, first, count, call, calls,
                 break
             _issue_head(kind, heads, lines, False, lds, loops)
             stamp = _issue_lists(m, e_lane, e_list, e_first, e_count, e_scalar, list_start,
-                                 list_lbuf, list_ebuf, flat_light, flat_slot, flat_eoff, P, spec,
-                                 L, types, bound, unbounded, keys, stamps,
+                                 list_lbuf, list_ebuf, list_runs, flat_light, flat_slot, flat_eoff,
+                                 P, spec, L, types, bound, unbounded, keys, stamps,
                                  stamp, lo, hi, shapes, shaded, line_base, seen, loops,
-                                 types_acc, per_pixel, wx, wy, wz, wacc)
+                                 types_acc, per_pixel, wx, wy, wz, wacc, wbits)
         i = j
 
 

@@ -285,7 +285,8 @@ def shading_passes(build: Build, shader: str, reads: tuple[str, ...] = (), longe
 # ---- the wave replay's walks several techniques share (app.model.waves) -------------------
 
 def add_all_lights(prog, lanes, step=0, branch=0) -> None:
-    """evaluate_all_lights (pixel.glsl): every visible light in order, a wave-uniform loop."""
+    """evaluate_all_lights (pixel.glsl): every visible light in order, a wave-uniform loop of
+    affects tests, then per run of 32 each lane's affecting lights (LightList.runs)."""
     prog.add(lanes, step=step, branch=branch,
              lights=(prog.all_lights(), 0, len(prog.frame.build.lights), True))
 

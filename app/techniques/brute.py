@@ -1,6 +1,8 @@
 """brute: every frustum-visible light at every pixel; the reference of the exactness check.
 
-    lights[] (GpuLight, visible, depth-sorted)  <-  every pixel loops over all of them
+    lights[] (GpuLight, visible, depth-sorted)  <-  every pixel loops over all of them:
+                                                    an affects mask per run of 32, then
+                                                    the shading of its set bits in order
 """
 import numpy as np
 
@@ -28,5 +30,5 @@ class Brute(Technique, register_at=10):
 
     def wave_program(self, frame, width):
         prog = waves.Program(frame, width)
-        add_all_lights(prog, np.nonzero(frame.shading)[0])     # a wave-uniform loop
+        add_all_lights(prog, np.nonzero(frame.shading)[0])     # wave-uniform tests
         return prog

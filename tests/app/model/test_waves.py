@@ -13,6 +13,7 @@ from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY
 from scenes import BUILTIN_SCENES, load_scene
 from tests.app.model.replay_check import check, gl_order
+from tests.helpers import pixel_oracle
 
 SIZE = (72, 48)                  # 9 x 6 groups: whole 8x8 groups and 4-row halves (W = 32)
 LIGHTS = 1536
@@ -142,6 +143,7 @@ def test_figures_count_what_the_loops_do(gl):
         assert light["scalar_loads"] == light["issued"] and light["vector_loads"] == 0
         assert light["scalar_lines"] == 2 * light["issued"]         # a 96-B light: two lines
         assert f.unique_bytes["lights"] == -(-n * 96 // 64) * 64
+        assert_set_bit_loop(f, res, r, sc, SIZE)
         res = r.render(REGISTRY["clustered"], 0)
         fr = waves.frame_data(r, res, REGISTRY["clustered"].resolve_options(None))
         prog = REGISTRY["clustered"].wave_program(fr, 64)
@@ -161,6 +163,28 @@ def test_figures_count_what_the_loops_do(gl):
             for width in (32, 64):
                 prog = tech.wave_program(fr, width)
                 assert_list_lines(prog, waves.replay(prog).figures, f"clustered {opts} W={width}")
+
+
+def assert_set_bit_loop(f, res, renderer, scene, size) -> None:
+    """brute's set-bit loop (pixel.glsl evaluate_all_lights): per wave and run of 32 lights,
+    as many iterations as its busiest lane has affecting lights there, one lane-iteration per
+    affecting light, a vector load each; counted here from the float64 light model."""
+    _, _, near, inside = pixel_oracle(renderer, scene.lights, scene.camera)
+    assert not near.any(), "a pixel on a volume's boundary: the float32 test may differ"
+    h, w = inside.shape[0] // size[0], size[0]
+    inside = inside.reshape(h, w, -1)[::-1].reshape(h * w, -1)[:, res.build.lights.ids]
+    runs = -(-inside.shape[1] // waves.RUN)
+    pad = np.zeros((len(inside), runs * waves.RUN), np.int64)
+    pad[:, :inside.shape[1]] = inside
+    hits = pad.reshape(len(inside), runs, waves.RUN).sum(2)          # (pixels, runs)
+    wave, _, n_waves = waves.lanes(size, f.width)
+    busiest = np.zeros((n_waves, runs), np.int64)
+    np.maximum.at(busiest, wave, hits)
+    got = f.loop("set_bit")
+    assert inside.sum() > 0 and busiest.sum() < inside.sum()
+    assert got["issued"] == busiest.sum() and got["lanes"] == inside.sum()
+    assert got["vector_loads"] == got["issued"] and got["scalar_loads"] == 0
+    assert int(f.shaded.sum()) == got["issued"]                     # one shape in the arena
 
 
 def test_culling_pass_figures(gl):

@@ -95,6 +95,46 @@ def test_without_windows_this_driver_truncates(gl, monkeypatch):
         assert np.array_equal(single.contrib_hash, windowed.contrib_hash)
 
 
+# ---- every light affecting: evaluate_all_lights at its worst ------------------------------
+N_ALL = 40_000          # three windows of DISPATCH_WINDOW; 81,250 iterations in one dispatch
+
+
+def all_affecting_lights(f: Frame) -> np.ndarray:
+    """N_ALL lights 1 m above the floor pixel nearest the band's middle, each reaching the
+    floor pixels within ~6 m: there every light of every window affects the pixel."""
+    depth = f.pos[..., 3]
+    ys, xs = np.nonzero(f.covered)
+    k = np.argmin(np.abs(depth[ys, xs] - DEPTH))
+    c = f.pos[ys[k], xs[k], :3].astype(np.float64) + [0.0, 1.0, 0.0]
+    L = make_lights(N_ALL)
+    L["position"] = f.to_world(c[None])
+    L["radius"] = 6.0
+    L["color"] = np.random.default_rng(7).uniform(0.2, 1.0, (N_ALL, 3))
+    return L
+
+
+def test_every_light_of_every_window_affecting_stays_in_the_budget(gl, monkeypatch):
+    """evaluate_all_lights (glsl/pixel.glsl: an affects mask a run of 32 lights, then its set
+    bits) spends up to 2 + 1/32 iterations a light when every light affects the pixel
+    (cpu_prep/limits.py): 40,000 lights all reaching the same floor pixels.  Every technique
+    gives brute's lights there, brute the float64 reference's (all 40,000 at each lit pixel;
+    tiled's and fptl's overflowed tiles shade through the same loop beside their lists); in
+    one dispatch the driver stops brute short: the case reaches the budget."""
+    with budget_frame() as f:
+        L = all_affecting_lights(f)
+        res = f.check(L, where="40,000 lights, every one affecting the lit pixels")
+        cnt = res["brute"].contrib_count
+        assert (cnt == N_ALL).sum() >= 20, "the lit pixels should meet every light"
+        assert set(np.unique(cnt)) <= {0, N_ALL}
+        monkeypatch.setattr(limits, "DISPATCH_WINDOW", 1 << 30)
+        single = f.render(L, techniques=["brute"])["brute"]
+    if glmod.limits().loop_budget:
+        assert single.contrib_count.max() < N_ALL, \
+            "one dispatch of 40,000 all-affecting lights was not truncated: the loop's cost changed?"
+    else:
+        assert np.array_equal(single.contrib_hash, res["brute"].contrib_hash)
+
+
 @pytest.mark.parametrize("longest,expect", [
     (0, 1), (limits.DISPATCH_WINDOW, 1), (limits.DISPATCH_WINDOW + 1, 2), (70_000, 5)])
 def test_windows_cover_every_position_once(longest, expect):
