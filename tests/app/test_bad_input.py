@@ -227,6 +227,7 @@ CASES = {
     "radius_scale_inf": (flag_case("--radius-scale", "inf"), r"--radius-scale"),
     "frame_negative": (flag_case("--frame", "-1"), r"--frame"),
     "frames_zero": (flag_case("--frames", "0"), r"--frames"),
+    "repeat_negative": (flag_case("--repeat", "-1"), r"--repeat must be >= 0"),
     "unknown_flag": (flag_case("--bogus-flag"), r"--bogus-flag"),
     # an option the technique's mode ignores (issue 20 item 7): refused, naming it and the mode
     "raster_cluster_stencil": (flag_case("--technique", "raster", "--cluster", "1", "--stencil"),

@@ -47,6 +47,7 @@ def test_dump_follows_the_contract(tmp_path):
     assert Image.open(tmp_path / "h.png").size[0] > 127
     summary = json.loads(r.stdout)
     assert summary["technique"] == "hybrid" and summary["exact_per_pixel"] > 0
+    assert summary["gpu_timing"].startswith("first frame") and "shade" in summary["gpu_ms"]
 
 
 def test_capture_of_a_scene_file_matches_brute(tmp_path):
@@ -91,11 +92,15 @@ def test_output_files_keep_their_names(tmp_path):
 
 def test_check_against_the_reference_and_warmup_apart(tmp_path):
     r = capture("--scene", "arena", "--lights", "300", "--size", "48x27", "--technique", "tree",
-                "--check", str(tmp_path / "chk"))
+                "--check", str(tmp_path / "chk"), "--repeat", "3")
     assert r.returncode == 0, r.stderr
     assert "exact: tree equals brute" in r.stderr
     summary = json.loads(r.stdout)
     assert summary["cpu_warmup_ms"] >= 0 and "cull" in summary["cpu_ms"]
+    # --repeat: the passes' median over the samples after the first frame (its compiles)
+    assert summary["gpu_timing"] == "median of 3 samples after the first frame"
+    lo, hi = summary["gpu_total_ms"]["min"], summary["gpu_total_ms"]["max"]
+    assert 0 < lo <= hi and "shade" in summary["gpu_ms"]
 
 
 def test_classify_needs_a_technique_with_the_classes_view(tmp_path):
