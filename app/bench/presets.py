@@ -66,6 +66,13 @@ class Preset:
     # so the report's lead figure holds both); () none
     caps_scenes: tuple[str, ...] = ()
     caps_lights: int = 2048
+    # the CPU and GPU builds as a ratio (issue 23 item 1; app.bench.gpu_build): every
+    # technique that takes --build, built both ways at each count in gpu_build_scene at the
+    # rendered size, fastest of gpu_build_repeat samples; results.csv study "gpu_build";
+    # () none
+    gpu_build_lights: tuple[int, ...] = ()
+    gpu_build_scene: str = "city"
+    gpu_build_repeat: int = 3
 
 
 QUICK = Preset(
@@ -80,7 +87,9 @@ QUICK = Preset(
     # 6 frames x 19 configurations at 128x72: ~15 s on 2 cores (shaders warm)
     temporal_frames=6,
     # 6 list techniques x 7 policies (1,530 of 2,048 lights visible: every policy drops some)
-    caps_scenes=("arena",), caps_lights=2048)
+    caps_scenes=("arena",), caps_lights=2048,
+    # 2 counts x the --build techniques, both builds, at 320x180: GPU_BUILD_QUICK_S below
+    gpu_build_lights=(4096, 16384))
 
 FULL = Preset(
     name="full", size=(1920, 1080), scenes=("arena", "city", "hangar", "gallery", "corridor"),
@@ -91,7 +100,8 @@ FULL = Preset(
     cpu_lights=(1024, 2048, 4096, 8192, 16384, 32768, 65536), cpu_repeat=9,
     paper_frames=16, paper_sample=2, growth_lights=GROWTH_LIGHTS, growth_repeat=5,
     temporal_frames=16, temporal_lights=16384, temporal_size=(480, 270),
-    caps_scenes=("arena",), caps_lights=16384)
+    caps_scenes=("arena",), caps_lights=16384,
+    gpu_build_lights=(8192, 32768, 131072), gpu_build_repeat=5)
 
 # scripts/gpu_check.sh: what matters of --full on one real GPU in minutes: every technique,
 # two scenes (figure 7's two kinds of level), three light counts, exactness; measured against
@@ -100,7 +110,7 @@ FULL = Preset(
 GPU_CHECK = replace(
     FULL, name="gpu-check", scenes=("arena", "city"), lights=(8192, 32768, 65536), frames=2,
     cutoffs=(), cutoff_scenes=(), cpu_lights=(), option_studies=False, paper_size=None,
-    growth_lights=(), temporal_frames=0, caps_scenes=())
+    growth_lights=(), temporal_frames=0, caps_scenes=(), gpu_build_lights=())
 
 PRESETS = {"quick": QUICK, "full": FULL, "gpu-check": GPU_CHECK}
 
@@ -128,6 +138,7 @@ def preset_from_args(args) -> Preset:
         ch.update(scenes=scenes, study_scene=scenes[0], heat_scene=scenes[-1],
                   cpu_scene=scenes[0], cutoff_scenes=scenes[:1],
                   caps_scenes=scenes[:1] if preset.caps_scenes else (), paper_size=None,
+                  gpu_build_scene=scenes[0],
                   also_studies=False)
     if args.lights:
         lights = int_list(args.lights, "--lights")
@@ -141,13 +152,16 @@ def preset_from_args(args) -> Preset:
         if args.repeat < 1:
             raise UserError("--repeat must be >= 1")
         ch.update(repeat=args.repeat, study_repeat=args.repeat,
-                  heavy_repeat=min(preset.heavy_repeat, args.repeat))
+                  heavy_repeat=min(preset.heavy_repeat, args.repeat), gpu_build_repeat=args.repeat)
     if args.cpu_lights:
         ch["cpu_lights"] = int_list(args.cpu_lights, "--cpu-lights")
     if args.cpu_size:
         ch["cpu_size"] = tuple(args.cpu_size)
     if getattr(args, "growth_lights", None) is not None:      # "" or "0": no growth series
         ch["growth_lights"] = tuple(n for n in int_list(args.growth_lights or "0", "--growth-lights") if n)
+    if getattr(args, "gpu_build_lights", None) is not None:   # "" or "0": none
+        ch["gpu_build_lights"] = tuple(n for n in int_list(args.gpu_build_lights or "0",
+                                                           "--gpu-build-lights") if n)
     if getattr(args, "papers", None) is not None:
         ch["paper_size"] = preset.paper_size if args.papers else None
     if args.threads is not None:

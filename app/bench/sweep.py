@@ -263,7 +263,24 @@ class Sweep:
         self.paper_series()
         self.cpu_series()
         self.rows += preset_growth(self.p, self.progress)      # issue 23 item 4 (none: ())
+        self.rows += self.gpu_build_series()                   # issue 23 item 1 (none: [])
         return self.rows
+
+    def gpu_build_series(self) -> list[dict]:
+        """The CPU and GPU builds of every technique that takes --build at each of the
+        preset's gpu_build_lights (app.bench.gpu_build.ratio_rows: study "gpu_build"), in
+        gpu_build_scene at the rendered size; a scene file has no light count to set: none."""
+        from scenes import BUILTIN_SCENES
+        from .gpu_build import gpu_techniques, ratio_rows
+        p = self.p
+        if not p.gpu_build_lights or not gpu_techniques():
+            return []
+        if p.gpu_build_scene not in BUILTIN_SCENES:
+            self.log.write(f"bench: gpu_build: {p.gpu_build_scene} is a scene file (its own "
+                           f"lights, no counts to sweep): skipped\n")
+            return []
+        return ratio_rows(p.gpu_build_scene, p.gpu_build_lights, p.size, p.gpu_build_repeat,
+                          progress=self.progress)
 
     # ---- the papers' settings, modelled only ------------------------------------------------
 
@@ -434,6 +451,9 @@ def sweep_main(argv) -> None:
     p.add_argument("--growth-lights", help="override: light counts of the CPU stage's growth "
                                            "series (quick and full: 8,192 doubling to 1,048,576; "
                                            "0: none)")
+    p.add_argument("--gpu-build-lights", help="override: light counts of the CPU / GPU build "
+                                              "comparison (quick: 4096,16384; full: 8192,32768,"
+                                              "131072; 0: none)")
     p.add_argument("--threads", type=int, help="numba threads of the CPU stage (default 1, "
                                                "as the paper's figure 4; 0: numba's default)")
     p.add_argument("--papers", action=argparse.BooleanOptionalAction, default=None,

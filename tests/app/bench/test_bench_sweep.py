@@ -8,13 +8,15 @@ import pytest
 from app import bench, report
 from app.bench.caps import CAPS
 from app.bench.cpu import GROWTH
+from app.bench.gpu_build import STUDY as GPU_BUILD, gpu_techniques
 from app.results import CPU_PREFIX, columns, option_studies, read_csv
 from app.techniques import REGISTRY, with_role
 from app.techniques.base import Technique
 from tests.app.techniques.test_frame_graph import Throwaway, registered
 
 TINY = ["--quick", "--size", "64x36", "--scenes", "arena", "--frames", "1", "--lights", "256",
-        "--repeat", "1", "--cpu-lights", "256", "--cpu-size", "96x54", "--growth-lights", "256,512"]
+        "--repeat", "1", "--cpu-lights", "256", "--cpu-size", "96x54", "--growth-lights", "256,512",
+        "--gpu-build-lights", "256"]
 # the CPU series at another resolution than the rendered one: the cpu_<option> rows run too
 FIXED_PLOTS = ("accuracy_cost.png", "gpu_path.png", "cpu_stages.png", "heatmaps.png", "cutoff.png",
                "tradeoff.png")
@@ -48,7 +50,7 @@ def test_results_columns_and_rows(sweep):
         assert got == set(REGISTRY), f"{study}: {sorted(got)} != {sorted(REGISTRY)}"
     studies = option_studies()
     assert studies, "no option declares study values"
-    assert {r["study"] for r in rows} == {"path", "cutoff", "cpu", CAPS, GROWTH} | set(studies) | \
+    assert {r["study"] for r in rows} == {"path", "cutoff", "cpu", CAPS, GROWTH, GPU_BUILD} | set(studies) | \
         {CPU_PREFIX + s for s in studies}
     for name, (spec, techs) in studies.items():
         for study in (name, CPU_PREFIX + name):
@@ -66,7 +68,7 @@ def test_exactness_waste_and_cost(sweep):
     _, rows = sweep
     ref, floor = with_role("reference").name, with_role("floor").name
     rendered = [r for r in rows if not r["study"].startswith(CPU_PREFIX)
-                and r["study"] not in ("cpu", GROWTH)]
+                and r["study"] not in ("cpu", GROWTH, GPU_BUILD)]
     assert rendered
     for r in rendered:
         where = f"{r['study']} {r['technique']} cutoff {r['cutoff']}"
@@ -108,6 +110,26 @@ def test_plots_and_report(sweep):
     assert "one sample" in text
     assert not re.search(r"fastest over the path|is lowest at|(GPU lighting|frame cost) "
                          r"[0-9.]+x \((higher|lower) beyond spread", text)
+
+
+def test_gpu_build_comparison(sweep):
+    """Issue 23 item 1: the sweep builds every --build technique on the CPU and on the GPU at
+    each gpu_build count (study "gpu_build" of results.csv), and the CPU page compares them."""
+    import json
+    out, rows = sweep
+    got = [r for r in rows if r["study"] == GPU_BUILD]
+    assert {(r["technique"], int(r["lights"])) for r in got} == {(t, 256) for t in gpu_techniques()}
+    for r in got:
+        s = json.loads(r["stats"])
+        assert s["gpu_build_min_ms"] > 0 and r["cpu_total_min_ms"] > 0, r["technique"]
+        assert s["gpu_over_cpu"] == pytest.approx(s["gpu_build_min_ms"] / r["cpu_total_min_ms"], abs=0.006)
+    text = (out / "report.md").read_text()
+    assert "### The build on the CPU and on the GPU" in text
+    assert "| technique | lights | visible | CPU stage ms | GPU build ms | GPU / CPU |" in text
+    for t in gpu_techniques():
+        assert re.search(rf"^\| {t} \| 256 \| ", text, re.M), t
+        assert f"{t}: the GPU build takes " in text
+    assert not (out / "gpu_build.csv").exists()       # results.csv holds them
 
 
 def test_report_rebuilds_from_the_folder(sweep):
