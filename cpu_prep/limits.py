@@ -25,11 +25,13 @@ WAVE_DIM = 8
 # budget is shared by all loops of the invocation, nested iterations counted).  On such a
 # driver a pass whose pixels may meet more lights runs as dispatch windows of DISPATCH_WINDOW
 # lights each (glsl/pixel.glsl), leaving room for a tree's nodes (at most 32,767 = 15 bits).
-# evaluate_all_lights (brute, overflowed tiles and cells) spends up to 2 + 1/32 iterations a
-# light: the mask loop, the set-bit loop (at most 32 a run, 1 for an empty one: the driver's
-# loops run their body once) and the run loop, so 33,280 a window; beside a list loop of the
-# same window in the other lanes of the vector (tiled, fptl), 49,664 + fptl's few list-state
-# and spill-scan rounds: in the budget (tests/app/techniques/test_loop_budget.py).
+# A loop of k iterations counts k + 1 (its exit runs the body once more, masked: measured).
+# evaluate_all_lights (brute, overflowed tiles and cells) spends up to 2 + 3/32 iterations a
+# light: per run of 32 the mask loop's 32 + 1, the set-bit loop's at most 32 + 1 and one of
+# the run loop (measured: 67 a run with every light affecting, 35 with none), so 34,305 a
+# window; beside a list loop of the same window in other lanes of the vector (tiled, fptl:
+# 16,385), 50,690 plus fptl's few list-state and spill-scan rounds: in the budget
+# (tests/app/techniques/test_loop_budget.py holds both cases with every light affecting).
 SOFTWARE_LOOP_BUDGET = 65535
 DISPATCH_WINDOW = 16384
 WINDOW_ALL = 0xFFFFFFFF            # one window holding every position

@@ -147,7 +147,7 @@ uint affecting_mask(inout PixelState s, uint first, uint n) {
 // the set-bit loop pays it only as often as the busiest lane has lights (brute 3.7x faster
 // on the arena at 8,192 lights).  On a GPU the set-bit loop packs the lanes of a wave onto
 // their own lights instead of running one light's shading for any lane it affects
-// (app/model/waves.py replays both loops).  Loop budget: up to 2 + 1/32 iterations a light
+// (app/model/waves.py replays both loops).  Loop budget: up to 2 + 3/32 iterations a light
 // (cpu_prep/limits.py DISPATCH_WINDOW).
 void evaluate_all_lights(inout PixelState s) {
     uvec2 w = window_part(s, u_light_count);

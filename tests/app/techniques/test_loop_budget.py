@@ -96,7 +96,7 @@ def test_without_windows_this_driver_truncates(gl, monkeypatch):
 
 
 # ---- every light affecting: evaluate_all_lights at its worst ------------------------------
-N_ALL = 40_000          # three windows of DISPATCH_WINDOW; 81,250 iterations in one dispatch
+N_ALL = 40_000          # three windows of DISPATCH_WINDOW; 83,751 iterations in one dispatch
 
 
 def all_affecting_lights(f: Frame) -> np.ndarray:
@@ -115,7 +115,7 @@ def all_affecting_lights(f: Frame) -> np.ndarray:
 
 def test_every_light_of_every_window_affecting_stays_in_the_budget(gl, monkeypatch):
     """evaluate_all_lights (glsl/pixel.glsl: an affects mask a run of 32 lights, then its set
-    bits) spends up to 2 + 1/32 iterations a light when every light affects the pixel
+    bits) spends up to 2 + 3/32 iterations a light when every light affects the pixel
     (cpu_prep/limits.py): 40,000 lights all reaching the same floor pixels.  Every technique
     gives brute's lights there, brute the float64 reference's (all 40,000 at each lit pixel;
     tiled's and fptl's overflowed tiles shade through the same loop beside their lists); in
@@ -133,6 +133,30 @@ def test_every_light_of_every_window_affecting_stays_in_the_budget(gl, monkeypat
             "one dispatch of 40,000 all-affecting lights was not truncated: the loop's cost changed?"
     else:
         assert np.array_equal(single.contrib_hash, res["brute"].contrib_hash)
+
+
+def test_a_listed_tile_beside_an_overflowed_one_in_one_vector(gl, monkeypatch):
+    """The budget's worst pass: lanes of one 8-lane vector in two 4-pixel tiles, one walking
+    its list of 40,000 lights, the other (its tile overflowed the pool) every light through
+    evaluate_all_lights, every light affecting every pixel: 34,305 + 16,385 iterations a
+    window together (cpu_prep/limits.py), and every pixel meets all 40,000 lights."""
+    from app.techniques import tiled
+    from cpu_prep import layouts
+    from tests.helpers import assert_exact
+    t = np.tan(np.radians(20.0))
+    wall = box_mesh((-2 * t * 10, -2 * t * 10, -10.01), (2 * t * 10, 2 * t * 10, -10.0))
+    cam = Camera((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), fov_y_deg=40.0, near=0.1, far=100.0)
+    monkeypatch.setattr(tiled, "POOL_MAX_ENTRIES", N_ALL)     # room for one tile's list
+    with Frame(scene_of([wall], cam, size=(8, 8), max_depth=50.0)) as f:
+        assert f.covered.all()
+        L = make_lights(N_ALL)
+        L["position"] = f.to_world(np.array([[0.0, 0.0, -9.0]]))
+        L["radius"] = 8.0
+        res = f.render(L, {"tile": 4}, techniques=["brute", "tiled"])
+        counts = f.renderer.read("ranges").view(layouts.CELL_RANGE)["offset_count"][:, 1]
+        assert sorted(counts.tolist()) == [N_ALL] + [tiled.OVERFLOW] * 3, counts
+    assert_exact(res, "a listed and an overflowed tile in one vector")
+    assert (res["brute"].contrib_count == N_ALL).all() and (res["tiled"].evaluated == N_ALL).all()
 
 
 @pytest.mark.parametrize("longest,expect", [
