@@ -7,6 +7,10 @@ class UserError(Exception):
     """Bad input or an unavailable platform feature, explained in one line."""
 
 
+class FrameTimeout(UserError):
+    """A frame stopped between two of its passes at its deadline (Renderer.render(deadline=))."""
+
+
 def exit_with(message: str, status: int = 2) -> NoReturn:
     print(f"error: {' '.join(str(message).split())}", file=sys.stderr)
     raise SystemExit(status)

@@ -15,6 +15,16 @@ allocate nothing per frame.
 timed pass run N times; untimed passes and host steps (set-up outside the measured cost, such
 as the perfect culler's list building) run once, and a timed pass may not write what an
 untimed one wrote.
+
+`render(..., deadline=T)` (a time.perf_counter() value) stops the frame between two of its
+steps (a pass, a dispatch window, a host step; never inside a dispatch) once T has passed,
+raising FrameTimeout; the next render starts a new frame record, so the renderer is usable as
+before.  What the deadline covers is the technique's per-frame GPU work: the clock that T is
+read on is held back by everything before the technique's first pass (the G-buffer, the CPU
+build and upload: a cold numba cache compiles kernels there, seconds, which the window pays
+once) and by each pass that built a new GL program (a software GL compiles on the first
+dispatch, so that pass is compile plus one dispatch window).  A caller's deadline thus
+measures what a later frame of the technique would cost, not its first frame's set-up.
 """
 from __future__ import annotations
 
@@ -28,7 +38,7 @@ from cpu_prep.arena import Arena
 from cpu_prep.camera import frame_camera
 from cpu_prep.limits import WINDOW_ALL, LimitError
 from . import features as feat, gl, rawgl
-from ..errors import UserError
+from ..errors import FrameTimeout, UserError
 from .gbuffer import GBuffer, TEXTURE_UNITS
 from .passes import (DEPTH_FUNCS, DRAW_MODES, FRAME_OUTPUTS, OUT_CELL, OUT_STATS, Buffer, Build,
                      FrameInput, HostStep, Pass, Target, WAVE_DIM)
@@ -67,6 +77,11 @@ class _Frame:
     native: bool = False
     debug_pixel: tuple | None = None               # GL coordinates of the explained pixel
     figures: bool = True                           # run the figures-only steps (passes.py)
+    deadline: float | None = None                  # render(deadline=): perf_counter value
+    begun_s: float = 0.0                           # when render() began (perf_counter)
+    held_s: float = 0.0                            # time not counted against the deadline
+    counting_from: float | None = None             # this sample's start, until its first step
+    technique: str = ""
 
 
 class Renderer:
@@ -169,7 +184,8 @@ class Renderer:
     def render(self, technique, frame: int = 0, opts=None, frames: int = 64,
                lights: np.ndarray | None = None, readback: bool = True, camera=None,
                defines: dict | None = None, samples: int = 1,
-               debug_pixel: tuple[int, int] | None = None, figures: bool | None = None) -> FrameResult:
+               debug_pixel: tuple[int, int] | None = None, figures: bool | None = None,
+               deadline: float | None = None) -> FrameResult:
         """Render one frame of `technique` (anything with resolve_options, build and
         passes).  `defines` are frame-wide switches that reach every program declaring them
         (e.g. UNBOUNDED_FALLOFF=1).  meta['samples'] holds each sample's CPU and GPU ms;
@@ -177,17 +193,25 @@ class Renderer:
         features the first sample's, whose steps all ran (host steps included).
         `debug_pixel` (x, row from the top) records the ids of the lights the shading passes find affecting that pixel
         (FrameResult.debug_lights, sorted).  `figures` (default: `readback`) runs the steps
-        that only count figures for meta['stats'] and the technique's maps (passes.py)."""
+        that only count figures for meta['stats'] and the technique's maps (passes.py).
+        `deadline` (a time.perf_counter() value): FrameTimeout between two steps once it
+        has passed, counting only the technique's passes (the module's docstring)."""
+        begun = time.perf_counter()
         opts = technique.resolve_options(opts)
         fin = self.frame_input(frame, frames, lights, camera)
         self._begin_frame(debug_pixel, readback if figures is None else figures)
+        f = self._frame
+        f.deadline, f.technique, f.begun_s = deadline, technique.name, begun
         records, stats, ran = [], None, None
-        for k in range(max(int(samples), 1)):
-            build, features, record = self._sample(technique, fin, opts, defines, first=k == 0)
-            if stats is None:
-                stats = dict(build.stats)       # host steps of the first sample add to them
-                ran = build, features           # the build whose steps (host steps) all ran
-            records.append(record)
+        try:
+            for k in range(max(int(samples), 1)):
+                build, features, record = self._sample(technique, fin, opts, defines, first=k == 0)
+                if stats is None:
+                    stats = dict(build.stats)       # host steps of the first sample add to them
+                    ran = build, features           # the build whose steps (host steps) all ran
+                records.append(record)
+        finally:
+            f.deadline = None                       # run() after the frame (the window's passes): none
         build, features = ran
         missing = [n for n in FRAME_OUTPUTS if n not in self._frame.provided]
         if missing:
@@ -224,6 +248,7 @@ class Renderer:
         technique (the first sample: compiles, host steps included) or its timed passes
         again.  -> (build, feature set, {"cpu_ms", "gpu_ms"})."""
         self.timer.take()
+        begun = self._frame.begun_s if first else time.perf_counter()   # the first: the frame input too
         virtual = {"generated.glsl": feat.generated_glsl()}
         for p in self._checked([self.gbuffer.pass_for(fin.camera)], virtual, "frame"):
             self._run_pass(p, virtual, {}, {}, record=False)
@@ -241,6 +266,7 @@ class Renderer:
                           "u_window": (0, WINDOW_ALL)}
         virtual = dict(feat.virtual_files(features), **getattr(technique, "glsl", {}))
         env = (virtual, dict(defines or {}), frame_uniforms)
+        self._frame.counting_from = begun   # the first step's check holds back what came before
         if first:
             # a build made on the GPU (app/gpu_build) brings its passes, ending in the technique's
             steps = build.data.get("build_steps") or technique.passes(build, opts)
@@ -249,6 +275,7 @@ class Renderer:
             features = feat.feature_set(build.lights.type, self.gbuffer.specular)
         else:
             for p in self._frame.timed:
+                self._check_deadline(p.name)
                 self._run_pass(p, *env, technique.name)
         return build, features, {"cpu_ms": cpu_ms, "gpu_ms": self.timer.take()}
 
@@ -263,10 +290,31 @@ class Renderer:
         queue = self._checked(steps, virtual, technique)
         while queue:
             step = queue.pop(0)
+            self._check_deadline(step.name)
             if isinstance(step, HostStep):
                 queue[:0] = self._checked(self._run_host(step), virtual, technique)
             else:
                 self._run_pass(step, virtual, defines or {}, uniforms or {}, technique)
+
+    def _hold(self, since: float) -> None:
+        """Hold the deadline's clock back by the time since `since` (not the technique's
+        per-frame cost: module docstring)."""
+        self._frame.held_s += time.perf_counter() - since
+
+    def _check_deadline(self, step: str) -> None:
+        """FrameTimeout before `step` when the frame's deadline has passed on the held-back
+        clock (module docstring).  Between steps only: a dispatch runs whole."""
+        f = self._frame
+        if f.deadline is None:
+            return
+        if f.counting_from is not None:     # the G-buffer, the CPU build (its kernel compiles), the upload
+            self._hold(f.counting_from)
+            f.counting_from = None
+        now = time.perf_counter()
+        if now - f.held_s > f.deadline:
+            raise FrameTimeout(f"{f.technique}: frame stopped at its deadline after "
+                               f"{now - f.begun_s - f.held_s:.1f} s of its passes (compiles not "
+                               f"counted), before '{step}'")
 
     def _checked(self, steps, virtual: dict, technique: str) -> list:
         """The steps this frame runs (figures-only ones when it wants figures), checked
@@ -317,6 +365,7 @@ class Renderer:
             optional["DEBUG_PIXEL"] = 1
             uniforms = dict(uniforms, u_debug_pixel=f.debug_pixel)
         virtual = p.files(virtual)
+        begun, programs = time.perf_counter(), len(self.programs.sources)
         if p.kind == "compute":
             prog = self.programs.compute(p.shader, dict(p.defines), virtual, (), bindings, optional, where)
             work = (lambda: prog.run(*p.groups)) if p.indirect is None else \
@@ -335,6 +384,8 @@ class Renderer:
             self.ctx.finish()
             f.setup_ms[p.name] = f.setup_ms.get(p.name, 0.0) + (time.perf_counter() - t0) * 1e3
         self.ctx.memory_barrier()   # the next pass reads what this one wrote
+        if record and len(self.programs.sources) != programs:
+            self._hold(begun)       # it built its program: a compile (a software GL's at its first dispatch)
 
     @staticmethod
     def _set_uniforms(prog, uniforms) -> None:
