@@ -47,6 +47,9 @@ Studies (column `study`):
                 temporal error and popping against the unbounded reference
     growth      the CPU stage alone from 8,192 doubling to 1,048,576 lights, one and two
                 threads, each build's buffer bytes in stats (app.bench.cpu --growth)
+    gpu_build   each technique that takes --build, built on the CPU and on the GPU at each
+                light count (app.bench.gpu_build): the CPU stage's columns, the GPU build's
+                ms, its passes and the ratio in stats
     cpu         the CPU stage alone (technique.build + upload) at the CPU series' resolution
     cpu_<option> the CPU stage alone over an option study's values at the CPU series'
                 resolution (only when it differs from the rendered one); never to be added

@@ -23,7 +23,8 @@
                         [--frames K] [--repeat R] [--threads 1] [--cpu-lights ...] [--cpu-size WxH]
         The sweep (app.bench.sweep): scenes x every technique of the registry x light counts x
         camera-path frames; one study per technique option with declared study values, over
-        the techniques that declare it; the light cutoff; a CPU-only light-count series.
+        the techniques that declare it; the light cutoff; a CPU-only light-count series; the
+        CPU and GPU builds at --gpu-build-lights (study gpu_build, as `gpu-build` measures).
         Writes DIR/results.csv (columns and studies: app.results), DIR/maps.npz (per-block
         maps of the figures), DIR/run.json and DIR/report.md with its PNG plots (app.report).
 

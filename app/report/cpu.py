@@ -448,8 +448,10 @@ def gpu_build_report(rows) -> tuple[list[str], str]:
                          + " |")
         g, ratio, passes = figs[-1]
         top = max(passes, key=passes.get) if passes else None
-        line = (f"{t}: the GPU build takes {min(f[1] for f in figs):.3g}-{max(f[1] for f in figs):.3g}x "
-                f"the CPU stage's time from {_k(rs[0]['lights'])} to {_k(rs[-1]['lights'])} lights")
+        lo, hi = min(f[1] for f in figs), max(f[1] for f in figs)
+        line = (f"{t}: the GPU build takes {lo:.3g}-{hi:.3g}x the CPU stage's time from "
+                f"{_k(rs[0]['lights'])} to {_k(rs[-1]['lights'])} lights" if len(rs) > 1 else
+                f"{t}: the GPU build takes {lo:.3g}x the CPU stage's time at {_k(rs[0]['lights'])} lights")
         if top and g > 0:
             line += (f"; at {_k(rs[-1]['lights'])} its largest part is {top} "
                      f"({100 * passes[top] / g:.0f}% of {ms(g)})")

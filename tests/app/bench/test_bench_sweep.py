@@ -167,3 +167,19 @@ def test_technique_notes_and_stats_column(sweep):
     if any(type(t).maps is not type(REGISTRY[with_role("reference").name]).maps
            for t in REGISTRY.values()):
         assert "](technique_maps.png)" in text
+
+
+def test_presets_wire_the_gpu_build_comparison():
+    """--quick and --full compare the builds (full at more counts), gpu-check not;
+    --gpu-build-lights overrides the counts (0: none), --scenes the scene, --repeat the samples."""
+    from argparse import Namespace
+    from app.bench.presets import FULL, GPU_CHECK, QUICK, preset_from_args
+    assert len(QUICK.gpu_build_lights) >= 2 and len(FULL.gpu_build_lights) > len(QUICK.gpu_build_lights)
+    assert GPU_CHECK.gpu_build_lights == ()
+    blank = dict(full=False, gpu_check=False, size=None, scenes=None, lights=None, frames=None,
+                 repeat=None, cpu_lights=None, cpu_size=None, threads=None)
+    p = preset_from_args(Namespace(**dict(blank, scenes="hangar,arena", repeat=2,
+                                          gpu_build_lights="512,1024")))
+    assert (p.gpu_build_scene, p.gpu_build_lights, p.gpu_build_repeat) == ("hangar", (512, 1024), 2)
+    assert preset_from_args(Namespace(**dict(blank, gpu_build_lights="0"))).gpu_build_lights == ()
+    assert preset_from_args(Namespace(**blank)).gpu_build_lights == QUICK.gpu_build_lights
