@@ -183,3 +183,23 @@ def test_presets_wire_the_gpu_build_comparison():
     assert (p.gpu_build_scene, p.gpu_build_lights, p.gpu_build_repeat) == ("hangar", (512, 1024), 2)
     assert preset_from_args(Namespace(**dict(blank, gpu_build_lights="0"))).gpu_build_lights == ()
     assert preset_from_args(Namespace(**blank)).gpu_build_lights == QUICK.gpu_build_lights
+
+
+def test_image_flip_computes_a_pair_once(monkeypatch):
+    """measure.image_flip: FLIP of one (reference, frame) image pair is computed once (the
+    cutoff and caps studies compare one exact image with the unbounded reference again and
+    again); another pair is computed anew, and an identical pair is 0 with no FLIP at all."""
+    from types import SimpleNamespace
+    import flip_evaluator
+    import numpy as np
+    from app.bench import measure
+    calls = []
+    real = flip_evaluator.evaluate
+    monkeypatch.setattr(flip_evaluator, "evaluate", lambda *a, **k: calls.append(1) or real(*a, **k))
+    rng = np.random.default_rng(5)
+    ref, a, b = (SimpleNamespace(image=rng.random((9, 11, 3), dtype=np.float32)) for _ in range(3))
+    first = measure.image_flip(a, ref)
+    assert first > 0 and measure.image_flip(SimpleNamespace(image=a.image.copy()), ref) == first
+    assert len(calls) == 1
+    assert measure.image_flip(b, ref) != first and len(calls) == 2
+    assert measure.image_flip(ref, ref) == 0.0 and len(calls) == 2
