@@ -56,7 +56,7 @@ import time
 
 from cpu_prep.camera import frame_camera
 
-from ..errors import UserError
+from ..errors import FrameTimeout, UserError
 from ..techniques.base import visible_lights
 from ..techniques.options import cap_policy, stochastic
 from . import progress
@@ -84,35 +84,41 @@ def _scaled(size, scale: float) -> tuple[int, int]:
     return max(8, int(round(size[0] * scale))), max(8, int(round(size[1] * scale)))
 
 
-def frame_ms(renderer, technique, opts, lights, cam, size) -> tuple[float, float]:
+def frame_ms(renderer, technique, opts, lights, cam, size,
+             deadline: float | None = None) -> tuple[float, float]:
     """(wall ms, GPU passes' ms) of one frame of `technique` at `size` (the renderer is
-    left at that size)."""
+    left at that size); FrameTimeout past `deadline` (Renderer.render's)."""
     if renderer.size != tuple(size):
         renderer.resize(size)
     t0 = time.perf_counter()
     result = renderer.render(technique, 0, opts, lights=lights, readback=False,
-                             camera=frame_camera(cam, *size))
+                             camera=frame_camera(cam, *size), deadline=deadline)
     renderer.ctx.finish()
     return (time.perf_counter() - t0) * 1e3, float(sum(result.meta["gpu_ms"].values()))
 
 
-def timed_frame(renderer, technique, opts, lights, cam, size) -> float:
+def timed_frame(renderer, technique, opts, lights, cam, size, deadline: float | None = None) -> float:
     """Wall ms of one frame of `technique` at `size` (the renderer is left at that size)."""
-    return frame_ms(renderer, technique, opts, lights, cam, size)[0]
+    return frame_ms(renderer, technique, opts, lights, cam, size, deadline)[0]
+
+
+def _deadline(allow_s: float | None) -> float | None:
+    return None if allow_s is None else time.perf_counter() + allow_s
 
 
 def measured_ms(renderer, technique, opts, lights, cam, size, what: str,
-                expect_s: float | None = None) -> float:
+                expect_s: float | None = None, allow_s: float | None = None) -> float:
     """Wall ms of `technique`'s second frame at `size` (the first compiles), or of its first
     when that frame's GPU passes alone took over LONG_FRAME_MS; each frame over a second
     has its console lines (`what`: the step; expect_s: what the first may take, None:
-    unknown, said before it)."""
+    unknown, said before it).  allow_s: each frame's deadline, from its start (FrameTimeout
+    past it; Renderer.render counts the technique's passes, not its build or compiles)."""
     with progress.step(f"{what}, first frame (compiles)", expect_s, unknown=expect_s is None):
-        wall, gpu = frame_ms(renderer, technique, opts, lights, cam, size)
+        wall, gpu = frame_ms(renderer, technique, opts, lights, cam, size, _deadline(allow_s))
     if gpu > LONG_FRAME_MS:
         return wall
     with progress.step(f"{what}, timed frame", gpu / 1e3):      # the first's wall: its compile too
-        return timed_frame(renderer, technique, opts, lights, cam, size)
+        return timed_frame(renderer, technique, opts, lights, cam, size, _deadline(allow_s))
 
 
 class Refusals:
@@ -144,18 +150,18 @@ def programs_built(renderer) -> int:
 
 
 def settled_ms(renderer, technique, opts, lights, cam, size, what: str,
-               expect_s: float | None = None) -> float:
+               expect_s: float | None = None, allow_s: float | None = None) -> float:
     """Wall ms of a frame at `size` of a technique whose shaders and kernels an earlier
     frame (at another size) compiled: that frame, or a second one when it built new GL
     programs (a variant this size needs: its compile is in the frame) and its GPU passes
-    took under LONG_FRAME_MS.  Console lines as measured_ms's."""
+    took under LONG_FRAME_MS.  Console lines, and allow_s, as measured_ms's."""
     built = programs_built(renderer)
     with progress.step(what, expect_s, unknown=expect_s is None):
-        wall, gpu = frame_ms(renderer, technique, opts, lights, cam, size)
+        wall, gpu = frame_ms(renderer, technique, opts, lights, cam, size, _deadline(allow_s))
     if programs_built(renderer) == built or gpu > LONG_FRAME_MS:
         return wall
     with progress.step(f"{what}, again (that frame compiled)", gpu / 1e3):
-        return timed_frame(renderer, technique, opts, lights, cam, size)
+        return timed_frame(renderer, technique, opts, lights, cam, size, _deadline(allow_s))
 
 
 def _refusal(refusals: Refusals, t, opts) -> str | None:
@@ -165,20 +171,30 @@ def _refusal(refusals: Refusals, t, opts) -> str | None:
         return str(exc)
 
 
-def rank(renderer, able, lights, cam, size) -> tuple[list[str], dict[str, float]]:
+def rank(renderer, able, lights, cam, size, allow_s: float | None = None
+         ) -> tuple[list[str], dict[str, float], dict[str, str]]:
     """(the names of `able` [(technique, opts)], the likely fastest first, {name: wall ms of
-    its ranking frame at `size`}): two frames each at `size` (measured_ms: the first
-    compiles, or is its own measure when over LONG_FRAME_MS); one that refuses there (its
-    refusal() at this size, or its build) comes after the ranked ones, in the given order."""
+    its ranking frame at `size`}, {name: why it was left out}): two frames each at `size`
+    (measured_ms: the first compiles, or is its own measure when over LONG_FRAME_MS); one
+    that refuses there (its refusal() at this size, or its build) comes after the ranked
+    ones, in the given order; one whose frame runs past `allow_s` (each frame's deadline:
+    fastest() says why) is left out, with its console line."""
     refusals = Refusals([renderer.frame_input(0, 1, lights, frame_camera(cam, *size))])
     ranked: dict[str, float] = {}
     unranked: list[str] = []
+    over: dict[str, str] = {}
     last_s = None
     for k, (t, opts) in enumerate(able, 1):
         if _refusal(refusals, t, opts) is None:
             try:
                 ms = measured_ms(renderer, t, opts, lights, cam, size,
-                                 f"ranking {k}/{len(able)}: {t.name} at {size[0]}x{size[1]}", last_s)
+                                 f"ranking {k}/{len(able)}: {t.name} at {size[0]}x{size[1]}", last_s,
+                                 allow_s)
+            except FrameTimeout as exc:
+                over[t.name] = (f"its ranking frame at {size[0]}x{size[1]} ran past the probe's "
+                                f"{allow_s:g} s deadline ({str(exc).removeprefix(t.name + ': ')})")
+                progress.say(f"probe: left out {t.name}: {over[t.name]}")
+                continue
             except UserError:
                 pass
             else:
@@ -188,8 +204,9 @@ def rank(renderer, able, lights, cam, size) -> tuple[list[str], dict[str, float]
     order = sorted(ranked, key=ranked.get) + unranked      # stable: ties in the given order
     progress.say(f"probe: ranked at {size[0]}x{size[1]}: "
                  + ", ".join(f"{n} {duration(ranked[n])}" if n in ranked else f"{n} (refused there)"
-                             for n in order))
-    return order, ranked
+                             for n in order)
+                 + "".join(f", {n} (over the {allow_s:g} s deadline)" for n in over))
+    return order, ranked, over
 
 
 def fastest(renderer, candidates, opts_of, lights, cam, max_pixels: int = PROBE_PIXELS,
@@ -231,8 +248,8 @@ def fastest(renderer, candidates, opts_of, lights, cam, max_pixels: int = PROBE_
     progress.say(f"probe: timing {line}, {len(lights):,} lights "
                  f"(--technique NAME starts without the probe)")
     try:
-        order, ranked = rank(renderer, list(able.values()), lights, cam, small) if len(able) > 1 \
-            else (list(able), {})
+        order, ranked, over = rank(renderer, list(able.values()), lights, cam, small, budget_s) \
+            if len(able) > 1 else (list(able), {}, {})
         t0, last, last_s = time.perf_counter(), None, None  # the budget: after every compile frame
         for k, name in enumerate(order, 1):
             t, opts = able[name]
@@ -243,18 +260,28 @@ def fastest(renderer, candidates, opts_of, lights, cam, max_pixels: int = PROBE_
                 skipped.append(name)
                 continue
             what = f"probe {k}/{len(order)}: {name} at {size[0]}x{size[1]}"
+            # the first timed frame has no deadline (the start needs one measure, and the
+            # window renders it anyway); a later one stops when it alone overruns the budget,
+            # the frame the expectation above would not have started
+            allow_s = budget_s if times else None
             try:
                 if name in ranked:
                     ms = settled_ms(renderer, t, opts, lights, cam, size, what,
-                                    None if expect is None else expect / 1e3)
+                                    None if expect is None else expect / 1e3, allow_s)
                 else:
-                    ms = measured_ms(renderer, t, opts, lights, cam, size, what, last_s)
+                    ms = measured_ms(renderer, t, opts, lights, cam, size, what, last_s, allow_s)
+            except FrameTimeout as exc:
+                skipped.append(name)
+                progress.say(f"probe: {name} not timed: its frame at {size[0]}x{size[1]} ran past the "
+                             f"probe's {budget_s:g} s budget ({str(exc).removeprefix(name + ': ')})")
+                continue
             except UserError as exc:
                 refused[name] = str(exc)
                 continue
             times[name], last_s = ms, ms / 1e3
             if name in ranked:
                 last = name
+        skipped += list(over)                       # the slowest of all: left out for time too
     finally:
         renderer.resize(full)
     refused = {t.name: refused[t.name] for t in candidates if t.name in refused}   # given order

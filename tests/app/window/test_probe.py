@@ -5,7 +5,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from app.errors import UserError
+from app.errors import FrameTimeout, UserError
 from app.pipeline.passes import FrameInput
 from app.techniques import REGISTRY
 from app.techniques.base import Technique, register, unregister, visible_lights
@@ -73,7 +73,7 @@ class ProbeRenderer:
     def frame_input(self, frame, frames, lights, camera):
         return FrameInput(lights, camera, self.scene.max_depth, loop_budget=self.loop_budget)
 
-    def render(self, technique, frame, opts, lights, readback, camera):
+    def render(self, technique, frame, opts, lights, readback, camera, deadline=None):
         self.rendered.append(technique.name)
         if technique.name in self.build_refuses:
             raise UserError(f"{technique.name}: a limit only its build meets")
@@ -187,14 +187,20 @@ class TimedRenderer(ProbeRenderer):
         self.programs = SimpleNamespace(sources={})
         self.frames = []                                  # (name, size) of each frame
 
-    def render(self, technique, frame, opts, lights, readback, camera):
+    def render(self, technique, frame, opts, lights, readback, camera, deadline=None):
         self.frames.append((technique.name, self.size))
         super().render(technique, frame, opts, lights, readback, camera)
         name = technique.name
         keys = [(name,)] + ([(name, self.size)] if name in self.variants else [])
         new = [k for k in keys if k not in self.programs.sources]
         self.programs.sources.update(dict.fromkeys(new, "text"))
-        ms = self.cost[name](self.size[0] * self.size[1]) + self.compile_ms * len(new)
+        passes, compile_ms = self.cost[name](self.size[0] * self.size[1]), self.compile_ms * len(new)
+        if deadline is not None and self.clock.now + passes / 1e3 > deadline:
+            # Renderer.render: the compile is not counted; the passes stop at the deadline
+            spent = max(deadline - self.clock.now, 0.0)
+            self.clock.now += spent + compile_ms / 1e3
+            raise FrameTimeout(f"{name}: frame stopped at its deadline after {spent:.1f} s of its passes")
+        ms = passes + compile_ms
         self.clock.now += ms / 1e3
         return SimpleNamespace(meta={"gpu_ms": {"shade": ms}})
 
@@ -325,3 +331,44 @@ def test_a_new_slow_technique_registered_first_is_the_one_the_start_skips(timed,
     assert "window: probe: timing 3 techniques at 64x36, the likely fastest first (ranked by a frame " \
            "each at 8x8), 64 lights (--technique NAME starts without the probe)" in err
     assert "window: probe: ranked at 8x8: clustered 1 ms, tree 2 ms, slowpoke 6 ms" in err
+
+
+# ---- the deadline: a frame that runs past it stops between two passes and is left out ----
+
+def test_a_ranking_frame_past_its_deadline_is_left_out_and_stops_there(timed, capsys):
+    # slowpoke (a new module, registered first) needs 3.2 s a ranking frame at 8x8, over the
+    # 1 s budget that is each ranking frame's deadline: its first frame stops 1 s into its
+    # passes (its 5 s compile not counted), it takes no second one and is left out, with its
+    # line; clustered and tree are ranked and timed as before
+    scene, make = timed
+    r = make({"slowpoke": per_pixel(50.0), "clustered": per_pixel(0.01), "tree": per_pixel(0.03)})
+    register(Slowpoke(), at=0)
+    try:
+        name, times, _, skipped, refused = probed(r, scene, ["slowpoke", "clustered", "tree"], 1.0)
+    finally:
+        unregister("slowpoke")
+    assert name == "clustered" and list(times) == ["clustered", "tree"] and skipped == ["slowpoke"]
+    assert not refused
+    assert r.frames == ([("slowpoke", SMALL)] + [(n, SMALL) for n in ("clustered", "tree") for _ in (0, 1)]
+                        + [("clustered", PROBE), ("tree", PROBE)])
+    compiles, frames = 3 * 5.0, (0.01 + 0.03) * (2 * 64 + 64 * 36) / 1e3
+    assert r.clock.now == pytest.approx(compiles + 1.0 + frames)       # 1 s of slowpoke, not 3.2
+    err = capsys.readouterr().err.splitlines()
+    assert "window: probe: left out slowpoke: its ranking frame at 8x8 ran past the probe's 1 s deadline " \
+           "(frame stopped at its deadline after 1.0 s of its passes)" in err
+    assert "window: probe: ranked at 8x8: clustered 1 ms, tree 2 ms, slowpoke (over the 1 s deadline)" in err
+
+
+def test_a_timing_frame_past_the_budget_is_stopped_and_not_probed_for_time(timed, capsys):
+    # tree ranks close to clustered at 8x8 (1 ms: expected 36 ms at 64x36, well in the 1 s
+    # budget) but takes 5 s there: its frame stops 1 s in (the budget: what the expectation
+    # would not have started), and it is left out for time; the first timed frame has none
+    scene, make = timed
+    r = make({"clustered": per_pixel(0.01), "tree": lambda pixels: 1.0 if pixels < 100 else 5000.0})
+    name, times, _, skipped, refused = probed(r, scene, ["tree", "clustered"], 1.0)
+    assert name == "clustered" and list(times) == ["clustered"] and skipped == ["tree"] and not refused
+    assert [f for f in r.frames if f[1] == PROBE] == [("clustered", PROBE), ("tree", PROBE)]
+    ranking = 2 * 5.0 + 2 * (0.01 * 64 + 1.0) / 1e3
+    assert r.clock.now == pytest.approx(ranking + 0.01 * 64 * 36 / 1e3 + 1.0)   # 1 s of tree, not 5
+    assert any(l.startswith("window: probe: tree not timed: its frame at 64x36 ran past the probe's 1 s "
+                            "budget (frame stopped at its deadline after 1.0 s") for l in capsys.readouterr().err.splitlines())
