@@ -10,13 +10,27 @@
                   the window would pay anyway, on its first frame of it: seconds each from
                   a cold numba cache; not in the budget), the second ranking it; a first
                   frame whose GPU passes took over LONG_FRAME_MS is its own rank (its
-                  compile a small share of it).  The ranking has its console line.
+                  compile a small share of it).  Each ranking frame has a deadline
+                  (Renderer.render's: between two passes, each dispatch window its own; the
+                  CPU build and compiles not counted) of the whole budget: a frame at the
+                  probe size does at least the work of one at 1/64 of its pixels (the same
+                  lights culled, 64x the pixels shaded), so a candidate whose ranking frame
+                  alone runs past the budget would be expected over it, which the timing
+                  step below does not start; it is left out for time (its console line;
+                  "not probed for time") after a few seconds instead of a frame of minutes
+                  (a million lights on llvmpipe: tiled's, 227 s).  A single dispatch or draw
+                  runs whole, so a frame can overrun the deadline by its longest pass.  When
+                  every ranking frame overruns, they are timed in the given order (the
+                  first whole: the window needs a start).  The
+                  ranking has its console line.
                   timing: one frame each at the probe size, in the ranking's order (a second
                   one when that frame built new GL programs: a variant only this size needs),
                   while the probe is within PROBE_BUDGET_S (6 s; LAB_PROBE_BUDGET_S sets
                   it) from the start of this step, the first always; a candidate whose
                   expected frame (the last timed one's, scaled by their ranking frames) is
-                  over the whole budget is not started either.  What the budget leaves out is
+                  over the whole budget is not started either, and a frame after the first
+                  stops (the same deadline) once it alone runs past the budget; the first
+                  has none (the start needs one measure).  What the budget leaves out is
                   then the ranking's slow end (a million lights: tiled, whose per-tile cull
                   loops over every visible light, 395 s a frame on llvmpipe), not whatever
                   the registry lists first.
@@ -250,6 +264,8 @@ def fastest(renderer, candidates, opts_of, lights, cam, max_pixels: int = PROBE_
     try:
         order, ranked, over = rank(renderer, list(able.values()), lights, cam, small, budget_s) \
             if len(able) > 1 else (list(able), {}, {})
+        if not order:                                   # every ranking frame ran past its deadline:
+            order, over = list(over), {}                # timed all the same, the first whole
         t0, last, last_s = time.perf_counter(), None, None  # the budget: after every compile frame
         for k, name in enumerate(order, 1):
             t, opts = able[name]

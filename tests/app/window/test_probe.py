@@ -372,3 +372,10 @@ def test_a_timing_frame_past_the_budget_is_stopped_and_not_probed_for_time(timed
     assert r.clock.now == pytest.approx(ranking + 0.01 * 64 * 36 / 1e3 + 1.0)   # 1 s of tree, not 5
     assert any(l.startswith("window: probe: tree not timed: its frame at 64x36 ran past the probe's 1 s "
                             "budget (frame stopped at its deadline after 1.0 s") for l in capsys.readouterr().err.splitlines())
+
+
+def test_when_every_ranking_frame_is_past_its_deadline_the_first_is_still_timed(timed):
+    scene, make = timed
+    r = make({"clustered": per_pixel(50.0), "tree": per_pixel(60.0)}, compile_ms=1.0)
+    name, times, _, skipped, refused = probed(r, scene, ["clustered", "tree"], 1.0)
+    assert name == "clustered" and list(times) == ["clustered"] and skipped == ["tree"] and not refused
