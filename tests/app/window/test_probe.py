@@ -277,8 +277,8 @@ def test_a_variant_built_at_the_probe_size_gets_a_second_frame_there(timed):
 
 
 def test_a_ranking_frame_over_the_long_frame_limit_is_its_own_rank(timed):
-    # tiled's first 8x8 frame takes 64 s (over LONG_FRAME_MS): no second one; last in the
-    # order, and expected far over the budget, it is never timed at the probe size
+    # tiled's first 8x8 frame would take 64 s (over LONG_FRAME_MS): it stops at its 6 s
+    # deadline (the budget), takes no second one, and is never timed at the probe size
     scene, make = timed
     r = make({"tiled": per_pixel(1000.0), "clustered": per_pixel(0.01)}, compile_ms=1.0)
     name, _, _, skipped, _ = probed(r, scene, ["tiled", "clustered"], 6.0)
