@@ -122,7 +122,9 @@ def test_gpu_build_comparison(sweep):
     for r in got:
         s = json.loads(r["stats"])
         assert s["gpu_build_min_ms"] > 0 and r["cpu_total_min_ms"] > 0, r["technique"]
-        assert s["gpu_over_cpu"] == pytest.approx(s["gpu_build_min_ms"] / r["cpu_total_min_ms"], abs=0.006)
+        # the ratio is of the unrounded times, the columns are rounded: 1% (a 0.01 ms column
+        # of a ~0.1 ms CPU stage moves a ~50x ratio by more than its own rounding)
+        assert s["gpu_over_cpu"] == pytest.approx(s["gpu_build_min_ms"] / r["cpu_total_min_ms"], rel=0.01)
     text = (out / "report.md").read_text()
     assert "### The build on the CPU and on the GPU" in text
     assert "| technique | lights | visible | CPU stage ms | GPU build ms | GPU / CPU |" in text
