@@ -41,6 +41,7 @@ from .intrinsics import bits_to_f64, fetch_add
 from .limits import SLICE_DEPTH_REL_MARGIN, check_buffer
 
 FILL_BANDS_A_THREAD = 2
+BOX_CHUNKS = 16       # with threads: chunks of lights for the boxes and counts
 
 
 @dataclass(frozen=True)
@@ -267,10 +268,10 @@ def _box_corners(boxes, diff):
         _add_corners(diff, x0, x1, y0, y1, s0, s1)
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _boxes_corners(rect, d_lo, d_hi, tile, tiles_x, tiles_y, table, out, diff):
-    """rect_boxes() and the difference-array count in one pass over the lights."""
-    for i in range(rect.shape[0]):
+@numba.njit(inline="always")
+def _boxes_corners_range(a, b, rect, d_lo, d_hi, tile, tiles_x, tiles_y, table, out, diff):
+    """rect_boxes() and the difference-array count in one pass over lights a .. b-1."""
+    for i in range(a, b):
         x0, x1, y0, y1, lo, hi = rect[i, 0], rect[i, 1], rect[i, 2], rect[i, 3], float(d_lo[i]), float(d_hi[i])
         if not (x0 <= x1 and y0 <= y1 and lo <= hi):     # nothing of the light can be seen
             out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = 1, 0, 1, 0, 1, 0
@@ -279,6 +280,29 @@ def _boxes_corners(rect, d_lo, d_hi, tile, tiles_x, tiles_y, table, out, diff):
         out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = a0, a1, b0, b1, s0, s1
         if a0 <= a1 and b0 <= b1 and s0 <= s1:
             _add_corners(diff, a0, a1, b0, b1, s0, s1)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _boxes_corners(rect, d_lo, d_hi, tile, tiles_x, tiles_y, table, out, diff):
+    """rect_boxes() and the difference-array count in one pass over the lights."""
+    _boxes_corners_range(0, rect.shape[0], rect, d_lo, d_hi, tile, tiles_x, tiles_y, table,
+                         out, diff)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _boxes_corners_chunks(claim, chunks, rect, d_lo, d_hi, tile, tiles_x, tiles_y, table, out,
+                          diffs):
+    """_boxes_corners() on the chunks of lights this thread claims (cpu_prep.share), counted
+    into this thread's own difference array, diffs[slot] (claim[2] hands out the slots):
+    integer counts, so their sum is the same whichever thread counted which light."""
+    slot = fetch_add(claim, 2, 1)
+    n = rect.shape[0]
+    k = fetch_add(claim, 0, 1)
+    while k < chunks:
+        _boxes_corners_range(k * n // chunks, (k + 1) * n // chunks, rect, d_lo, d_hi, tile,
+                             tiles_x, tiles_y, table, out, diffs[slot])
+        fetch_add(claim, 1, 1)
+        k = fetch_add(claim, 0, 1)
 
 
 def rect_counts(grid: Grid, rect, depth_lo, depth_hi) -> np.ndarray:
@@ -405,5 +429,19 @@ def bin_rects(grid: Grid, rect, depth_lo, depth_hi, arena: Arena | None = None):
     (offsets, entries, boxes)."""
     boxes = empty(arena, "boxes", (len(rect), 6), np.int32)
     diff, offsets, cursor = _count_arrays(grid, arena)
-    _boxes_corners(rect, depth_lo, depth_hi, *_grid_args(grid), boxes, diff)
+    _count_boxes(grid, rect, depth_lo, depth_hi, boxes, diff, arena)
     return offsets, _fill(grid, boxes, diff, offsets, cursor, arena), boxes
+
+
+def _count_boxes(grid: Grid, rect, depth_lo, depth_hi, boxes, diff, arena: Arena | None):
+    """The lights' boxes and their difference-array count (one pass); with threads, chunks
+    of lights, a difference array a thread, summed into diff."""
+    chunks = max(min(len(rect), BOX_CHUNKS), 1) if parallel() else 1
+    if chunks == 1:
+        share.run(_boxes_corners_chunks, 1, rect, depth_lo, depth_hi, *_grid_args(grid), boxes,
+                  diff[None])
+        return
+    parts = zeros(arena, "bin_diff_parts", (numba.get_num_threads(),) + diff.shape, np.int32)
+    share.run(_boxes_corners_chunks, chunks, rect, depth_lo, depth_hi, *_grid_args(grid), boxes,
+              parts)
+    np.sum(parts, axis=0, out=diff)

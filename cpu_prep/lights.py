@@ -160,8 +160,8 @@ def _view_light_call(li, m):
     return _view_light(li, m)
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _cull(lights, m, near, far, tan_x, tan_y, keyed, depth):
+@numba.njit(inline="always")
+def _cull_range(lights, a, b, m, near, far, tan_x, tan_y, keyed, depth):
     """Frustum test of each light's culling sphere against the near/far planes and the four
     side planes widened by PIXEL_MARGIN (tan_x, tan_y).  The visible lights, in scene order:
     keyed[k] = sort key << 32 | scene id (the key: the float32 bits of the sphere-centre
@@ -173,11 +173,14 @@ def _cull(lights, m, near, far, tan_x, tan_y, keyed, depth):
     (c.x + tan_x * depth) / |n| < -r with the division by |n| = sqrt(1 + tan_x^2) moved to
     the right side (a multiplication, not four divisions a light): the two differ by a
     rounding of the last bit, a 1e-16 relative shift of a plane that PIXEL_MARGIN already
-    moved out by a pixel (~1e-3 of the depth), so the test stays conservative."""
+    moved out by a pixel (~1e-3 of the depth), so the test stays conservative.
+
+    Lights a .. b-1 only, their visible ones written from index a (of them, fewer): the
+    chunks of _cull_chunks."""
     norm_x, norm_y = math.sqrt(1.0 + tan_x * tan_x), math.sqrt(1.0 + tan_y * tan_y)
     near_lo, far_hi = near * (1 - RADIUS_REL_MARGIN), far * (1 + RADIUS_REL_MARGIN)
-    k = 0
-    for i in range(lights.shape[0]):
+    k = a
+    for i in range(a, b):
         li = lights[i]
         px, py, pz = _position(li, m)
         t = li.type
@@ -196,7 +199,38 @@ def _cull(lights, m, near, far, tan_x, tan_y, keyed, depth):
         keyed[k] = (key << np.uint64(32)) | np.uint64(i)   # written always, kept when visible
         depth[k] = d
         k += 0 if out else 1
-    return k
+    return k - a
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _cull_chunks(claim, chunks, lights, m, near, far, tan_x, tan_y, keyed, depth, visible):
+    """The chunks of lights this thread claims (cpu_prep.share): chunk k's visible lights
+    from its first light's index on, their count into visible[k]."""
+    n = lights.shape[0]
+    k = fetch_add(claim, 0, 1)
+    while k < chunks:
+        visible[k] = _cull_range(lights, k * n // chunks, (k + 1) * n // chunks, m, near, far,
+                                 tan_x, tan_y, keyed, depth)
+        fetch_add(claim, 1, 1)
+        k = fetch_add(claim, 0, 1)
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _close_cull_gaps(n, keyed, depth, visible):
+    """The chunks' visible lights moved down to lie back to back, in scene order (a forward
+    copy: each chunk's place starts at or before its first light).  Returns their count."""
+    chunks = visible.shape[0]
+    w = np.uint64(visible[0])
+    for k in range(1, chunks):
+        a = np.uint64(k * n // chunks)
+        for j in range(np.uint64(visible[k])):
+            keyed[w + j] = keyed[a + j]
+            depth[w + j] = depth[a + j]
+        w += np.uint64(visible[k])
+    return w
+
+
+CULL_CHUNKS = 16      # with threads: chunks of lights to claim (a late thread leaves less)
 
 
 def cull(lights: np.ndarray, cam: FrameCamera, arena: Arena | None = None):
@@ -207,7 +241,11 @@ def cull(lights: np.ndarray, cam: FrameCamera, arena: Arena | None = None):
     n = len(lights)
     keyed = empty(arena, "visible_keys", n, np.uint64)
     depth = empty(arena, "visible_depths", n, np.float64)
-    k = _cull(lights, cam.view_from_world, cam.near, cam.far, tx, ty, keyed, depth)
+    chunks = max(min(n, CULL_CHUNKS), 1) if parallel() else 1
+    visible = np.empty(chunks, np.int64)
+    share.run(_cull_chunks, chunks, lights, cam.view_from_world, cam.near, cam.far, tx, ty,
+              keyed, depth, visible)
+    k = int(visible[0]) if chunks == 1 else int(_close_cull_gaps(n, keyed, depth, visible))
     return keyed[:k], depth[:k]
 
 

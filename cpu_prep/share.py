@@ -7,7 +7,9 @@ docs/cpu_stage.md).  Here a step is cut into chunks that threads *claim*:
 
     run(kernel, chunks, *args)    kernel(claim, chunks, *args), a plain nogil kernel, loops
                                   k = fetch_add(claim, 0, 1) while k < chunks, does chunk
-                                  k, then fetch_add(claim, 1, 1) (chunks done)
+                                  k, then fetch_add(claim, 1, 1) (chunks done); a kernel
+                                  that needs a slot of its own a thread (a partial sum)
+                                  takes fetch_add(claim, 2, 1): 0 .. threads - 1
 
 The calling thread runs the kernel itself and hands the same call to the helper threads
 (plain Python threads; the kernels release the GIL).  A helper that is not scheduled claims
@@ -63,7 +65,7 @@ def _helpers(n: int) -> list[queue.SimpleQueue]:
 def run(kernel, chunks: int, *args) -> None:
     """kernel(claim, chunks, *args) on this thread and on numba.get_num_threads() - 1
     helpers (at most chunks - 1); returns when every chunk is done."""
-    claim = np.zeros(2, np.int64)           # [next chunk, chunks done]
+    claim = np.zeros(3, np.int64)           # [next chunk, chunks done, threads arrived]
     helpers = min(numba.get_num_threads(), chunks) - 1
     tasks = [_Task(kernel, (claim, chunks) + args) for _ in range(max(helpers, 0))]
     for q, task in zip(_helpers(len(tasks)), tasks):

