@@ -134,7 +134,7 @@ def main(argv=None) -> None:
         "visible_lights": m["stats"]["visible_lights"],
         "evaluated_per_pixel": round(float(result.evaluated[result.depth > 0].mean()) if (result.depth > 0).any() else 0.0, 3),
         "exact_per_pixel": round(float(result.contrib_count[result.depth > 0].mean()) if (result.depth > 0).any() else 0.0, 3),
-        "cpu_ms": {k: round(v, 2) for k, v in m["cpu_ms"].items()},
+        "cpu_ms": {k: round(v, 2) for k, v in m["cpu_ms"].items()}, "cpu_threads": m["cpu_threads"],
         **gpu_timing(m, args.repeat),
         "cpu_warmup_ms": round(warm_ms, 2), "display": display,
         "wall_s": round(time.perf_counter() - t0, 2)}))

@@ -34,6 +34,7 @@ import time
 import moderngl
 import numpy as np
 
+import cpu_prep
 from cpu_prep.arena import Arena
 from cpu_prep.camera import frame_camera
 from cpu_prep.limits import WINDOW_ALL, LimitError
@@ -220,8 +221,8 @@ class Renderer:
         meta = {
             "technique": technique.name, "options": opts.as_dict(), "features": list(features),
             "wave": f"native-{self.limits.native_wave}" if self._frame.native else "emulated-64",
-            "cpu_ms": records[-1]["cpu_ms"], "gpu_ms": records[-1]["gpu_ms"],
-            "setup_ms": dict(self._frame.setup_ms), "bytes": dict(self._frame.bytes),
+            "cpu_ms": records[-1]["cpu_ms"], "cpu_threads": cpu_prep.threads(),
+            "gpu_ms": records[-1]["gpu_ms"], "setup_ms": dict(self._frame.setup_ms), "bytes": dict(self._frame.bytes),
             "stats": stats, "resolution": [w, h], "frame": frame,
             "renderer": self.limits.renderer,
         }

@@ -52,8 +52,8 @@ def frame_figures(c, state, *, lights: int, size, recorder, cam, reference: str)
         "technique": m["technique"], "view": state.view, "lights": lights,
         "visible_lights": int(m["stats"].get("visible_lights", len(c.result.build.lights.gpu))),
         **c.sums, "lit": c.extra["lit"],
-        "cpu_ms": _ms(m["cpu_ms"]), "gpu_ms": _ms(m["gpu_ms"]), "setup_ms": _ms(m["setup_ms"]),
-        "options": m["options"], "ignored_options": list(ignored),
+        "cpu_ms": _ms(m["cpu_ms"]), "cpu_threads": m["cpu_threads"], "gpu_ms": _ms(m["gpu_ms"]),
+        "setup_ms": _ms(m["setup_ms"]), "options": m["options"], "ignored_options": list(ignored),
         # a cap policy's frame differs from brute on purpose: the HUD says by how much
         "capped": ({"policy": m["stats"]["cap_policy"], "lights": int(m["stats"]["capped_lights"])}
                    if "cap_policy" in m["stats"] else None),

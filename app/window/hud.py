@@ -17,6 +17,11 @@ def exposure_text(exposure: float, auto: bool, ambient: float) -> str:
             f"ambient {ambient:g} (display only)")
 
 
+def threads_text(n: int | None) -> str:
+    """' (2 threads)' beside the CPU stage's time; nothing on one thread or unknown."""
+    return f" ({n} threads)" if n and n > 1 else ""
+
+
 def hud_lines(f: dict, *, position: str, role: str, software: bool, playing: bool,
               options: str, note: str | None, message: str = "", exposure: str = "",
               status: str = "", warning: str = "") -> list[str]:
@@ -30,7 +35,7 @@ def hud_lines(f: dict, *, position: str, role: str, software: bool, playing: boo
         f"lights {f['lights']}   visible {f['visible_lights']}   "
         f"evaluated/px {f['evaluated_per_pixel']:.2f}   exact/px {f['exact_per_pixel']:.2f}"
         + capped_text(f.get("capped")),
-        f"CPU {sum(cpu.values()):.1f} ms: " + "  ".join(f"{k} {v:.1f}" for k, v in cpu.items()),
+        f"CPU {sum(cpu.values()):.1f} ms{threads_text(f.get('cpu_threads'))}: " + "  ".join(f"{k} {v:.1f}" for k, v in cpu.items()),
         f"GPU {sum(gpu.values()):.1f} ms{wall}: " + "  ".join(f"{k} {v:.1f}" for k, v in gpu.items()),
     ]
     if f.get("model"):

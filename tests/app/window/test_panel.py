@@ -222,6 +222,10 @@ def test_hud_text_and_view_notes():
     capped = hud_lines(dict(f, capped={"policy": "urp-16", "lights": 15}), position="1/6",
                        role="technique", software=True, playing=False, options=line, note=None)
     assert capped[1].endswith("capped: 15 lights dropped by urp-16 (not exact, on purpose)")
+    assert lines[2] == "CPU 1.0 ms: cull 1.0"
+    two = hud_lines(dict(f, cpu_threads=2), position="1/6", role="technique", software=True,
+                    playing=False, options=line, note=None)
+    assert two[2] == "CPU 1.0 ms (2 threads): cull 1.0"
 
 
 def test_one_heat_definition_and_exposure():
