@@ -66,8 +66,8 @@ def compare(technique, scene, size, opts, repeat: int, frame: int = 0, frames: i
     it), whether the outputs are identical, the sizes."""
     from cpu_prep.arena import Arena
     from cpu_prep.camera import frame_camera
-    from ..cpu import record, new_samples
     from ...pipeline.passes import FrameInput
+    from ...results import CPU_STAGES
     hybrid = technique.name == "hybrid"
     w, h = size
     cam = frame_camera(scene.camera_at(frame, frames), w, h)
@@ -84,7 +84,7 @@ def compare(technique, scene, size, opts, repeat: int, frame: int = 0, frames: i
         b = technique.build(fi, opts)                   # warm-up (numba's JIT / cache load)
         differ = differences(c, b, hybrid)
         cs = {k: [] for k in STEPS + ("total",)}
-        ns = new_samples()
+        ns = {k: [] for k in CPU_STAGES + ("total",)}
         for i in range(repeat):
             if progress:
                 progress(i + 1, repeat, f"C and numba {technique.name} frames")
@@ -92,7 +92,10 @@ def compare(technique, scene, size, opts, repeat: int, frame: int = 0, frames: i
             for k in STEPS:
                 cs[k].append(c.ms[k])
             cs["total"].append(c.total_ms)
-            record(ns, technique.build(fi, opts))
+            ms = technique.build(fi, opts).times.ms    # (bench cpu's stages and total)
+            for k in CPU_STAGES:
+                ns[k].append(float(ms.get(k, 0.0)))
+            ns["total"].append(float(sum(ms.values())))
     finally:
         ref.close()
     rows = {}
@@ -159,12 +162,12 @@ def main(args, threads, technique, opts) -> None:
     scene = cli.load_scene_args(args)
     size = tuple(args.size or scene.resolution)
     log = (lambda i, total, what: sys.stderr.write(f"[{i}/{total}] {what}\n")) if not args.json else None
-    from ..cpu import set_cpu_threads
-    before = set_cpu_threads(0)
-    set_cpu_threads(1)
+    import numba
+    before = numba.get_num_threads()
+    numba.set_num_threads(1)                  # our stage on one thread, as the C
     try:
         r = compare(technique, scene, size, opts, args.repeat, args.frame, args.frames, progress=log)
     finally:
-        set_cpu_threads(before)
+        numba.set_num_threads(before)
     r["scene"] = args.scene
     print_result(r, args.json)
