@@ -14,7 +14,8 @@ point lights (issue 23 item 5: our numba stage "at or under plain single-threade
 
 A missing C compiler, a failed build or a scene with other lights than points raises
 CReferenceError (a UserError: the CLI prints its one line).  The arrays of a CFrame are
-views of the C side's buffers, valid until that CReference's next frame (as an arena's).
+views of the C side's buffers, valid until that CReference's next frame or close() (as an
+arena's): copy what must outlive them.
 """
 from __future__ import annotations
 

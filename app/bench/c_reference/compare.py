@@ -96,20 +96,24 @@ def compare(technique, scene, size, opts, repeat: int, frame: int = 0, frames: i
             for k in CPU_STAGES:
                 ns[k].append(float(ms.get(k, 0.0)))
             ns["total"].append(float(sum(ms.values())))
+        visible = int(c.ids.shape[0])          # (c's arrays are the C side's: read them here)
+        sizes = {"cells": int(len(c.ranges)), "list_entries": int(len(c.entries))}
+        if hybrid:
+            sizes.update(nodes=int(len(c.nodes)), trees=int(c.is_tree.sum()))
     finally:
         ref.close()
     rows = {}
     for name, (ck, nk) in list(ROWS.items()) + [("total", (("total",), ("total",)))]:
+        if name == "plan + build" and not hybrid:
+            continue                           # clustered: no plan, no trees
         cv = np.sum([cs[k] for k in ck], axis=0)
         nv = np.sum([ns[k] for k in nk], axis=0)
         rows[name] = _row(cv, nv)
     rows["total"]["paired_ratio_median"] = round(float(np.median(
         np.asarray(ns["total"]) / np.maximum(cs["total"], 1e-9))), 3)
     return {"technique": technique.name, "scene": scene.name, "size": [w, h],
-            "lights": int(len(scene.lights)), "visible": int(c.ids.shape[0]),
-            "repeat": repeat, "threads": 1, "options": opts.as_dict(),
-            "sizes": {"cells": int(len(c.ranges)), "list_entries": int(len(c.entries)),
-                      **({"nodes": int(len(c.nodes)), "trees": int(c.is_tree.sum())} if hybrid else {})},
+            "lights": int(len(scene.lights)), "visible": visible,
+            "repeat": repeat, "threads": 1, "options": opts.as_dict(), "sizes": sizes,
             "identical": not differ, "differ": differ,
             "c_library": str(ref.path),
             "rows": rows,
