@@ -97,8 +97,12 @@ def library_path(cc: str | None = None) -> Path:
     out = cache_dir() / f"hybrid_ref-{h}.so"
     if out.exists():
         return out
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(suffix=".so", dir=out.parent)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(suffix=".so", dir=out.parent)
+    except OSError as exc:
+        raise CReferenceError(f"the C reference's cache folder {out.parent} is not writable "
+                              f"({exc.strerror}); set XDG_CACHE_HOME") from None
     os.close(fd)
     try:
         r = subprocess.run([cc, *CFLAGS, "-o", tmp, str(SOURCE), "-lm"],

@@ -118,6 +118,7 @@ enum { B_KEYED, B_DEPTH, B_SCRATCH, B_ROWS, B_RECT, B_LO, B_HI, B_BOXES, B_COUNT
 
 typedef struct {
     buf b[B_COUNT_];
+    int64_t hist[3][2048];      /* the sort's digit counts */
 } ref_ctx;
 
 /* what one frame made (pointers into the context's buffers, valid until the next frame) */
@@ -322,8 +323,8 @@ int ref_frame(ref_ctx *ctx, const light_rec *lights, int64_t n, const double *vi
     /* -- sort ------------------------------------------------------------------------ */
     uint64_t *scratch = need(&B[B_SCRATCH], (size_t)(k ? k : 1) * 8);
     if (!scratch) return -1;
-    static int64_t hist[3][2048];
-    memset(hist, 0, sizeof(hist));
+    int64_t (*hist)[2048] = ctx->hist;
+    memset(hist, 0, sizeof(ctx->hist));
     for (int64_t j = 0; j < k; j++) {
         uint32_t key = (uint32_t)(keyed[j] >> 32);
         hist[0][key & 2047]++;
