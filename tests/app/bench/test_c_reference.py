@@ -48,8 +48,14 @@ def point_frame(seed: int, n: int, size, kind: str):
     """n point lights and a camera: `spread` in a 60 m box, the camera among them (inside
     some of the larger ones); `near` many small lights a few metres around the eye with a
     far near plane (crossing it, behind it, containing the eye); `ties` a third of the
-    lights at another third's positions and radii (identical depths: the sort's stability)."""
+    lights at another third's positions and radii (identical depths: the sort's stability);
+    `crowd` every light in view of an eye at the origin looking down -z (on a 1x1 screen one
+    cell holds them all, more than a leaf's 16-bit count)."""
     rng = np.random.default_rng(seed)
+    if kind == "crowd":
+        lights = random_lights(rng, n, (-2, -2, -60), (2, 2, -10), radius=(0.05, 1.0), spot_share=0.0)
+        cam = Camera((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0.0, 1.0, 0.0), 60.0, 0.1, 200.0)
+        return lights, frame_camera(cam, *size)
     if kind == "near":
         pos = rng.uniform(-5, 5, 3)
         lights = random_lights(rng, n, pos - 4.0, pos + 4.0, radius=(0.05, 3.0), spot_share=0.0)
@@ -99,6 +105,8 @@ CASES = [  # seed, lights, size, kind, tile, slices, lights_per_leaf, max_leaves
     (8, 600, (97, 61), "near", 16, 1, 1, 2, 1.0),
     (9, 0, (320, 180), "spread", 48, 16, 6, 64, 1.0),
     (10, 1000, (640, 360), "ties", 24, 16, 4, 32, 1e3),
+    (11, 70000, (1, 1), "crowd", 48, 1, 6, 1, 1e-3),      # a list of two leaves (16-bit count)
+    (12, 70000, (1, 1), "crowd", 48, 1, 6, 1, 1e3),       # a tree of max_leaves 1: two leaves
 ]
 
 
@@ -115,6 +123,8 @@ def test_every_output_equals_ours_bit_for_bit(ref, case):
     if kind == "near":                       # the frames hold the hard cases they are for
         cz, r = ours_spheres(lights, cam)
         assert np.any((-cz - r < cam.near) & (-cz + r > cam.near))
+    if kind == "crowd":                      # the one cell's leaves split the 16-bit count
+        assert len(want["ids"]) > 65535 and len(want["nodes"]) == 3
     if kind == "ties" and n:
         assert len(np.unique(want["sorted"] >> np.uint64(32))) < len(want["sorted"])
     # clustered: the same stage without plan and trees, list ranges
