@@ -205,6 +205,16 @@ def set_cpu_threads(n: int) -> int:
 
 
 def cpu_main(argv) -> None:
+    """`bench cpu`; a build past a buffer limit (cpu_prep.limits.LimitError, e.g. a light
+    index list over the storage-block limit) is one line, as the other user errors."""
+    from cpu_prep.limits import LimitError
+    try:
+        _cpu_main(argv)
+    except LimitError as exc:
+        raise UserError(str(exc)) from None
+
+
+def _cpu_main(argv) -> None:
     p = cli.Parser(prog="python -m app.bench cpu",
                    description="CPU stage of one technique, no GL context")
     cli.add_scene_args(p)

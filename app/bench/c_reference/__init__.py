@@ -213,8 +213,11 @@ class CReference:
 
         sorted_ = arr(o.sorted, np.uint64, n)
         rows = arr(o.rows, np.float32, n * layouts.LIGHT_WORDS).view(layouts.GPU_LIGHT)
-        limits.check_buffer("light buffer", rows.nbytes)
-        limits.check_buffer("light index list", 4 * int(o.entries))
+        try:                           # the limits our stage meets (cpu_prep.frame, grid)
+            limits.check_buffer("light buffer", rows.nbytes)
+            limits.check_buffer("light index list", 4 * int(o.entries))
+        except limits.LimitError as exc:
+            raise CReferenceError(str(exc)) from None
         return CFrame(
             sorted=sorted_, ids=rows["id_type"][:, 0], gpu=rows,
             rect=arr(o.rect, np.float64, 4 * n).reshape(n, 4),

@@ -171,6 +171,7 @@ def test_other_lights_are_refused(ref):
     (["--threads", "2"], "single-threaded"),
     (["--sort-buckets", "64"], "--sort-buckets"),
     (["--sweep", "64,128"], "one light count"),
+    (["--scene", "hangar", "--lights", "65536", "--size", "1920x1080"], "storage-block limit"),
 ])
 def test_cli_refusals_are_one_line(ref, capsys, argv, word):
     from app.cli import run_main
