@@ -17,6 +17,7 @@ rectangles, depth ranges, entries, ranges, nodes): "identical" in the output.
 from __future__ import annotations
 
 import json
+import os
 import sys
 
 import numpy as np
@@ -74,6 +75,7 @@ def compare(technique, scene, size, opts, repeat: int, frame: int = 0, frames: i
     max_depth = scene.max_depth or cam.far
     fi = FrameInput(scene.lights, cam, max_depth, Arena())
     ref = CReference()
+    load = [round(v, 2) for v in os.getloadavg()]
     kw = dict(tile=opts.tile, slices=opts.slices, near_slice_depth=opts.near_slice_depth,
               max_depth=max_depth, hybrid=hybrid)
     if hybrid:
@@ -117,9 +119,14 @@ def compare(technique, scene, size, opts, repeat: int, frame: int = 0, frames: i
             "identical": not differ, "differ": differ,
             "c_library": str(ref.path),
             "rows": rows,
-            "c_steps": {k: {"min_ms": round(float(np.min(cs[k])), 4),
-                            "median_ms": round(float(np.median(cs[k])), 4)}
-                        for k in (STEPS if hybrid else STEPS[:4])}}
+            "c_steps": _steps(cs, STEPS if hybrid else STEPS[:4]),
+            "numba_stages": _steps(ns, CPU_STAGES),
+            "load": {"before": load, "after": [round(v, 2) for v in os.getloadavg()]}}
+
+
+def _steps(samples: dict, keys) -> dict:
+    return {k: {"min_ms": round(float(np.min(samples[k])), 4),
+                "median_ms": round(float(np.median(samples[k])), 4)} for k in keys}
 
 
 def _row(cv, nv) -> dict:
@@ -149,8 +156,11 @@ def print_result(r: dict, as_json: bool) -> None:
               f"{v['numba_median_ms']:10.3f} {f(v['ratio_min']):>10} {f(v['ratio_median']):>10}")
     print(f"total ratio numba / C, median of the frames' own ratios: "
           f"{r['rows']['total']['paired_ratio_median']:.2f}x")
-    print("C steps (ms min / median): " + ", ".join(
-        f"{k} {v['min_ms']:.3f} / {v['median_ms']:.3f}" for k, v in r["c_steps"].items()))
+    for who, key in (("C steps", "c_steps"), ("numba stages", "numba_stages")):
+        print(f"{who} (ms min / median): " + ", ".join(
+            f"{k} {v['min_ms']:.3f} / {v['median_ms']:.3f}" for k, v in r[key].items()))
+    print("load average (1, 5, 15 min) before / after: "
+          f"{' '.join(map(str, r['load']['before']))} / {' '.join(map(str, r['load']['after']))}")
 
 
 def main(args, threads, technique, opts) -> None:

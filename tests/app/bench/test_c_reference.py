@@ -16,6 +16,7 @@ from app import bench
 from app.bench import c_reference as cref
 from app.bench.c_reference import compare as ccompare
 from app.pipeline.passes import FrameInput
+from app.results import CPU_STAGES
 from app.techniques import REGISTRY
 from cpu_prep import frame as cpuframe, grid as gridmod, hybrid as hybridmod, lights as lightsmod
 from cpu_prep.arena import Arena
@@ -198,6 +199,7 @@ def test_cli_compares_both(ref, capsys):
     assert t["c_min_ms"] > 0 and t["numba_min_ms"] > 0
     assert t["ratio_min"] == pytest.approx(t["numba_min_ms"] / t["c_min_ms"], rel=1e-2)
     assert set(d["c_steps"]) == set(cref.STEPS) and 0 < d["visible"] <= 1024
+    assert set(d["numba_stages"]) == set(CPU_STAGES) and len(d["load"]["before"]) == 3
     bench.main(["cpu", "--c-reference", "--scene", "arena", "--technique", "clustered",
                 "--lights", "512", "--size", "97x61", "--repeat", "2"])
     text = capsys.readouterr().out
