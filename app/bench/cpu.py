@@ -16,6 +16,11 @@ all (nothing here imports moderngl; a test checks it).
                                      doubling and each build buffer's bytes; --out writes
                                      growth.csv (results.csv's schema, study "growth"),
                                      cpu_growth.png and growth.md (the report's CPU page)
+    --c-reference                    issue 23 item 5: hybrid (or clustered) against the plain
+                                     single-threaded C reference of its CPU stage (point
+                                     lights; app.bench.c_reference), the two interleaved on
+                                     the same frame: per step and in total min / median of
+                                     each and the ratio numba / C
 
 The machine is shared (2 cores, other work on them): compare minimums and medians over
 many builds (--repeat 31 or more), never single runs.  docs/cpu_stage.md has the profile.
@@ -200,6 +205,16 @@ def set_cpu_threads(n: int) -> int:
 
 
 def cpu_main(argv) -> None:
+    """`bench cpu`; a build past a buffer limit (cpu_prep.limits.LimitError, e.g. a light
+    index list over the storage-block limit) is one line, as the other user errors."""
+    from cpu_prep.limits import LimitError
+    try:
+        _cpu_main(argv)
+    except LimitError as exc:
+        raise UserError(str(exc)) from None
+
+
+def _cpu_main(argv) -> None:
     p = cli.Parser(prog="python -m app.bench cpu",
                    description="CPU stage of one technique, no GL context")
     cli.add_scene_args(p)
@@ -217,12 +232,17 @@ def cpu_main(argv) -> None:
     p.add_argument("--growth", action="store_true",
                    help="the growth series (issue 23 item 4): techniques x counts x threads")
     p.add_argument("--out", help="--growth: folder for growth.csv, cpu_growth.png, growth.md")
+    p.add_argument("--c-reference", action="store_true",
+                   help="hybrid or clustered against the plain single-threaded C reference of "
+                        "its CPU stage (point lights only), interleaved, with the ratio numba / C")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     cli.add_option_args(p)
     args = p.parse_args(argv)
     if args.repeat < 1 or args.frames < 1 or args.frame < 0:
         raise UserError("--repeat and --frames must be >= 1, --frame >= 0")
     threads = int_list(args.threads, "--threads") if args.threads else ((1, 2) if args.growth else (1,))
+    if args.c_reference and (args.growth or args.sweep):
+        raise UserError("--c-reference: one light count (no --sweep or --growth)")
     if args.growth:
         _growth_main(args, threads)
         return
@@ -232,6 +252,10 @@ def cpu_main(argv) -> None:
         raise UserError("--threads: one count (a list only with --growth)")
     technique = get(args.technique or "hybrid")
     opts = cli.options_for(technique, args)
+    if args.c_reference:
+        from .c_reference.compare import main as c_reference_main
+        c_reference_main(args, threads, technique, opts)
+        return
     threads = set_cpu_threads(threads[0])
     counts = list(int_list(args.sweep, "--sweep")) if args.sweep else [args.lights]
     keys = list(CPU_STAGES) + ["total"]

@@ -1,0 +1,187 @@
+"""`python -m app.bench cpu --c-reference`: the C reference (hybrid_ref.c) and our numba CPU
+stage on the same frame, interleaved on one thread (C, numba, C, numba, ... each with its
+own buffers reused frame to frame), so a change of the shared machine's load falls on both
+alike; per step and in total min / median of each and the ratio numba / C.
+
+    step            C (hybrid_ref.c)        ours (technique.build's StageTimes)
+    cull            cull                    cull
+    sort + gather   sort + gather           sort + pack (the pack's ms also hold the
+                                            technique's list/tree buffer glue)
+    bin             bin                     bin
+    plan + build    plan + build            build (listing 2 and the trees in one pass)
+    total           the sum                 the sum (bench cpu's total)
+
+Before timing, the warm-up frame's outputs of both are compared bit for bit (GPU rows, ids,
+rectangles, depth ranges, entries, ranges, nodes): "identical" in the output.
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+
+import numpy as np
+
+from ...errors import UserError
+from ...results import stats
+from . import STEPS, CReference
+
+TECHNIQUES = ("hybrid", "clustered")
+ROWS = {"cull": (("cull",), ("cull",)),
+        "sort + gather": (("sort", "gather"), ("sort", "pack")),
+        "bin": (("bin",), ("bin",)),
+        "plan + build": (("plan", "build"), ("build",))}
+# options the C reference does not do: they must keep their defaults
+_FIXED = ("sort_buckets", "tree_build", "cap_policy", "stochastic", "build", "duplicated")
+
+
+def check_options(technique, opts) -> None:
+    d, default = opts.as_dict(), technique.resolve_options(None).as_dict()
+    off = [k for k in _FIXED if k in d and d[k] != default[k]]
+    if off:
+        raise UserError(f"--c-reference: the C reference builds the default CPU stage only; "
+                        f"drop {', '.join('--' + k.replace('_', '-') for k in off)}")
+
+
+def differences(c, b, hybrid: bool) -> list[str]:
+    """Names of the outputs where the C frame `c` and our build `b` differ (bit for bit)."""
+    pl = b.lights
+    pairs = {"ids": (c.ids, pl.ids), "gpu rows": (c.gpu, pl.gpu), "rects": (c.rect, pl.rect),
+             "depth_lo": (c.depth_lo, pl.depth_lo), "depth_hi": (c.depth_hi, pl.depth_hi),
+             "entries": (c.entries, b.buffers["entries"]), "ranges": (c.ranges, b.buffers["ranges"])}
+    if hybrid:
+        pairs["nodes"] = (c.nodes, b.buffers["nodes"])
+    out = []
+    for k, (x, y) in pairs.items():
+        x, y = np.asarray(x), np.asarray(y)
+        if x.shape != y.shape or x.dtype != y.dtype or x.tobytes() != y.tobytes():
+            out.append(k)
+    return out
+
+
+def compare(technique, scene, size, opts, repeat: int, frame: int = 0, frames: int = 64,
+            progress=None) -> dict:
+    """The comparison's result (the --json object): per row of ROWS and 'total', and per C
+    step, min / median ms of each side and the ratios numba / C of the mins and medians, the
+    median of the frames' own total ratios (each numba frame against the C frame before
+    it), whether the outputs are identical, the sizes."""
+    from cpu_prep.arena import Arena
+    from cpu_prep.camera import frame_camera
+    from ...pipeline.passes import FrameInput
+    from ...results import CPU_STAGES
+    hybrid = technique.name == "hybrid"
+    w, h = size
+    cam = frame_camera(scene.camera_at(frame, frames), w, h)
+    max_depth = scene.max_depth or cam.far
+    fi = FrameInput(scene.lights, cam, max_depth, Arena())
+    ref = CReference()
+    load = [round(v, 2) for v in os.getloadavg()]
+    kw = dict(tile=opts.tile, slices=opts.slices, near_slice_depth=opts.near_slice_depth,
+              max_depth=max_depth, hybrid=hybrid)
+    if hybrid:
+        kw.update(lights_per_leaf=opts.lights_per_leaf, max_leaves=opts.max_leaves,
+                  radius_scale=opts.radius_scale)
+    try:
+        c = ref.frame(scene.lights, cam, **kw)          # warm-up (and the input's refusal)
+        b = technique.build(fi, opts)                   # warm-up (numba's JIT / cache load)
+        differ = differences(c, b, hybrid)
+        cs = {k: [] for k in STEPS + ("total",)}
+        ns = {k: [] for k in CPU_STAGES + ("total",)}
+        for i in range(repeat):
+            if progress:
+                progress(i + 1, repeat, f"C and numba {technique.name} frames")
+            c = ref.frame(scene.lights, cam, **kw)
+            for k in STEPS:
+                cs[k].append(c.ms[k])
+            cs["total"].append(c.total_ms)
+            ms = technique.build(fi, opts).times.ms    # (bench cpu's stages and total)
+            for k in CPU_STAGES:
+                ns[k].append(float(ms.get(k, 0.0)))
+            ns["total"].append(float(sum(ms.values())))
+        visible = int(c.ids.shape[0])          # (c's arrays are the C side's: read them here)
+        sizes = {"cells": int(len(c.ranges)), "list_entries": int(len(c.entries))}
+        if hybrid:
+            sizes.update(nodes=int(len(c.nodes)), trees=int(c.is_tree.sum()))
+    finally:
+        ref.close()
+    rows = {}
+    for name, (ck, nk) in list(ROWS.items()) + [("total", (("total",), ("total",)))]:
+        if name == "plan + build" and not hybrid:
+            continue                           # clustered: no plan, no trees
+        cv = np.sum([cs[k] for k in ck], axis=0)
+        nv = np.sum([ns[k] for k in nk], axis=0)
+        rows[name] = _row(cv, nv)
+    rows["total"]["paired_ratio_median"] = round(float(np.median(
+        np.asarray(ns["total"]) / np.maximum(cs["total"], 1e-9))), 3)
+    return {"technique": technique.name, "scene": scene.name, "size": [w, h],
+            "lights": int(len(scene.lights)), "visible": visible,
+            "repeat": repeat, "threads": 1, "options": opts.as_dict(), "sizes": sizes,
+            "identical": not differ, "differ": differ,
+            "c_library": str(ref.path),
+            "rows": rows,
+            "c_steps": _steps(cs, STEPS if hybrid else STEPS[:4]),
+            "numba_stages": _steps(ns, CPU_STAGES),
+            "load": {"before": load, "after": [round(v, 2) for v in os.getloadavg()]}}
+
+
+def _steps(samples: dict, keys) -> dict:
+    return {k: {"min_ms": round(float(np.min(samples[k])), 4),
+                "median_ms": round(float(np.median(samples[k])), 4)} for k in keys}
+
+
+def _row(cv, nv) -> dict:
+    (cmed, cmin, _), (nmed, nmin, _) = stats(cv), stats(nv)
+    ratio = lambda a, b: round(a / b, 3) if b > 0 else None
+    return {"c_min_ms": round(cmin, 4), "c_median_ms": round(cmed, 4),
+            "numba_min_ms": round(nmin, 4), "numba_median_ms": round(nmed, 4),
+            "ratio_min": ratio(nmin, cmin), "ratio_median": ratio(nmed, cmed)}
+
+
+def print_result(r: dict, as_json: bool) -> None:
+    if as_json:
+        print(json.dumps(r))
+        return
+    s = r["sizes"]
+    print(f"{r['technique']} on {r['scene']} at {r['size'][0]}x{r['size'][1]}: {r['lights']} "
+          f"lights, {r['visible']} visible; {r['repeat']} frames each after a warm-up, C and "
+          f"numba interleaved, one thread")
+    print("  " + ", ".join(f"{k} {v:,}" for k, v in s.items()))
+    print(f"  outputs bit for bit identical: "
+          + ("yes" if r["identical"] else f"NO ({', '.join(r['differ'])} differ)"))
+    print(f"{'step':14} {'C min':>8} {'C med':>8} {'numba min':>10} {'numba med':>10} "
+          f"{'ratio min':>10} {'ratio med':>10}")
+    for name, v in r["rows"].items():
+        f = lambda x: f"{x:.2f}x" if x is not None else "-"
+        print(f"{name:14} {v['c_min_ms']:8.3f} {v['c_median_ms']:8.3f} {v['numba_min_ms']:10.3f} "
+              f"{v['numba_median_ms']:10.3f} {f(v['ratio_min']):>10} {f(v['ratio_median']):>10}")
+    print(f"total ratio numba / C, median of the frames' own ratios: "
+          f"{r['rows']['total']['paired_ratio_median']:.2f}x")
+    for who, key in (("C steps", "c_steps"), ("numba stages", "numba_stages")):
+        print(f"{who} (ms min / median): " + ", ".join(
+            f"{k} {v['min_ms']:.3f} / {v['median_ms']:.3f}" for k, v in r[key].items()))
+    print("load average (1, 5, 15 min) before / after: "
+          f"{' '.join(map(str, r['load']['before']))} / {' '.join(map(str, r['load']['after']))}")
+
+
+def main(args, threads, technique, opts) -> None:
+    """cpu_main's --c-reference branch (args: its namespace)."""
+    from ... import cli
+    if technique.name not in TECHNIQUES:
+        raise UserError(f"--c-reference: the C reference is of {' and '.join(TECHNIQUES)}'s "
+                        f"CPU stage only (got '{technique.name}')")
+    if tuple(threads) != (1,):
+        raise UserError("--c-reference: the C reference is single-threaded; numba runs on one "
+                        "thread too (drop --threads)")
+    check_options(technique, opts)
+    scene = cli.load_scene_args(args)
+    size = tuple(args.size or scene.resolution)
+    log = (lambda i, total, what: sys.stderr.write(f"[{i}/{total}] {what}\n")) if not args.json else None
+    import numba
+    before = numba.get_num_threads()
+    numba.set_num_threads(1)                  # our stage on one thread, as the C
+    try:
+        r = compare(technique, scene, size, opts, args.repeat, args.frame, args.frames, progress=log)
+    finally:
+        numba.set_num_threads(before)
+    r["scene"] = args.scene
+    print_result(r, args.json)
