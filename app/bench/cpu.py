@@ -19,8 +19,8 @@ all (nothing here imports moderngl; a test checks it).
     --c-reference                    issue 23 item 5: hybrid (or clustered) against the plain
                                      single-threaded C reference of its CPU stage (point
                                      lights; app.bench.c_reference), the two interleaved on
-                                     the same frame: per step and in total min / median of
-                                     each and the ratio numba / C
+                                     the same frame (numba on --threads, default 1): per step
+                                     and in total min / median of each, the ratio numba / C
 
 The machine is shared (2 cores, other work on them): compare minimums and medians over
 many builds (--repeat 31 or more), never single runs.  docs/cpu_stage.md has the profile.

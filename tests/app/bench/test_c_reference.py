@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 
+import numba
 import numpy as np
 import pytest
 
@@ -169,7 +170,7 @@ def test_other_lights_are_refused(ref):
 @pytest.mark.parametrize("argv, word", [
     (["--scene", "gallery"], "point lights only"),
     (["--technique", "tree"], "hybrid and clustered"),
-    (["--threads", "2"], "single-threaded"),
+    (["--threads", "0"], "single-threaded"),
     (["--sort-buckets", "64"], "--sort-buckets"),
     (["--sweep", "64,128"], "one light count"),
     (["--scene", "hangar", "--lights", "65536", "--size", "1920x1080"], "storage-block limit"),
@@ -198,6 +199,10 @@ def test_cli_compares_both(ref, capsys):
     t = d["rows"]["total"]
     assert t["c_min_ms"] > 0 and t["numba_min_ms"] > 0
     assert t["ratio_min"] == pytest.approx(t["numba_min_ms"] / t["c_min_ms"], rel=1e-2)
+    bench.main(["cpu", "--c-reference", "--scene", "arena", "--lights", "1024", "--size",
+                "320x180", "--repeat", "2", "--threads", "2", "--json"])
+    d2 = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert d2["identical"] and d2["threads"] == min(2, numba.config.NUMBA_NUM_THREADS)
     assert set(d["c_steps"]) == set(cref.STEPS) and 0 < d["visible"] <= 1024
     assert set(d["numba_stages"]) == set(CPU_STAGES) and len(d["load"]["before"]) == 3
     bench.main(["cpu", "--c-reference", "--scene", "arena", "--technique", "clustered",
