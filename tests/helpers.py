@@ -1,6 +1,7 @@
 """Scene builders and the exactness check used across the tests."""
 from __future__ import annotations
 
+from contextlib import contextmanager
 from functools import lru_cache
 from pathlib import Path
 
@@ -264,3 +265,15 @@ def with_threads(n: int, fn):
         return fn()
     finally:
         numba.set_num_threads(before)
+
+
+@contextmanager
+def registered(technique, at: float = float("inf")):
+    """`technique` in the registry (at position `at`: app.techniques.base.register) while the
+    block runs, unregistered after it, whatever the block raises."""
+    from app.techniques.base import register, unregister
+    register(technique, at=at)
+    try:
+        yield technique
+    finally:
+        unregister(technique.name)

@@ -61,15 +61,11 @@ def test_a_wrong_technique_is_explained(gl, rng, tmp_path):
 def test_the_suites_assert_names_the_lights(gl, rng):
     """tests.helpers.assert_exact, as every exactness test uses it, carries the explanation."""
     import pytest
-    from app.techniques import register, unregister
-    from tests.helpers import assert_exact, render_all
-    register(Lossy())
-    try:
+    from tests.helpers import assert_exact, registered, render_all
+    with registered(Lossy()):
         res = render_all(make_scene(random_lights(rng, 60, (-10, 0, -30), (10, 6, 5),
                                                   radius=(1.0, 8.0)), size=(32, 20)),
                          techniques=["brute", "lossy"])
-    finally:
-        unregister("lossy")
     with pytest.raises(AssertionError, match=r"lossy differs from brute .* missing lights \[") as e:
         assert_exact(res, "lossy case")
     assert "test-artifacts" in str(e.value)

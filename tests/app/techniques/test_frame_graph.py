@@ -7,7 +7,6 @@ renderer refuses undeclared buffers, reads of buffers nothing provided, and opti
 technique does not take."""
 from __future__ import annotations
 
-from contextlib import contextmanager
 from dataclasses import dataclass
 import json
 import os
@@ -22,10 +21,10 @@ from app.errors import UserError
 from app.pipeline.passes import Buffer, Draw, Pass
 from app.pipeline.renderer import Renderer
 from app.pipeline.shaders import ShaderError
-from app.techniques import REGISTRY, register, unregister
+from app.techniques import REGISTRY
 from app.techniques.base import Technique, prepare, shading_pass
 from app.techniques.options import TechniqueOptions, option
-from tests.helpers import assert_exact, make_scene, random_lights, render_all
+from tests.helpers import assert_exact, make_scene, random_lights, registered, render_all
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -94,15 +93,6 @@ class Throwaway(Technique):
                  draw=Draw(count=3, target="none")),
             shading_pass(build, "tw_shade.comp", ("keep", "covered"), defines=defines),
         ]
-
-
-@contextmanager
-def registered(technique):
-    register(technique)
-    try:
-        yield technique
-    finally:
-        unregister(technique.name)
 
 
 @pytest.fixture

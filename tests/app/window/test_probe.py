@@ -8,11 +8,12 @@ import pytest
 from app.errors import FrameTimeout, UserError
 from app.pipeline.passes import FrameInput
 from app.techniques import REGISTRY
-from app.techniques.base import Technique, register, unregister, visible_lights
+from app.techniques.base import Technique, visible_lights
 from app.window import probe
 from app.window.options import WindowOptions
 from cpu_prep.camera import frame_camera
 from scenes import load_scene
+from tests.helpers import registered
 
 
 def test_code_version_follows_the_sources_a_frame_costs(tmp_path):
@@ -315,15 +316,11 @@ class Slowpoke(Technique):
 def test_a_new_slow_technique_registered_first_is_the_one_the_start_skips(timed, capsys):
     scene, make = timed
     r = make({"slowpoke": per_pixel(0.1), "clustered": per_pixel(0.01), "tree": per_pixel(0.03)})
-    register(Slowpoke(), at=0)
-    try:
+    with registered(Slowpoke(), at=0), pytest.MonkeyPatch.context() as m:
         args = SimpleNamespace(scene="city", seed=0, distribution=None, reprobe=True)
-        with pytest.MonkeyPatch.context() as m:
-            m.setattr(probe, "PROBE_BUDGET_S", 0.08)
-            name, lines = probe.choose_start(args, r, ["slowpoke", "clustered", "tree"], WindowOptions({}),
-                                             lambda: scene.lights, scene.camera, probe.FrameCosts())
-    finally:
-        unregister("slowpoke")
+        m.setattr(probe, "PROBE_BUDGET_S", 0.08)
+        name, lines = probe.choose_start(args, r, ["slowpoke", "clustered", "tree"], WindowOptions({}),
+                                         lambda: scene.lights, scene.camera, probe.FrameCosts())
     assert name == "clustered" and len(lines) == 1
     assert lines[0].startswith("started on clustered, the fastest of those probed (clustered 23 ms, tree 69 ms; ")
     assert lines[0].endswith("; not probed for time: slowpoke)")
@@ -342,11 +339,8 @@ def test_a_ranking_frame_past_its_deadline_is_left_out_and_stops_there(timed, ca
     # line; clustered and tree are ranked and timed as before
     scene, make = timed
     r = make({"slowpoke": per_pixel(50.0), "clustered": per_pixel(0.01), "tree": per_pixel(0.03)})
-    register(Slowpoke(), at=0)
-    try:
+    with registered(Slowpoke(), at=0):
         name, times, _, skipped, refused = probed(r, scene, ["slowpoke", "clustered", "tree"], 1.0)
-    finally:
-        unregister("slowpoke")
     assert name == "clustered" and list(times) == ["clustered", "tree"] and skipped == ["slowpoke"]
     assert not refused
     assert r.frames == ([("slowpoke", SMALL)] + [(n, SMALL) for n in ("clustered", "tree") for _ in (0, 1)]
