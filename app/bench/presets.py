@@ -73,6 +73,14 @@ class Preset:
     gpu_build_lights: tuple[int, ...] = ()
     gpu_build_scene: str = "city"
     gpu_build_repeat: int = 3
+    # the CPU stage against the plain single-threaded C reference (issue 23 item 5;
+    # app.bench.c_reference): hybrid and clustered in cpu_scene at cpu_size, C and numba
+    # interleaved frame by frame, numba on each of c_reference_threads; results.csv study
+    # "c_reference"; () none (and skipped, with a line, where cpu_scene has other lights
+    # than points or no C compiler is found)
+    c_reference_lights: tuple[int, ...] = ()
+    c_reference_threads: tuple[int, ...] = (1, 2)
+    c_reference_repeat: int = 21
 
 
 QUICK = Preset(
@@ -89,7 +97,9 @@ QUICK = Preset(
     # 6 list techniques x 7 policies (1,530 of 2,048 lights visible: every policy drops some)
     caps_scenes=("arena",), caps_lights=2048,
     # 2 counts x the --build techniques, both builds, at 320x180: GPU_BUILD_QUICK_S below
-    gpu_build_lights=(4096, 16384))
+    gpu_build_lights=(4096, 16384),
+    # 2 techniques x 2 thread counts x 21 frames each side at 65,536 lights: ~4 s
+    c_reference_lights=(65536,))
 
 FULL = Preset(
     name="full", size=(1920, 1080), scenes=("arena", "city", "hangar", "gallery", "corridor"),
@@ -101,7 +111,8 @@ FULL = Preset(
     paper_frames=16, paper_sample=2, growth_lights=GROWTH_LIGHTS, growth_repeat=5,
     temporal_frames=16, temporal_lights=16384, temporal_size=(480, 270),
     caps_scenes=("arena",), caps_lights=16384,
-    gpu_build_lights=(8192, 32768, 131072), gpu_build_repeat=5)
+    gpu_build_lights=(8192, 32768, 131072), gpu_build_repeat=5,
+    c_reference_lights=(16384, 65536), c_reference_repeat=61)
 
 # scripts/gpu_check.sh: what matters of --full on one real GPU in minutes: every technique,
 # two scenes (figure 7's two kinds of level), three light counts, exactness; measured against
@@ -110,7 +121,8 @@ FULL = Preset(
 GPU_CHECK = replace(
     FULL, name="gpu-check", scenes=("arena", "city"), lights=(8192, 32768, 65536), frames=2,
     cutoffs=(), cutoff_scenes=(), cpu_lights=(), option_studies=False, paper_size=None,
-    growth_lights=(), temporal_frames=0, caps_scenes=(), gpu_build_lights=())
+    growth_lights=(), temporal_frames=0, caps_scenes=(), gpu_build_lights=(),
+    c_reference_lights=())
 
 PRESETS = {"quick": QUICK, "full": FULL, "gpu-check": GPU_CHECK}
 
@@ -152,7 +164,8 @@ def preset_from_args(args) -> Preset:
         if args.repeat < 1:
             raise UserError("--repeat must be >= 1")
         ch.update(repeat=args.repeat, study_repeat=args.repeat,
-                  heavy_repeat=min(preset.heavy_repeat, args.repeat), gpu_build_repeat=args.repeat)
+                  heavy_repeat=min(preset.heavy_repeat, args.repeat), gpu_build_repeat=args.repeat,
+                  c_reference_repeat=args.repeat)
     if args.cpu_lights:
         ch["cpu_lights"] = int_list(args.cpu_lights, "--cpu-lights")
     if args.cpu_size:
@@ -162,6 +175,9 @@ def preset_from_args(args) -> Preset:
     if getattr(args, "gpu_build_lights", None) is not None:   # "" or "0": none
         ch["gpu_build_lights"] = tuple(n for n in int_list(args.gpu_build_lights or "0",
                                                            "--gpu-build-lights") if n)
+    if getattr(args, "c_reference_lights", None) is not None:   # "" or "0": none
+        ch["c_reference_lights"] = tuple(n for n in int_list(args.c_reference_lights or "0",
+                                                             "--c-reference-lights") if n)
     if getattr(args, "papers", None) is not None:
         ch["paper_size"] = preset.paper_size if args.papers else None
     if args.threads is not None:

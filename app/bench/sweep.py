@@ -264,7 +264,19 @@ class Sweep:
         self.cpu_series()
         self.rows += preset_growth(self.p, self.progress)      # issue 23 item 4 (none: ())
         self.rows += self.gpu_build_series()                   # issue 23 item 1 (none: [])
+        self.rows += self.c_reference_series()                 # issue 23 item 5 (none: [])
         return self.rows
+
+    def c_reference_series(self) -> list[dict]:
+        """The CPU stage of hybrid and clustered against the plain C reference at each of
+        the preset's c_reference_lights (app.bench.c_reference.compare.study_rows: study
+        "c_reference") in cpu_scene at cpu_size; a scene it cannot take: none, with a line."""
+        from .c_reference.compare import study_rows
+        p = self.p
+        if not p.c_reference_lights:
+            return []
+        return study_rows(p.cpu_scene, p.c_reference_lights, p.cpu_size, p.c_reference_repeat,
+                          p.c_reference_threads, progress=self.progress, log=self.log)
 
     def gpu_build_series(self) -> list[dict]:
         """The CPU and GPU builds of every technique that takes --build at each of the
@@ -454,6 +466,9 @@ def sweep_main(argv) -> None:
     p.add_argument("--gpu-build-lights", help="override: light counts of the CPU / GPU build "
                                               "comparison (quick: 4096,16384; full: 8192,32768,"
                                               "131072; 0: none)")
+    p.add_argument("--c-reference-lights", help="override: light counts of the CPU stage "
+                                                "against the plain C reference (quick: 65536; "
+                                                "full: 16384,65536; 0: none)")
     p.add_argument("--threads", type=int, help="numba threads of the CPU stage (default 1, "
                                                "as the paper's figure 4; 0: numba's default)")
     p.add_argument("--papers", action=argparse.BooleanOptionalAction, default=None,

@@ -30,12 +30,15 @@ def stage_shares(cpu_rows) -> dict:
 
 
 def fig_cpu(rows, out) -> tuple[str | None, list[str], str]:
-    """Figure 4 (the "cpu" study) and, after its tables, the growth series (growth_report)
-    and the CPU and GPU builds' ratio (gpu_build_report: rows of study "gpu_build", or
-    out/gpu_build.csv from `python -m app.bench gpu-build --out`)."""
+    """Figure 4 (the "cpu" study) and, after its tables, the growth series (growth_report),
+    the CPU and GPU builds' ratio (gpu_build_report: rows of study "gpu_build", or
+    out/gpu_build.csv from `python -m app.bench gpu-build --out`) and the CPU stage against
+    the plain C reference (c_reference_report: rows of study "c_reference")."""
     name, text, table = _fig4(rows, out)
     png, gtext, gtables = growth_report(rows, out)
     btext, btable = gpu_build_report(gpu_build_rows(rows, out))
+    ctext, ctable = c_reference_report(sel(rows, study=C_REFERENCE_STUDY)
+                                       if rows and "study" in rows[0] else [])
     parts = []
     if png or gtext:
         parts.append("\n\n".join(x for x in (
@@ -44,6 +47,9 @@ def fig_cpu(rows, out) -> tuple[str | None, list[str], str]:
     if btext:
         parts.append("\n\n".join(("### The build on the CPU and on the GPU (--build gpu, issue 23 "
                                    "item 1)", _bullets(btext), btable)))
+    if ctext:
+        parts.append("\n\n".join(("### Against plain single-threaded C (issue 23 item 5)",
+                                   _bullets(ctext), ctable)))
     if not parts:
         return name, text, table
     if name is None:           # no figure 4 rows: the series alone, their images inline
@@ -455,5 +461,44 @@ def gpu_build_report(rows) -> tuple[list[str], str]:
         if top and g > 0:
             line += (f"; at {_k(rs[-1]['lights'])} its largest part is {top} "
                      f"({100 * passes[top] / g:.0f}% of {ms(g)})")
+        text.append(line + ".")
+    return text, "\n".join(table)
+
+
+# ---- the CPU stage against plain single-threaded C (issue 23 item 5) ---------------------
+
+C_REFERENCE_STUDY = "c_reference"    # app.bench.c_reference.compare.STUDY
+ISSUE_C_MS = {"hybrid": 6.7, "clustered": 4.6}   # the issue's C figures (docs/cpu_stage.md)
+
+
+def c_reference_report(rows) -> tuple[list[str], str]:
+    """(text, markdown table): per technique, count and numba thread count, the C and our
+    stage (interleaved frame by frame, so the ratio holds while the machine's speed moves)."""
+    if not rows:
+        return [], ""
+    r0 = rows[0]
+    text = [f"Our CPU stage (numba) and `app/bench/c_reference/hybrid_ref.c`, the same stage as "
+            f"plain single-threaded scalar C (the same outputs bit for bit), run interleaved "
+            f"frame by frame in {r0['scene']} at {resolution(r0)}, {int(num(r0['samples']))} "
+            f"frames each: ratio = ours / C (under 1: ours is faster)."]
+    table = ["| technique | lights | visible | numba threads | C ms, min / median | ours ms, "
+             "min / median | ratio, min (median) | outputs |", "|---|---:|---:|---:|---:|---:|---:|---|"]
+    for t in order(rows, "technique"):
+        rs = sorted(sel(rows, technique=t), key=lambda r: (num(r["lights"]), _st(r).get("threads", 1)))
+        for r in rs:
+            s = _st(r)
+            table.append(f"| {t} | {int(num(r['lights'])):,} | {int(num(r['visible'])):,} | "
+                         f"{s.get('threads', 1)} | {s['c_min_ms']:.3g} / {s['c_ms']:.3g} | "
+                         f"{num(r['cpu_total_min_ms']):.3g} / {num(r['cpu_total_ms']):.3g} | "
+                         f"{s['ratio_min']:.2f}x ({s['ratio_median']:.2f}x) | "
+                         f"{'identical' if s['identical'] else 'DIFFER'} |")
+        top = [r for r in rs if num(r["lights"]) == max(num(x["lights"]) for x in rs)]
+        parts = [f"{_st(r)['ratio_min']:.2f}x the C's time on {_st(r).get('threads', 1)} "
+                 f"thread{'s' if _st(r).get('threads', 1) > 1 else ''}" for r in top]
+        line = f"{t} at {_k(top[0]['lights'])} lights: ours takes " + ", ".join(parts) + " (min)"
+        if t in ISSUE_C_MS and num(top[0]["lights"]) == 65536:
+            best = min(num(r["cpu_total_min_ms"]) for r in top)
+            line += (f"; against the issue's C figure ({ISSUE_C_MS[t]} ms, a faster program than "
+                     f"this C) our fastest is {best / ISSUE_C_MS[t]:.2f}x ({ms(best)})")
         text.append(line + ".")
     return text, "\n".join(table)

@@ -133,11 +133,69 @@ def _steps(samples: dict, keys) -> dict:
 
 
 def _row(cv, nv) -> dict:
-    (cmed, cmin, _), (nmed, nmin, _) = stats(cv), stats(nv)
+    (cmed, cmin, cmax), (nmed, nmin, nmax) = stats(cv), stats(nv)
     ratio = lambda a, b: round(a / b, 3) if b > 0 else None
-    return {"c_min_ms": round(cmin, 4), "c_median_ms": round(cmed, 4),
+    return {"c_min_ms": round(cmin, 4), "c_median_ms": round(cmed, 4), "c_max_ms": round(cmax, 4),
             "numba_min_ms": round(nmin, 4), "numba_median_ms": round(nmed, 4),
+            "numba_max_ms": round(nmax, 4),
             "ratio_min": ratio(nmin, cmin), "ratio_median": ratio(nmed, cmed)}
+
+
+# ---- the benchmark's study (--quick / --full: app.bench.sweep c_reference_series) ----------
+
+STUDY = "c_reference"
+
+
+def study_rows(scene_name: str, counts, size, repeat: int, threads=(1, 2), progress=None,
+               log=None) -> list[dict]:
+    """One results.csv row (study "c_reference") per technique of TECHNIQUES, count and
+    numba thread count: compare()'s figures, ours in the CPU stage columns (medians; the
+    total's min and max), the C's and the ratios in `stats`.  A scene of other lights than
+    points, or no C compiler: no rows, and a line on `log` saying why."""
+    import numba
+    from scenes import load_scene
+    from ...techniques import get
+    jobs = [(n, t, k) for n in counts for t in TECHNIQUES for k in threads]
+    rows, before = [], numba.get_num_threads()
+    try:
+        for i, (n, name, k) in enumerate(jobs):
+            technique = get(name)
+            if progress:
+                progress(i + 1, len(jobs), f"{STUDY} {scene_name} {n} lights {name}, numba on "
+                                           f"{k} thread(s) against C on one at {size[0]}x{size[1]}")
+            numba.set_num_threads(min(k, numba.config.NUMBA_NUM_THREADS))
+            opts = technique.resolve_options(None)
+            try:
+                r = compare(technique, load_scene(scene_name, lights=int(n)), size, opts, repeat)
+            except UserError as exc:
+                if log is not None:
+                    log.write(f"bench: {STUDY}: skipped ({exc})\n")
+                return []
+            rows.append(_results_row(technique, scene_name, n, size, repeat, opts, r))
+    finally:
+        numba.set_num_threads(before)
+    return rows
+
+
+def _results_row(technique, scene_name, n, size, repeat, opts, r) -> dict:
+    from ..measure import option_cells
+    from ...results import CPU_STAGES
+    t = r["rows"]["total"]
+    row = {"study": STUDY, "scene": scene_name, "lights": int(n), "visible": r["visible"],
+           "width": size[0], "height": size[1], "frame": 0, "frames": 64,
+           "technique": technique.name, "role": technique.role, "cutoff": 0, "samples": repeat}
+    row.update(option_cells(opts))
+    for k in CPU_STAGES:
+        row[f"cpu_{k}_ms"] = r["numba_stages"].get(k, {}).get("median_ms", 0.0)
+    row["cpu_total_ms"], row["cpu_total_min_ms"], row["cpu_total_max_ms"] = \
+        t["numba_median_ms"], t["numba_min_ms"], t["numba_max_ms"]
+    row["stats"] = json.dumps({"threads": r["threads"], "identical": r["identical"],
+                               "c_ms": t["c_median_ms"], "c_min_ms": t["c_min_ms"],
+                               "c_max_ms": t["c_max_ms"], "ratio_min": t["ratio_min"],
+                               "ratio_median": t["ratio_median"],
+                               "paired_ratio_median": t["paired_ratio_median"],
+                               "c_steps": r["c_steps"]}, sort_keys=True)
+    return row
 
 
 def print_result(r: dict, as_json: bool) -> None:

@@ -3,11 +3,13 @@ technique, every study, every plot, the report), read back through the results s
 import math
 import re
 
+import numba
 import pytest
 
 from app import bench, report
 from app.bench.caps import CAPS
 from app.bench.cpu import GROWTH
+from app.bench.c_reference.compare import STUDY as C_REFERENCE, TECHNIQUES as C_TECHNIQUES
 from app.bench.gpu_build import STUDY as GPU_BUILD, gpu_techniques
 from app.results import CPU_PREFIX, columns, option_studies, read_csv
 from app.techniques import REGISTRY, with_role
@@ -17,7 +19,7 @@ from tests.helpers import registered
 
 TINY = ["--quick", "--size", "64x36", "--scenes", "arena", "--frames", "1", "--lights", "256",
         "--repeat", "1", "--cpu-lights", "256", "--cpu-size", "96x54", "--growth-lights", "256,512",
-        "--gpu-build-lights", "256"]
+        "--gpu-build-lights", "256", "--c-reference-lights", "256"]
 # the CPU series at another resolution than the rendered one: the cpu_<option> rows run too
 FIXED_PLOTS = ("accuracy_cost.png", "gpu_path.png", "cpu_stages.png", "heatmaps.png", "cutoff.png",
                "tradeoff.png")
@@ -51,7 +53,7 @@ def test_results_columns_and_rows(sweep):
         assert got == set(REGISTRY), f"{study}: {sorted(got)} != {sorted(REGISTRY)}"
     studies = option_studies()
     assert studies, "no option declares study values"
-    assert {r["study"] for r in rows} == {"path", "cutoff", "cpu", CAPS, GROWTH, GPU_BUILD} | set(studies) | \
+    assert {r["study"] for r in rows} == {"path", "cutoff", "cpu", CAPS, GROWTH, GPU_BUILD, C_REFERENCE} | set(studies) | \
         {CPU_PREFIX + s for s in studies}
     for name, (spec, techs) in studies.items():
         for study in (name, CPU_PREFIX + name):
@@ -69,7 +71,7 @@ def test_exactness_waste_and_cost(sweep):
     _, rows = sweep
     ref, floor = with_role("reference").name, with_role("floor").name
     rendered = [r for r in rows if not r["study"].startswith(CPU_PREFIX)
-                and r["study"] not in ("cpu", GROWTH, GPU_BUILD)]
+                and r["study"] not in ("cpu", GROWTH, GPU_BUILD, C_REFERENCE)]
     assert rendered
     for r in rendered:
         where = f"{r['study']} {r['technique']} cutoff {r['cutoff']}"
@@ -133,6 +135,26 @@ def test_gpu_build_comparison(sweep):
         assert re.search(rf"^\| {t} \| 256 \| ", text, re.M), t
         assert f"{t}: the GPU build takes " in text
     assert not (out / "gpu_build.csv").exists()       # results.csv holds them
+
+
+def test_c_reference_comparison(sweep):
+    """Issue 23 item 5: the sweep runs hybrid's and clustered's CPU stage against the plain C
+    reference on one and two numba threads (study "c_reference"), the outputs identical, and
+    the CPU page sets them side by side."""
+    import json
+    out, rows = sweep
+    got = [r for r in rows if r["study"] == C_REFERENCE]
+    assert sorted((r["technique"], int(r["lights"]), json.loads(r["stats"])["threads"]) for r in got) == \
+        sorted((t, 256, min(k, numba.config.NUMBA_NUM_THREADS)) for t in C_TECHNIQUES for k in (1, 2))
+    for r in got:
+        s = json.loads(r["stats"])
+        assert s["identical"] and s["c_min_ms"] > 0 and r["cpu_total_min_ms"] > 0, r["technique"]
+        assert s["ratio_min"] == pytest.approx(r["cpu_total_min_ms"] / s["c_min_ms"], rel=0.02)
+    text = (out / "report.md").read_text()
+    assert "### Against plain single-threaded C (issue 23 item 5)" in text
+    for t in C_TECHNIQUES:
+        assert re.search(rf"^\| {t} \| 256 \| \d+ \| 1 \| .* \| identical \|$", text, re.M), t
+        assert f"{t} at 256 lights: ours takes " in text
 
 
 def test_report_rebuilds_from_the_folder(sweep, monkeypatch):
