@@ -18,7 +18,9 @@ slides' variants and why every mode is exact: docs/raster.md.
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, replace
+from functools import lru_cache
 
 import numpy as np
 
@@ -461,7 +463,13 @@ def contention_figures(technique, size=SLIDES_SIZE) -> dict[int, dict]:
     """Per raster_variant, the contention scene at `size` (its default lights, frame 0): the
     stats twin's atomics and fragments, the tile grid, and the culling passes modelled on
     the slides' PS4.  Counters and model only, no timing (the report rebuilds to the same
-    text from the same results); the shading passes skip their light loops (CELLS_ONLY)."""
+    text from the same results); the shading passes skip their light loops (CELLS_ONLY).
+    Made once a process (four 1920x1080 frames, ~3 s on llvmpipe: every report write)."""
+    return copy.deepcopy(_contention_figures(technique, tuple(size)))
+
+
+@lru_cache(maxsize=4)
+def _contention_figures(technique, size) -> dict[int, dict]:
     from scenes import load_scene
     from ..model import cost, waves
     from ..pipeline.renderer import Renderer
