@@ -493,8 +493,9 @@ def c_reference_report(rows) -> tuple[list[str], str]:
                          f"{s['ratio_min']:.2f}x ({s['ratio_median']:.2f}x) | "
                          f"{'identical' if s['identical'] else 'DIFFER'} |")
         top = [r for r in rs if num(r["lights"]) == max(num(x["lights"]) for x in rs)]
-        parts = [f"{_st(r)['ratio_min']:.2f}x the C's time on {_st(r).get('threads', 1)} "
-                 f"thread{'s' if _st(r).get('threads', 1) > 1 else ''}" for r in top]
+        parts = [f"{_st(r)['ratio_min']:.2f}x" + (" the C's time" if j == 0 else "") +
+                 f" on {_st(r).get('threads', 1)} thread{'s' if _st(r).get('threads', 1) > 1 else ''}"
+                 for j, r in enumerate(top)]
         line = f"{t} at {_k(top[0]['lights'])} lights: ours takes " + ", ".join(parts) + " (min)"
         if t in ISSUE_C_MS and num(top[0]["lights"]) == 65536:
             best = min(num(r["cpu_total_min_ms"]) for r in top)
