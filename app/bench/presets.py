@@ -98,7 +98,7 @@ QUICK = Preset(
     caps_scenes=("arena",), caps_lights=2048,
     # 2 counts x the --build techniques, both builds, at 320x180: GPU_BUILD_QUICK_S below
     gpu_build_lights=(4096, 16384),
-    # 2 techniques x 2 thread counts x 21 frames each side at 65,536 lights: ~4 s
+    # 2 techniques x 2 thread counts x 21 frames each side at 65,536 lights: ~3 s
     c_reference_lights=(65536,))
 
 FULL = Preset(
