@@ -152,7 +152,6 @@ def study_rows(scene_name: str, counts, size, repeat: int, threads=(1, 2), progr
     numba thread count: compare()'s figures, ours in the CPU stage columns (medians; the
     total's min and max), the C's and the ratios in `stats`.  A scene of other lights than
     points, or no C compiler: no rows, and a line on `log` saying why."""
-    import numba
     from scenes import load_scene
     from ...techniques import get
     jobs = [(n, t, k) for n in counts for t in TECHNIQUES for k in threads]
@@ -237,7 +236,6 @@ def main(args, threads, technique, opts) -> None:
     scene = cli.load_scene_args(args)
     size = tuple(args.size or scene.resolution)
     log = (lambda i, total, what: sys.stderr.write(f"[{i}/{total}] {what}\n")) if not args.json else None
-    import numba
     before = numba.get_num_threads()
     numba.set_num_threads(min(threads[0], numba.config.NUMBA_NUM_THREADS))
     try:
