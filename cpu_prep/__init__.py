@@ -7,6 +7,7 @@ The CPU stage runs on DEFAULT_THREADS (two, where the machine has two cores) unl
 LAB_CPU_THREADS says otherwise; the benchmark measures one thread unless told (`--threads`),
 as the tree paper's figure 4 does (docs/cpu_stage.md measures both).  Both give the same bits.
 """
+from contextlib import contextmanager
 import hashlib
 import os
 from pathlib import Path
@@ -43,3 +44,15 @@ def threads() -> int:
     """The threads the CPU stage runs on now (DEFAULT_THREADS, LAB_CPU_THREADS, or
     set_num_threads)."""
     return int(numba.get_num_threads())
+
+
+@contextmanager
+def using_threads(n: int):
+    """The CPU stage on n threads (at most numba's) inside the block, the count before it
+    restored after."""
+    before = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(int(n), numba.config.NUMBA_NUM_THREADS)))
+    try:
+        yield threads()
+    finally:
+        numba.set_num_threads(before)

@@ -258,13 +258,9 @@ def assert_exact(results: dict, where: str = "") -> None:
 
 def with_threads(n: int, fn):
     """fn() with numba's thread count set to n (at most what numba has), restored after."""
-    import numba
-    before = numba.get_num_threads()
-    try:
-        numba.set_num_threads(min(n, numba.config.NUMBA_NUM_THREADS))
+    from cpu_prep import using_threads
+    with using_threads(n):
         return fn()
-    finally:
-        numba.set_num_threads(before)
 
 
 @contextmanager

@@ -63,14 +63,11 @@ def ratio_row(technique, scene_name: str, n: int, size, cpu, gpu, repeat: int) -
     """One results.csv row (study "gpu_build") from the CPU-built frame `cpu` and the GPU-built
     `gpu` of one count: the CPU stage's columns (median, min, max), the GPU build's figures
     and their ratio (fastest samples) in `stats`."""
-    from .measure import option_cells
+    from .measure import cpu_study_row
     c, g = cpu_build_ms(cpu.meta), gpu_build_ms(gpu.meta)
     per = [dict(s["cpu_ms"]) for s in _samples(cpu.meta)]
-    r = {"study": STUDY, "scene": scene_name, "lights": int(n),
-         "visible": int(gpu.meta["stats"].get("visible_lights", 0)), "width": size[0],
-         "height": size[1], "frame": 0, "frames": 64, "technique": technique.name,
-         "role": technique.role, "cutoff": 0, "samples": repeat}
-    r.update(option_cells(technique.resolve_options({})))
+    r = cpu_study_row(STUDY, technique, scene_name, n, gpu.meta["stats"].get("visible_lights", 0),
+                      size, repeat, technique.resolve_options({}))
     for k in CPU_STAGES:
         r[f"cpu_{k}_ms"] = stats([s.get(k, 0.0) for s in per])[0]
     r["cpu_total_ms"], r["cpu_total_min_ms"], r["cpu_total_max_ms"] = stats(c)

@@ -66,6 +66,18 @@ def option_cells(opts) -> dict:
     return cells
 
 
+def cpu_study_row(study: str, technique, scene_name: str, lights: int, visible: int, size,
+                  samples: int, opts) -> dict:
+    """The head of a results.csv row of a study of one frame's CPU build (frame 0 of the
+    scene's 64-frame path, no cutoff): where, what and how many samples, every option
+    column; the study adds its figures."""
+    row = {"study": study, "scene": scene_name, "lights": int(lights), "visible": int(visible),
+           "width": size[0], "height": size[1], "frame": 0, "frames": 64,
+           "technique": technique.name, "role": technique.role, "cutoff": 0, "samples": samples}
+    row.update(option_cells(opts))
+    return row
+
+
 def figure_cells(res) -> dict:
     """Hardware-neutral figures over geometry pixels, and the bytes the technique bound."""
     mask = res.depth > 0

@@ -22,8 +22,9 @@ import json
 import os
 import sys
 
-import numba
 import numpy as np
+
+from cpu_prep import threads as cpu_threads, using_threads
 
 from ...errors import UserError
 from ...results import stats
@@ -118,7 +119,7 @@ def compare(technique, scene, size, opts, repeat: int, frame: int = 0, frames: i
         np.asarray(ns["total"]) / np.maximum(cs["total"], 1e-9))), 3)
     return {"technique": technique.name, "scene": scene.name, "size": [w, h],
             "lights": int(len(scene.lights)), "visible": visible,
-            "repeat": repeat, "threads": int(numba.get_num_threads()), "options": opts.as_dict(), "sizes": sizes,
+            "repeat": repeat, "threads": cpu_threads(), "options": opts.as_dict(), "sizes": sizes,
             "identical": not differ, "differ": differ,
             "c_library": str(ref.path),
             "rows": rows,
@@ -155,35 +156,29 @@ def study_rows(scene_name: str, counts, size, repeat: int, threads=(1, 2), progr
     from scenes import load_scene
     from ...techniques import get
     jobs = [(n, t, k) for n in counts for t in TECHNIQUES for k in threads]
-    rows, before = [], numba.get_num_threads()
-    try:
-        for i, (n, name, k) in enumerate(jobs):
-            technique = get(name)
-            if progress:
-                progress(i + 1, len(jobs), f"{STUDY} {scene_name} {n} lights {name}, numba on "
-                                           f"{k} thread(s) against C on one at {size[0]}x{size[1]}")
-            numba.set_num_threads(min(k, numba.config.NUMBA_NUM_THREADS))
-            opts = technique.resolve_options(None)
-            try:
+    rows = []
+    for i, (n, name, k) in enumerate(jobs):
+        technique = get(name)
+        if progress:
+            progress(i + 1, len(jobs), f"{STUDY} {scene_name} {n} lights {name}, numba on "
+                                       f"{k} thread(s) against C on one at {size[0]}x{size[1]}")
+        opts = technique.resolve_options(None)
+        try:
+            with using_threads(k):
                 r = compare(technique, load_scene(scene_name, lights=int(n)), size, opts, repeat)
-            except UserError as exc:
-                if log is not None:
-                    log.write(f"bench: {STUDY}: skipped ({exc})\n")
-                return []
-            rows.append(_results_row(technique, scene_name, n, size, repeat, opts, r))
-    finally:
-        numba.set_num_threads(before)
+        except UserError as exc:
+            if log is not None:
+                log.write(f"bench: {STUDY}: skipped ({exc})\n")
+            return []
+        rows.append(_results_row(technique, scene_name, n, size, repeat, opts, r))
     return rows
 
 
 def _results_row(technique, scene_name, n, size, repeat, opts, r) -> dict:
-    from ..measure import option_cells
+    from ..measure import cpu_study_row
     from ...results import CPU_STAGES
     t = r["rows"]["total"]
-    row = {"study": STUDY, "scene": scene_name, "lights": int(n), "visible": r["visible"],
-           "width": size[0], "height": size[1], "frame": 0, "frames": 64,
-           "technique": technique.name, "role": technique.role, "cutoff": 0, "samples": repeat}
-    row.update(option_cells(opts))
+    row = cpu_study_row(STUDY, technique, scene_name, n, r["visible"], size, repeat, opts)
     for k in CPU_STAGES:
         row[f"cpu_{k}_ms"] = r["numba_stages"].get(k, {}).get("median_ms", 0.0)
     row["cpu_total_ms"], row["cpu_total_min_ms"], row["cpu_total_max_ms"] = \
@@ -236,11 +231,7 @@ def main(args, threads, technique, opts) -> None:
     scene = cli.load_scene_args(args)
     size = tuple(args.size or scene.resolution)
     log = (lambda i, total, what: sys.stderr.write(f"[{i}/{total}] {what}\n")) if not args.json else None
-    before = numba.get_num_threads()
-    numba.set_num_threads(min(threads[0], numba.config.NUMBA_NUM_THREADS))
-    try:
+    with using_threads(threads[0]):
         r = compare(technique, scene, size, opts, args.repeat, args.frame, args.frames, progress=log)
-    finally:
-        numba.set_num_threads(before)
     r["scene"] = args.scene
     print_result(r, args.json)
