@@ -5,6 +5,7 @@ uniform ivec2 u_tiles;        // tiles in x and y
 uniform int u_tile;           // tile size in pixels
 #include "slices.glsl"
 
+// priced: cell
 uint cell_of(PixelState s) {
     ivec2 t = s.pixel / u_tile;
     uint sl = u_slices > 1 ? slice_of(s.depth) : 0u;

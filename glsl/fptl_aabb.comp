@@ -204,6 +204,7 @@ dvec2 sphere_axis(double ca, double cz, double r, double near_z, double tan_half
     return dvec2(lo, hi);
 }
 
+// priced: aabb
 void main() {
     uint k = gl_GlobalInvocationID.x;
     if (k >= u_light_count) return;
@@ -221,9 +222,11 @@ void main() {
     // the corners' outcodes: all inside the frustum, the bound's corners are the point set;
     // all outside one plane, the intersection is empty; else clip (most lights need not)
     uint out_all = 63u, out_any = 0u;
+    // trips: 8
     for (int c = 0; c < 8; ++c) {
         dvec3 p = corner(c);
         uint code = 0u;
+        // trips: 6
         for (int k = 0; k < 6; ++k) {
             dvec4 pl = plane(k);
             if (dot(pl.xyz, p) + pl.w > 0.0lf) code |= 1u << uint(k);
@@ -232,6 +235,7 @@ void main() {
         out_any |= code;
     }
     if (out_any == 0u) {
+        // trips: 8
         for (int c = 0; c < 8; ++c) add_point(corner(c));
     } else if (out_all == 0u) {
         for (int f = 0; f < 6; ++f) clip_face(f);

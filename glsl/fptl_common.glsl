@@ -56,6 +56,7 @@ uint fptl_slice(float depth) {
 #endif
 }
 
+// priced: cell
 uint fptl_cell(ivec2 pixel, float depth) {
     ivec2 t = pixel / FPTL_TILE;
     return (uint(t.y) * uint(u_fptl_tiles_x) + uint(t.x)) * uint(FPTL_SLICES) + fptl_slice(depth);

@@ -170,6 +170,7 @@ void flush(uint m, uint mode) {
     barrier();
 #if FPTL_PRUNE
     uvec2 m0 = uvec2(0u), m1 = uvec2(0u), m2 = uvec2(0u), m3 = uvec2(0u);
+    // priced: prune with: light_affects_pixel
     for (uint j = 0u; j < m; ++j) {
         GpuLight L = lights[s_batch_light[j]];
         uvec2 b = bit_of(j);
@@ -227,6 +228,7 @@ void scan(uint mode, float dmin, float dmax) {
     uint me = lane();
     if (me == 0u) s_count = 0u;
     barrier();
+    // priced: cull_test minus: flush
     for (uint first = u_scan.x; ; first += FPTL_BATCH) {
         bool last = first >= u_scan.y;
         uint count = s_count;
@@ -333,6 +335,7 @@ void main() {
         s_words[w] = first ? 0u : fptl_lists[first_cell * FPTL_LIST_WORDS + w];
     barrier();
     // (a) depths are positive floats, whose bit patterns order like the values
+    // priced: depth
     for (int q = 0; q < 4; ++q)
         if (g_px[q].shading) {
             uint d = floatBitsToUint(g_px[q].depth);

@@ -33,6 +33,7 @@ uint run_entry(uint first, uint k, bool spill) {
 
 // Entries [k, end) of one shape; returns where the run leaves that shape.
 uint type_loop(inout PixelState s, uint first, uint k, uint end, bool spill, uint type) {
+    // priced: light
     for (; k < end; ++k) {
         uint i = run_entry(first, k, spill);
         if (lights[i].id_type.y != type) break;
@@ -59,11 +60,13 @@ void shade_run(inout PixelState s, uint first, uint count, bool spill) {
     k = type_loop(s, first, k, w.y, spill, LIGHT_BOX);
 #endif
 #else
+    // priced: light
     for (; k < w.y; ++k) evaluate_light(s, lights[run_entry(first, k, spill)]);
 #endif
 }
 
 // The cell's list state from its words: (entries in the blocks, FPTL_SPILLED / FPTL_POOL_FULL).
+// priced: cell
 uvec2 list_state(uint first) {
 #if FPTL_INDEX_BITS == 10
     uint sum = 0u;                         // all eight blocks: 32 B, one aligned fetch

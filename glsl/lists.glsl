@@ -17,6 +17,7 @@ layout(std430, binding = B_DUP_LIGHTS) readonly buffer DupLights { GpuLight dup_
 // The entries [first, first + count) that fall in this dispatch's window (pixel.glsl).
 void evaluate_list(inout PixelState s, uint first, uint count) {
     uvec2 w = window_part(s, count);
+    // priced: light
     for (uint k = first + w.x; k < first + w.y; ++k) evaluate_light(s, LIST_LIGHT(k));
 }
 
@@ -42,6 +43,7 @@ bool next_wave_cell(bool pending, uint cell, out uint c) {
 // plus the entries of every cell walked (what a scalar unit loops over).
 uint evaluate_cells_scalarized(inout PixelState s, uint cell, bool pending) {
     uint iterations = 0u, c;
+    // priced: cell minus: evaluate_list
     while (next_wave_cell(pending, cell, c)) {
         uvec2 r = ranges[c].offset_count;
         iterations += 1u + r.y;

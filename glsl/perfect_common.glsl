@@ -16,6 +16,7 @@ PixelState perfect_load_pixel() {
 }
 
 // Index of the pixel in the current band (ranges are band-relative).
+// priced: cell
 uint perfect_band_index(PixelState s) {
     return uint((s.pixel.y - u_row0) * u_size.x + s.pixel.x);
 }

@@ -94,6 +94,7 @@ bool first_window() { return u_window.x == 0u; }
 
 // Whether light L (of shape `type`) affects the pixel: the only place any technique decides
 // "affects".  A per-type loop passes its constant type and compiles that shape's code alone.
+// priced: test
 bool light_affects_pixel(PixelState s, GpuLight L, uint type) {
     precise vec3 d = s.P - L.pos_radius.xyz;
     precise float d2 = dot(d, d);
@@ -101,6 +102,7 @@ bool light_affects_pixel(PixelState s, GpuLight L, uint type) {
 }
 
 // What an affecting light adds to the pixel: its count, hash and radiance.
+// priced: shade
 void shade_affecting(inout PixelState s, GpuLight L, uint type) {
 #if DEBUG_PIXEL
     if (s.pixel == u_debug_pixel) {
@@ -130,6 +132,7 @@ void evaluate_light(inout PixelState s, GpuLight L) { evaluate_light_as(s, L, L.
 // first + k), each counted as evaluated.
 uint affecting_mask(inout PixelState s, uint first, uint n) {
     uint mask = 0u;
+    // priced: mask_light
     for (uint k = 0u; k < n; ++k) {
         GpuLight L = lights[first + k];
         s.evaluated++;
@@ -153,6 +156,7 @@ void evaluate_all_lights(inout PixelState s) {
     uvec2 w = window_part(s, u_light_count);
     for (uint first = w.x; first < w.y; first += LIGHT_RUN) {
         uint mask = affecting_mask(s, first, min(LIGHT_RUN, w.y - first));
+        // priced: set_bit
         while (mask != 0u) {
             uint i = first + uint(findLSB(mask));
             mask &= mask - 1u;

@@ -97,6 +97,7 @@ void column(ivec2 pixel, float lo, float hi) {
     }
 }
 
+// priced: fragment
 void main() {
     float inv_d = gl_FragCoord.w;                      // 1 / view depth: affine on screen
     vec2 grad = vec2(dFdx(inv_d), dFdy(inv_d));

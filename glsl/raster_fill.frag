@@ -13,6 +13,7 @@ uniform ivec2 u_size;
 uniform float u_near;
 uniform ivec2 u_sample_pixel[4];
 
+// priced: fragment
 void main() {
 #if RASTER_MSAA
     ivec2 pixel = ivec2(gl_FragCoord.xy) * 2 + u_sample_pixel[gl_SampleID];

@@ -61,6 +61,7 @@ uint sample_word(int k, float inv_d, vec2 grad, RasterProxy pr, bool back) {
 }
 #endif
 
+// priced: fragment
 void main() {
     // The proxy's view depth d: 1 / d = gl_FragCoord.w is affine in screen space, so its
     // derivatives give it at any sample exactly (llvmpipe's interpolateAtSample returns the

@@ -70,6 +70,7 @@ vec3 place(vec4 a, GpuLight L, RasterProxy pr) {
     return p + pr.radius * (sin(th) * (a.x * e1 + a.y * e2) + cos(th) * f);
 }
 
+// priced: vertex
 void main() {
     uint li = order[u_first + uint(u_instance) + uint(gl_InstanceID)];
     GpuLight L = lights[li];

@@ -24,8 +24,10 @@ void main() {
         uint address = cell * u_words;
         uint last = min(u_window.y - 1u, 0x7FFFFFFFu);
         uint wordEnd = min(u_words, last / 32u + 1u);
+        // priced: word
         for (uint w = u_window.x / 32u; w < wordEnd; ++w) {
             uint mask = cluster_bits[address + w] & window_mask(w);
+            // priced: light
             while (mask != 0u) {
                 uint bit = uint(findLSB(mask));
                 mask ^= 1u << bit;

@@ -21,6 +21,7 @@ shared uint near_bits;        // complement of the min's bits
 shared uint far_bits;
 #endif
 
+// priced: depth
 void main() {
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     bool inside = all(lessThan(pixel, u_size));

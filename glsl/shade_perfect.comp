@@ -16,6 +16,7 @@ void main() {
     if (s.shading) {
         uvec2 r = perfect_ranges[perfect_band_index(s)];
         uvec2 w = window_part(s, r.y);
+        // priced: light
         for (uint k = r.x + w.x; k < r.x + w.y; ++k) evaluate_light(s, lights[perfect_entries[k]]);
     }
     store_pixel(s);

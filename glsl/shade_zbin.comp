@@ -47,9 +47,11 @@ uniform float u_bin_scale;    // bins per metre of view depth
 #endif
 
 // The pixel's z-bin.
+// priced: cell
 uint zbin_of(float depth) { return uint(min(depth * u_bin_scale, float(u_bins - 1u))); }
 
 // (min id, max id) of z-bin `bin`; min > max: no light in the bin.
+// priced: cell
 uvec2 zbin_range(uint bin) {
 #if ZBIN_MASKED
 #if ZBIN_WIDE
@@ -114,10 +116,12 @@ void main() {
 #if SCALARIZED
 #if WAVE_NATIVE
     // the slides' final listing, word by word
+    // priced: word
     for (uint wordIndex = wordMin; wordIndex < wordEnd; ++wordIndex) {
         uint mask = lane_word(s.shading, address, minIdx, maxIdx, wordIndex);
         own += uint(bitCount(mask));
         uint mergedMask = SCALAR(waveAllBitOr(mask));        // compact word bitmask over the wave
+        // priced: light
         while (mergedMask != 0u) {                           // processed scalar over merged bitmask
             uint bitIndex = uint(findLSB(mergedMask));
             mergedMask ^= 1u << bitIndex;
@@ -127,6 +131,7 @@ void main() {
 #else
     // the same loop with the emulated wave's WaveAllBitOr done for WAVE_OR_WORDS words per
     // round of barriers (wave.glsl groupOrWords*): the same merged words, in order
+    // priced: word
     for (uint chunk = wordMin; chunk < wordEnd; chunk += uint(WAVE_OR_WORDS)) {
         uint count = min(uint(WAVE_OR_WORDS), wordEnd - chunk);
         groupOrWordsBegin(count);
@@ -139,6 +144,7 @@ void main() {
         for (uint k = 0u; k < count; ++k) {
             uint wordIndex = chunk + k;
             uint mergedMask = groupOrWordsResult(k);
+            // priced: light
             while (mergedMask != 0u) {
                 uint bitIndex = uint(findLSB(mergedMask));
                 mergedMask ^= 1u << bitIndex;
@@ -150,9 +156,11 @@ void main() {
     uint wave_iterations = s.evaluated;    // every shading lane runs the whole merged loop
 #else
     if (s.shading) {
+        // priced: word
         for (uint wordIndex = wordMin; wordIndex < wordEnd; ++wordIndex) {
             uint mask = lane_word(true, address, minIdx, maxIdx, wordIndex);
             own += uint(bitCount(mask));
+            // priced: light
             while (mask != 0u) {                             // processed per lane
                 uint bitIndex = uint(findLSB(mask));
                 mask ^= 1u << bitIndex;

@@ -50,6 +50,7 @@ void main() {
     barrier();
     // Depths are positive floats, whose bit patterns order like the values.
     for (int y = int(gl_LocalInvocationID.y); y < u_tile; y += 16)
+        // priced: depth
         for (int x = int(gl_LocalInvocationID.x); x < u_tile; x += 16) {
             ivec2 p = origin + ivec2(x, y);
             if (all(lessThan(p, u_size))) {
@@ -68,6 +69,7 @@ void main() {
     vec2 hi = vec2(min(origin + u_tile, u_size) + 1) / vec2(u_size) * 2.0 - 1.0;
     vec4 ndc = vec4(lo, hi);
 
+    // priced: cull_test
     for (uint i = lid; i < u_light_count && !empty; i += 256u)
         if (sphere_in_tile(bounds[i].center_radius, ndc, dmin, dmax)) atomicAdd(s_count, 1u);
     barrier();

@@ -24,6 +24,7 @@ void visit_node(inout PixelState s, TreeNode n, inout uint i) {
 
 void traverse_tree(inout PixelState s, uint base, uint count) {
     uint i = 0u;
+    // priced: node minus: evaluate_list
     while (i < count) visit_node(s, nodes[base + i], i);
 }
 
@@ -32,11 +33,13 @@ shared TreeNode s_tree[SHARED_TREE_NODES];
 
 void traverse_shared_tree(inout PixelState s, uint count) {
     uint i = 0u;
+    // priced: lds_node minus: evaluate_list
     while (i < count) visit_node(s, s_tree[i], i);
 }
 
 // Called by every invocation of the group (it holds a barrier).
 void load_shared_tree(uint base, uint count) {
+    // priced: load
     for (uint i = gl_LocalInvocationIndex; i < count; i += 64u) s_tree[i] = nodes[base + i];
     barrier();
 }

@@ -46,6 +46,7 @@ uint entry_shapes(uint first, uint count, inout int budget) {
 }
 #endif
 
+// priced: load
 void main() {
     uint cell = gl_GlobalInvocationID.x;
     if (cell >= u_cells) return;

@@ -20,6 +20,7 @@ uniform int u_variant_tiles_x;
 shared uint s_mask;
 #endif
 
+// priced: depth
 void main() {
     PixelState s = load_pixel_at(ivec2(gl_GlobalInvocationID.xy));
     uint bits = 0u;

@@ -21,6 +21,7 @@ void main() {
     uint t = gl_GlobalInvocationID.x;
     if (t == 0u) {
         const uint per = uint(VARIANT_TILE / 8);
+        // priced: load
         for (uint m = 0u; m < FEATURE_MASKS; ++m) {
             variant_args[3u * m + 1u] = per * per;
             variant_args[3u * m + 2u] = 1u;

@@ -28,6 +28,7 @@ void main() {
     barrier();
     // depths are positive floats, whose bit patterns order like the values
     for (int y = int(gl_LocalInvocationID.y); y < u_tile; y += 8)
+        // priced: depth
         for (int x = int(gl_LocalInvocationID.x); x < u_tile; x += 8) {
             ivec2 p = origin + ivec2(x, y);
             if (all(lessThan(p, u_size))) {
@@ -44,6 +45,7 @@ void main() {
     for (uint w = lid; w < u_words; w += 64u) {
         uint bits = empty ? 0u : tile_bits[tile * u_words + w];
         uint keep = 0u;
+        // priced: cull_test
         for (uint m = bits; m != 0u; m &= m - 1u) {
             uint b = uint(findLSB(m));
             vec2 r = light_depth[w * 32u + b];

@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# Idempotent set-up for a fresh Debian machine: Mesa's EGL/llvmpipe system packages and a C
-# compiler (gcc, for app/bench/c_reference) (apt-get when root, else one line saying what to
-# install), a virtualenv in .venv, the project and its test extra at the tested versions of
+# Idempotent set-up for a fresh Debian machine: Mesa's EGL/llvmpipe system packages, a C
+# compiler (gcc, for app/bench/c_reference) and glslang + spirv-tools (the cost model's
+# instruction counts) (apt-get when root, else one line saying what to install), a
+# virtualenv in .venv, the project and its test extra at the tested versions of
 # constraints.txt (refreshed by scripts/lock.sh).
 # Sourced by scripts/main.sh and scripts/test.sh.  LAB_WITH_XVFB=1 (scripts/test.sh) adds
-# what only the tests use: Xvfb (the window under an X server) and glslangValidator.
+# what only the tests use: Xvfb (the window under an X server).
 # .venv is reinstalled when pyproject.toml or constraints.txt changes (their hash: the stamp).
 #
 # Sourced into an interactive shell (`source scripts/setup.sh`), the strict options below
@@ -26,9 +27,11 @@ have_lib 'libGL.so.1 ' || missing+=(libgl1)
 [ -n "$(ls /usr/lib/*/dri/swrast_dri.so /usr/lib/dri/swrast_dri.so 2>/dev/null)" ] || missing+=(libgl1-mesa-dri)
 python3 -c 'import ensurepip' >/dev/null 2>&1 || missing+=(python3-venv)
 command -v cc >/dev/null || missing+=(gcc)        # bench cpu --c-reference, its test
+# the GPU cost model counts instructions from the shaders' SPIR-V (app/model/counts.py)
+command -v glslangValidator >/dev/null || missing+=(glslang-tools)
+command -v spirv-dis >/dev/null || missing+=(spirv-tools)
 if [ "${LAB_WITH_XVFB:-0}" = 1 ]; then
     command -v Xvfb >/dev/null || missing+=(xvfb)
-    command -v glslangValidator >/dev/null || missing+=(glslang-tools)
 fi
 
 if [ ${#missing[@]} -gt 0 ]; then

@@ -1,26 +1,33 @@
 """The GPU cost model: per-wave execution figures (app.model.waves) -> milliseconds on named
-GPUs, from their public specifications alone.  Version MODEL_VERSION.
+GPUs.  Version MODEL_VERSION; every modelled column of results.csv carries the version that
+made it.
 
-Nothing here is fitted to any paper's results: the GPU constants are the vendors' published
-figures (the sources are beside each GPU below), the instruction counts are counted from
-this lab's own GLSL (INSTRUCTIONS, with the counting rule), and the equations are the
-throughput limits every GPU has.  A pass of figures F on GPU g (wave width W = g.wave,
-U units (SMs / CUs) at f Hz):
+Nothing here is fitted to any paper's results.  Three kinds of number go in:
+  * the GPUs' figures, from the vendors' public specifications (sources beside GPUS below);
+  * the instructions each priced step runs, counted from the lab's own shaders' SPIR-V by
+    one rule (app.model.spirv, app.model.counts), per program, so per technique variant and
+    option: the figures carry them (Figures.ops) and the report prints them;
+  * the assumptions no specification gives, each named once in ASSUMED with its source,
+    and moved by +-30% one at a time in the report's sensitivity table.
 
-    ALU      T_alu  = I x W / (U x lanes x f)
-             I = sum over loop kinds k of  issued_k x alu_k  +  issued_k x trans_k / sfu
-                 + for the light loop, per shape s:  tested_s x test_s + shaded_s x shade_s
-                 + specular x ggx  +  waves x wave      (instructions per wave, summed)
+A pass of figures F on GPU g (wave width W = g.wave, U units (SMs / CUs) at f Hz):
+
+    ALU      T_alu  = I x W / (U x lanes x f) x issue_per_op
+             I = sum over loop kinds k of  issued_k x slots(ops_k)
+                 + for the light loops, per shape s:  tested_s x slots(test_s)
+                                                      + shaded_s x slots(shade_s)
+                 + specular x slots(ggx)  +  waves x slots(wave)      (a shading pass)
+             slots(alu, trans, idiv, wred) = alu + (trans + idiv) / sfu
+                                             + idiv x int_division + wred x wave_reduction
              a wave issues every instruction for all W lanes, idle or not: divergence and
-             idle lanes are in `issued`; trans_k are quarter-rate (sfu = 1/4) or eighth-rate
-             transcendentals (sqrt, inversesqrt, log, exp, rcp)
+             idle lanes are in `issued`; transcendentals run at the GPU's sfu rate
     L1       T_l1   = sum_k max(vector_loads_k x W / addr, vector_lines_k x 64 / l1) / (U x f)
              a vector load needs its lanes' addresses (addr per clock) and its distinct
              lines (l1 bytes per clock); a wave-uniform (scalar) load costs the same on a GPU
              without a scalar unit, and nothing on the vector path where there is one (GCN's
              scalar cache; its own throughput is not modelled)
              + lds_reads x 16 / (U x lds)        (tree nodes read from shared memory)
-    DRAM     T_dram = (unique bytes read + per-pixel bytes) / bandwidth
+    DRAM     T_dram = (unique bytes read + per-pixel bytes) / (bandwidth x dram_efficiency)
              every distinct 64-B line of the pass's buffers once (a perfect L2), plus a
              shading pass's 52 B a pixel: the G-buffer's 36 B read, the colour's 16 B written
              (the 20 B of counters and cell the lab's shaders also write for the exactness
@@ -36,13 +43,21 @@ What it ignores, and which way that errs:
   * occupancy and latency hiding: it assumes enough waves in flight to keep every unit busy
     (optimistic for register-heavy shaders: the slides' 56 -> 32 VGPR occupancy gain is not
     in it, nor is the cost of a small frame that fills no GPU);
-  * the scalar unit's own cost and GCN's SGPR/VGPR split beyond the loads (see L1);
+  * the scalar unit's own cost and GCN's SALU / VALU split: a wave-uniform instruction
+    costs the same issue slot as a vector one, so the model cannot express what
+    scalarization gains beyond the loads it moves to the scalar cache (see L1);
   * caches between L1 and DRAM (an L2 that misses), bank conflicts, atomic contention at one
-    address (atomics count as vector memory instructions), barriers (counted, not timed);
-  * instruction issue details: dual issue, fused multiply-add pairs, the compiler's own
-    schedule; a kernel launch's fixed cost (a few microseconds);
-  * the limits overlap perfectly (max, not sum): a lower bound on time.
-So read its milliseconds as a ranking and a ratio between techniques on one GPU, with an
+    address (atomics count as memory instructions), barriers (counted, not timed);
+  * the compiler: SPIR-V is the shader as written, unoptimised; a GPU compiler fuses,
+    hoists and schedules (issue_per_op stands for that, and is moved in the sensitivity
+    table); FP64 (fptl_aabb.comp's clipping) is priced at the FP32 rate, which consumer GPUs
+    do not have (1/32 on the GTX 980, 1/16 on GCN): fptl's light_aabb pass errs low there;
+  * the limits overlap perfectly (max, not sum).
+Each omission but the last makes a time too low, and the max makes it a lower bound of the
+limits' sum, but a measured frame can still come in below a modelled one: the DRAM term
+assumes every G-buffer byte and every line is fetched from DRAM once, while a real GPU's L2
+and compression (delta colour compression on Maxwell and GCN) can serve part of them.  So
+read its milliseconds as a ranking and a ratio between techniques on one GPU, with an
 absolute scale to be checked against a measured GPU (scripts/gpu_check.sh), never as a
 measurement.
 """
@@ -56,8 +71,9 @@ from scenes.model import LIGHT_TYPES
 
 from .waves import FIELDS, KINDS, LINE, Figures
 
-# 2: evaluate_all_lights (brute, overflowed tiles) shades in a set-bit loop after its masks
-MODEL_VERSION = "2"
+# 3: instruction counts from the shaders' SPIR-V per program (app.model.counts), the
+#    assumptions named in ASSUMED; evaluate_all_lights' mask loop its own kind (mask_light)
+MODEL_VERSION = "3"
 
 
 @dataclass(frozen=True)
@@ -117,58 +133,90 @@ def match(renderer: str) -> GPU | None:
     r = renderer.lower()
     return next((BY_KEY[k] for k, names in RENDERER_NAMES.items() if any(n in r for n in names)), None)
 
-# Instructions per issued iteration, counted from the GLSL by one rule: one per scalar add /
-# mul / fma / compare / select / bit op after vec3 ops are split (a vec3 op is 3, a dot 3),
-# one issue slot per load or store instruction (their data is timed by L1 / DRAM), a loop's
-# counter, test and branch 3; an integer division by a uniform 10 plus a reciprocal (GPUs
-# have no integer divider); transcendentals (sqrt, inversesqrt, log, exp, rcp) counted apart.
-# (alu, trans) per loop kind:
-INSTRUCTIONS = {
-    "cell": (32, 3),        # cell_of: two divisions for the tile, listing 4's slice (a log),
-                            # the cell index, the record's load
-    "node": (19, 0),        # visit_node: loop, address, load, counter, the depth-bounds test,
-                            # leaf bit, count and skip fields, the cursor
-    "lds_node": (19, 0),
-    "word": (40, 0),        # lane_word: address, load, range_mask and the window mask, AND,
-                            # popcount, the wave OR (a few cross-lane steps), loop
-    "load": (6, 0),         # load_shared_tree: one node a lane
-    "light": (13, 0),       # the light loop: counter, entry and light addresses, 4 loads,
-                            # s.evaluated, d = P - L (the test's shared part); in
-                            # evaluate_all_lights' mask loop the entry address (it has no
-                            # entry) stands for the mask bit's shift and OR
-    "set_bit": (18, 0),     # evaluate_all_lights' set-bit loop: loop 3, findLSB, clearing
-                            # the bit 2, the light's address 2, 4 loads, d = P - L and d2 again
-    # culling passes
-    "depth": (6, 0),        # a tile's min/max depth: one texel, two shared atomics
-    "cull_test": (40, 2),   # tile_cull's sphere test (four planes, inversesqrt each pair) /
-                            # fptl's coarse AABB test (6 compares: counted as 40 with the loop)
-    "prune": (4 * 12, 0),   # fptl fine pruning: four pixels' affects tests (point cost each)
-    "aabb": (600, 20),      # fptl_aabb.comp: the OBB's 6 quads clipped to the frustum, the
-                            # sphere's rectangle (273 lines of GLSL, counted once per light)
-    "vertex": (30, 1),      # raster_proxy.vert: placing one proxy vertex
-    "fragment": (20, 1),    # raster_mark.frag: the linear-depth test and the bit's address
+@dataclass(frozen=True)
+class Assumption:
+    """A number the model needs that no specification gives."""
+    value: float
+    what: str
+    source: str
+
+
+# The model's assumptions: the only numbers of it that are not a GPU's published figure or
+# counted from the shaders.  The report's sensitivity table moves each by -30% and +30%.
+ASSUMED = {
+    "issue_per_op": Assumption(
+        1.0, "issue slots a counted SPIR-V instruction takes on the GPU",
+        "one each: SPIR-V is the shader unoptimised; a GPU compiler's fused multiply-adds "
+        "and hoisted loads take fewer, its address and predicate arithmetic more"),
+    "int_division": Assumption(
+        10.0, "issue slots of a 32-bit integer division or modulo (beside its reciprocal)",
+        "GPUs have no integer divider: a float reciprocal, a multiply and a correction step "
+        "(the NVIDIA and AMD compilers' sequences are about 10 instructions)"),
+    "wave_reduction": Assumption(
+        5.0, "issue slots of a subgroup reduction or scan",
+        "log2(32) shuffle-and-combine steps (a wave64 reduction on GCN takes 6 DPP steps)"),
+    "l1_scale": Assumption(
+        1.0, "L1 bytes a clock, times the figure given per GPU",
+        "unpublished for the GTX 980 and the H200: shared memory's 128 B a clock stands in"),
+    "dram_efficiency": Assumption(
+        1.0, "share of the peak DRAM bandwidth a pass reaches",
+        "the peak: streaming kernels reach 70-90% of it, so the DRAM floor errs low"),
 }
-# The light loop per shape: the affects test, and the shading code where it affects
-# (count, hash, radiance, Lambert response), as (alu, trans):
-TEST = {"point": (8, 0), "spot": (13, 1), "capsule": (16, 0), "box": (23, 0)}
-SHADE = {"point": (45, 4), "spot": (57, 5), "capsule": (54, 4), "box": (60, 3)}
-GGX = (75, 6)               # material.glsl's GGX term on top (specular surfaces)
-WAVE = (40, 0)              # per wave: the G-buffer fetch, the stores, the counters
+_assumed = {k: a.value for k, a in ASSUMED.items()}
+
+
+class assume:
+    """`with assume(issue_per_op=1.3):` the model with an assumption moved (the report's
+    sensitivity table), restored on exit."""
+
+    def __init__(self, **values):
+        unknown = set(values) - set(ASSUMED)
+        if unknown:
+            raise KeyError(f"no such assumption: {', '.join(sorted(unknown))}")
+        self.values, self.saved = values, {}
+
+    def __enter__(self):
+        self.saved = dict(_assumed)
+        _assumed.update(self.values)
+        return self
+
+    def __exit__(self, *exc):
+        _assumed.clear()
+        _assumed.update(self.saved)
+
+
 PIXEL_BYTES = 36 + 16       # G-buffer read, colour written, per pixel (module doc)
-assert set(INSTRUCTIONS) <= set(KINDS) and set(TEST) == set(SHADE) == set(LIGHT_TYPES)
+
+
+def slots(ops, gpu: GPU) -> float:
+    """Issue slots of one counted step (alu, trans, idiv, wred) on `gpu`."""
+    alu, trans, idiv, wred = (list(ops) + [0.0, 0.0])[:4]
+    return (alu + (trans + idiv) / gpu.sfu + idiv * _assumed["int_division"]
+            + wred * _assumed["wave_reduction"])
+
+
+def _ops(f: Figures, key: str, pass_needs: bool):
+    if f.ops is None:
+        raise ValueError("figures without instruction counts (app.model.counts.attach)")
+    if key not in f.ops:
+        if pass_needs:
+            raise ValueError(f"the pass runs '{key}' but its program prices no such step "
+                             f"(a '// priced: {key.split(':')[0]}' mark in its shaders)")
+        return (0.0, 0.0, 0.0, 0.0)
+    return f.ops[key]
 
 
 def instructions(f: Figures, gpu: GPU) -> float:
     """I: instructions per lane slot summed over the pass's waves (module doc)."""
-    w = lambda ops: ops[0] + ops[1] / gpu.sfu
+    w = lambda key, n: n * slots(_ops(f, key, n > 0), gpu) if n else 0.0
     issued = f.loops[:, FIELDS.index("issued")]
-    total = sum(issued[k] * w(INSTRUCTIONS.get(kind, (0, 0))) for k, kind in enumerate(KINDS))
+    total = sum(w(kind, int(issued[k])) for k, kind in enumerate(KINDS))
     for t, shape in enumerate(LIGHT_TYPES):
-        total += f.tested[t] * w(TEST[shape]) + f.shaded[t] * w(SHADE[shape])
-    total += f.specular * w(GGX)
+        total += w(f"test:{shape}", int(f.tested[t])) + w(f"shade:{shape}", int(f.shaded[t]))
+    total += w("ggx", int(f.specular))
     if f.shading_pixels:                 # a shading pass: every launched wave's fixed work
-        total += f.waves * w(WAVE)
-    return float(total)
+        total += w("wave", int(f.waves))
+    return float(total) * _assumed["issue_per_op"]
 
 
 def times(f: Figures, gpu: GPU) -> dict[str, float]:
@@ -181,13 +229,14 @@ def times(f: Figures, gpu: GPU) -> dict[str, float]:
     sloads, slines = col("scalar_loads"), col("scalar_lines")
     if not gpu.scalar_unit:              # a uniform load is a vector load sharing an address
         vloads, vlines = vloads + sloads, vlines + slines
-    l1_cycles = np.maximum(vloads * gpu.wave / gpu.addr_clk, vlines * LINE / gpu.l1_bytes_clk).sum()
+    l1 = gpu.l1_bytes_clk * _assumed["l1_scale"]
+    l1_cycles = np.maximum(vloads * gpu.wave / gpu.addr_clk, vlines * LINE / l1).sum()
     l1_cycles += col("lds_reads").sum() * 16 / gpu.lds_bytes_clk
     graphics = f.graphics
     units = gpu.graphics_units if graphics else gpu.units
     alu = instructions(f, gpu) * gpu.wave / (units * gpu.lanes * hz)
     dram = (sum(f.unique_bytes.values()) + f.pixels * (PIXEL_BYTES if f.shading_pixels else 0)) \
-        / (gpu.dram_gbs * 1e9)
+        / (gpu.dram_gbs * 1e9 * _assumed["dram_efficiency"])
     rast = f.fragments / (gpu.rops * hz) if graphics else 0.0
     return {"alu": alu, "l1": float(l1_cycles) / (units * hz), "dram": dram, "raster": rast}
 
@@ -203,5 +252,5 @@ def bound(f: Figures, gpu: GPU) -> str:
     return max(t, key=t.get)
 
 
-__all__ = ["MODEL_VERSION", "GPU", "GPUS", "BY_KEY", "match", "INSTRUCTIONS", "TEST", "SHADE", "GGX",
+__all__ = ["MODEL_VERSION", "GPU", "GPUS", "BY_KEY", "match", "ASSUMED", "assume", "slots",
            "instructions", "times", "pass_ms", "bound"]

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import cost, waves
+from . import cost, counts, waves
 
 SHADE = "shade"        # the shading pass's name in the figures (its timed passes may be many)
 
@@ -61,6 +61,7 @@ def _figures(renderer, technique, result, opts, unbounded, widths, sample):
         last = waves.replay(prog)
         shade = last.figures
         passes[SHADE] = shade if share >= 1.0 else shade.scaled(1.0 / max(share, 1e-9), prog.buffers)
+        counts.attach(passes, fr.programs)
         out[width] = passes
     return out, last, part.shading
 

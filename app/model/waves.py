@@ -64,9 +64,10 @@ LIGHT_BYTES = layouts.GPU_LIGHT.itemsize
 # shading pass's (the kernels below index the first six by number), then the culling
 # passes' (Technique.cull_figures: counted from their fixed loops, analytic()).
 KINDS = ("cell", "node", "lds_node", "word", "load", "light",
-         "depth", "cull_test", "prune", "aabb", "vertex", "fragment", "set_bit")
+         "depth", "cull_test", "prune", "aabb", "vertex", "fragment", "set_bit", "mask_light")
 CELL, NODE, LDS_NODE, WORD, LOAD, LIGHT = range(6)
 SET_BIT = KINDS.index("set_bit")   # evaluate_all_lights' set-bit loop (LightList.runs)
+MASK_LIGHT = KINDS.index("mask_light")   # ... and its affects-mask loop over a run's lights
 RUN = 32                           # its lights a mask (glsl/pixel.glsl LIGHT_RUN)
 # Fields per kind: issued iterations, active lane-iterations, vector load instructions,
 # scalar load instructions, distinct lines of the vector loads, of the scalar loads, lanes
@@ -113,6 +114,7 @@ class FrameData:
     names: frozenset = frozenset()  # the buffers the frame provided
     unbounded: bool = False        # UNBOUNDED_FALLOFF: every light affects every point
     live: np.ndarray | None = None  # (N,) bool: the pixels a sampled replay walks (sampled())
+    programs: dict = field(default_factory=dict)   # pass name -> [ProgramKey] (app.model.counts)
 
     @property
     def shading(self) -> np.ndarray:
@@ -282,6 +284,10 @@ class Figures:
     shared_atomics: int = 0
     graphics: bool = False         # a raster pass (vertex and fragment work)
     fragments: int = 0             # its fragments (depth tests)
+    # what one issued iteration of each kind costs, counted from the pass's own program
+    # (app.model.counts.program_counts: kind / "test:<shape>" / "shade:<shape>" / "ggx" /
+    # "wave" -> [alu, trans]); None until the cost model's counts are attached
+    ops: dict | None = None
 
     def loop_sum(self, name: str) -> int:
         """A field summed over every loop kind."""
@@ -291,8 +297,11 @@ class Figures:
         return dict(zip(FIELDS, (int(v) for v in self.loops[KINDS.index(kind)])))
 
     def as_dict(self) -> dict:
-        """Flat figures (the benchmark's stats column and the report)."""
-        out = {"waves": self.waves, "busy_waves": self.busy_waves, "barriers": self.barriers}
+        """Flat figures (the benchmark's stats column and the report): everything the cost
+        model reads, so that a row's modelled times can be derived again (from_dict)."""
+        out = {"width": self.width, "waves": self.waves, "busy_waves": self.busy_waves,
+               "barriers": self.barriers, "pixels": self.pixels,
+               "shading_pixels": self.shading_pixels, "graphics": bool(self.graphics)}
         for k, kind in enumerate(KINDS):
             for f, name in enumerate(FIELDS):
                 if self.loops[k, f]:
@@ -306,7 +315,27 @@ class Figures:
         for k in ("atomics", "shared_atomics", "fragments"):
             if getattr(self, k):
                 out[k] = int(getattr(self, k))
+        if self.ops is not None:
+            out["ops"] = {k: [float(x) for x in v] for k, v in sorted(self.ops.items())}
         return out
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Figures":
+        """The figures as_dict() wrote (unique bytes as one total: the model sums them)."""
+        f = cls(width=int(d["width"]), waves=int(d["waves"]), busy_waves=int(d["busy_waves"]),
+                pixels=int(d["pixels"]), shading_pixels=int(d["shading_pixels"]),
+                specular=int(d.get("specular_iterations", 0)),
+                unique_bytes={"all": int(d.get("unique_bytes", 0))},
+                barriers=int(d.get("barriers", 0)), atomics=int(d.get("atomics", 0)),
+                shared_atomics=int(d.get("shared_atomics", 0)), graphics=bool(d["graphics"]),
+                fragments=int(d.get("fragments", 0)), ops=d.get("ops"))
+        for k, kind in enumerate(KINDS):
+            for j, name in enumerate(FIELDS):
+                f.loops[k, j] = int(d.get(f"{kind}_{name}", 0))
+        for t, name in enumerate(LIGHT_TYPES):
+            f.tested[t] = int(d.get(f"tested_{name}", 0))
+            f.shaded[t] = int(d.get(f"shaded_{name}", 0))
+        return f
 
     def scaled(self, factor: float, caps: dict) -> "Figures":
         """These figures of a sample of the waves stood for the whole pass: the work scaled
@@ -321,7 +350,7 @@ class Figures:
                       unique_bytes={n: min(k(b), -(-caps.get(n, b) // LINE) * LINE)
                                     for n, b in self.unique_bytes.items()},
                       atomics=self.atomics, shared_atomics=self.shared_atomics,
-                      graphics=self.graphics, fragments=self.fragments)
+                      graphics=self.graphics, fragments=self.fragments, ops=self.ops)
         return out
 
     @property
@@ -536,22 +565,23 @@ def _issue_lists(n, e_lane, e_list, e_first, e_count, e_scalar, list_start, list
         lid, f0 = e_list[0], e_first[0]
         col = 3 if e_scalar[0] else 2                   # its loads: scalar or vector
         runs = list_runs[lid]
-        loops[5, 0] += longest
-        loops[5, 1] += longest * n
+        row = MASK_LIGHT if runs else LIGHT      # evaluate_all_lights' mask loop, or a list's
+        loops[row, 0] += longest
+        loops[row, 1] += longest * n
         for t in range(longest):
             p = list_start[lid] + f0 + t
             li = flat_light[p]
             lines = 0
             if flat_eoff[p] >= 0:
-                loops[5, col] += 1
+                loops[row, col] += 1
                 seen[line_base[list_ebuf[lid]] + flat_eoff[p] // 64] = True
                 lines += 1
             off = flat_slot[p] * 96
             for line in range(off // 64, (off + 95) // 64 + 1):
                 seen[line_base[list_lbuf[lid]] + line] = True
                 lines += 1
-            loops[5, col] += 1
-            loops[5, col + 2] += lines
+            loops[row, col] += 1
+            loops[row, col + 2] += lines
             types_acc[0, types[li]] += 1
             if runs and t % RUN == 0:
                 wbits[:n] = 0
@@ -957,7 +987,8 @@ def frame_data(renderer, result, opts, unbounded: bool = False) -> FrameData:
                      position=np.ascontiguousarray(renderer.gbuffer.read_position().reshape(-1, 4)),
                      specular=renderer.gbuffer.read_normal().reshape(-1, 4)[:, 3] > 0,
                      cell=renderer.read(OUT_CELL).astype(np.int64), size_of=renderer.nbytes,
-                     names=frozenset(renderer.provided()), unbounded=unbounded)
+                     names=frozenset(renderer.provided()), unbounded=unbounded,
+                     programs={k: list(v) for k, v in renderer._frame.programs.items()})
 
 
 # ---- shared walks -----------------------------------------------------------------------

@@ -83,6 +83,7 @@ class _Frame:
     held_s: float = 0.0                            # time not counted against the deadline
     counting_from: float | None = None             # this sample's start, until its first step
     technique: str = ""
+    programs: dict = field(default_factory=dict)   # pass name -> [ProgramKey] it ran (the cost model's counts)
 
 
 class Renderer:
@@ -375,6 +376,9 @@ class Renderer:
             prog = self.programs.program(*p.shader, dict(p.defines), virtual, bindings, optional, where)
             work = lambda: self._draw(prog, p.draw)
         self._set_uniforms(prog, dict(uniforms, **p.uniforms))
+        keys = f.programs.setdefault(p.name, [])
+        if self.programs.last_key not in keys:
+            keys.append(self.programs.last_key)
         if p.timed:
             self.timer.run(p.name, work)
             if record and not any(q is p for q in f.timed):

@@ -200,6 +200,7 @@ class ProgramCache:
         self.ctx = ctx
         self._programs: dict = {}
         self.sources: dict = {}   # ProgramKey -> final text, for inspection and tests
+        self.last_key: ProgramKey | None = None
 
     def compute(self, name: str, defines: dict | None = None, virtual: dict | None = None,
                 extensions: tuple[str, ...] = (), bindings: dict | None = None,
@@ -226,6 +227,7 @@ class ProgramCache:
             except Exception as exc:
                 raise ShaderError(_first_error(sources, str(exc), context)) from None
             self.sources[key] = "\n".join(texts)
+        self.last_key = key        # the key of the program just returned (the frame's record)
         return self._programs[key]
 
     def release(self) -> None:

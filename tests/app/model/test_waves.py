@@ -115,8 +115,9 @@ def list_lines(prog: waves.Program) -> tuple[int, dict[str, int]]:
 
 
 def assert_list_lines(prog: waves.Program, f: waves.Figures, what: str) -> None:
-    """The replay's light-loop lines (its line set) and unique bytes equal list_lines'."""
-    light = f.loop("light")
+    """The replay's light-loop lines (its line set) and unique bytes equal list_lines'
+    (the list loops' and evaluate_all_lights' mask loop's together)."""
+    light = {k: f.loop("light")[k] + f.loop("mask_light")[k] for k in waves.FIELDS}
     per_iteration, unique = list_lines(prog)
     assert light["vector_lines"] + light["scalar_lines"] == per_iteration, (what, light, per_iteration)
     heads = {list(prog.buffers)[b] for b in prog.segments()[1][:, 2] if b >= 0}
@@ -137,7 +138,8 @@ def test_figures_count_what_the_loops_do(gl):
         f = waves.replay(prog).figures
         assert_list_lines(prog, f, "brute")
         n = len(res.build.lights)
-        light = f.loop("light")
+        light = f.loop("mask_light")               # evaluate_all_lights: the mask loop alone
+        assert f.loop("light")["issued"] == 0
         assert light["issued"] == n * f.busy_waves
         assert light["lanes"] == int(fr.shading.sum()) * n
         assert light["scalar_loads"] == light["issued"] and light["vector_loads"] == 0
