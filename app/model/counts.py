@@ -77,13 +77,17 @@ def annotations(source: Source) -> tuple[list[tuple[str, tuple, frozenset, froze
                 continue
             m = _PRICED.match(text)
             if not m:
-                if "priced:" in text:
+                if re.search(r"//\s*priced\b", text):
                     raise ValueError(f"{where}: not a priced mark: {text.strip()}")
                 continue
             nxt = _next_code(lines, no, where)
-            parts = re.findall(r"(minus|with):((?:\s+\w+)+)", m.group(2))
-            minus = frozenset(w for k, v in parts if k == "minus" for w in v.split())
-            keep = frozenset(w for k, v in parts if k == "with" for w in v.split())
+            named = {"minus:": [], "with:": []}
+            into = None
+            for word in m.group(2).split():
+                into = word if word in named else into
+                if word not in named:
+                    named[into].append(word)
+            minus, keep = frozenset(named["minus:"]), frozenset(named["with:"])
             if _LOOP.match(lines[nxt]):
                 marks.append((m.group(1), ("loop", name, nxt + 1), minus, keep))
             elif (f := _FUNCTION.match(lines[nxt])):

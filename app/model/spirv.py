@@ -28,8 +28,9 @@ reductions); the cost model prices the last two by its named assumptions
     a conditional branch, a switch                     1
     a subgroup operation                               1 alu; a reduction or scan 1 wred
     OpFunctionCall                                     the callee's count (unless priced apart)
-    free: loads, stores and access chains of Function-storage variables (registers once
-      compiled), composite extract / construct / shuffle, copies, bitcasts, phis, labels,
+    free: loads, stores and access chains of locals, parameters, an invocation's globals and
+      its built-in inputs (registers once compiled: REGISTERS), composite extract /
+      construct / shuffle, copies, bitcasts, phis, labels,
       unconditional branches, merges, returns, barriers (counted by the figures, not timed)
 
 Both sides of an if count (a wave whose lanes diverge runs both); a loop inside a counted
@@ -73,6 +74,9 @@ CompositeExtract CompositeInsert CompositeConstruct VectorShuffle CopyObject Bit
 ControlBarrier MemoryBarrier Unreachable Kill SampledImage Image
 """.split())
 _BRANCH = {"BranchConditional", "Switch"}
+# storage a compiled shader keeps in registers: locals and parameters, an invocation's
+# globals (Private), its built-in inputs (gl_GlobalInvocationID, ...)
+REGISTERS = {"Function", "Private", "Input"}
 _MEMORY_ACCESS = {"Load", "Store"}
 _ATOMIC = re.compile(r"^Atomic\w+$")
 _IMAGE = {"ImageFetch", "ImageRead", "ImageWrite", "ImageSampleImplicitLod", "ImageSampleExplicitLod",
@@ -280,11 +284,11 @@ class Counter:
             return Count(1)
         if op in _MEMORY_ACCESS:
             ptr = words[1] if op == "Load" else words[0]
-            if m.storage(ptr) == "Function":
+            if m.storage(ptr) in REGISTERS:
                 return ZERO
             return Count(max(1, -(-m.pointee_size(ptr) // 16)))
         if op in ("AccessChain", "InBoundsAccessChain"):
-            if m.storage(words[1]) == "Function":
+            if m.storage(words[1]) in REGISTERS:
                 return ZERO
             return Count(sum(1 for w in words[2:] if w not in m.constants))
         if _ATOMIC.match(op) or op in _IMAGE:
