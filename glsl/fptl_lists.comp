@@ -186,6 +186,7 @@ void flush(uint m, uint mode) {
 #else
     if (me < m) {
         vec2 range = fptl_aabbs[s_batch_pos[me]].depth;
+        // priced: prune
         for (uint c = 0u; c < S; ++c)
             if (s_dmin[c] <= s_dmax[c] && range.x <= uintBitsToFloat(s_dmax[c])
                     && range.y >= uintBitsToFloat(s_dmin[c]))

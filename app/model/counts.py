@@ -220,15 +220,13 @@ def merged(keys) -> dict[str, list[float]]:
 def attach(passes: dict, programs: dict) -> None:
     """Each figure of a frame (pass name -> Figures) gets the counts of the programs its pass
     ran (`programs`: pass name -> [ProgramKey], the renderer's record).  A figure that stands
-    for several passes (raster's "raster proxies") takes the passes of its name's first word
-    that no other figure names."""
-    claimed = set(passes)
+    for several passes (raster's "raster proxies") names them by its `stands_for` regex."""
     for name, f in passes.items():
-        keys = programs.get(name)
-        if not keys:
-            word = name.split()[0]
-            keys = [k for p, ks in programs.items() if p.split()[0] == word and p not in claimed
-                    for k in ks]
+        if f.stands_for:
+            keys = [k for p, ks in programs.items() if re.fullmatch(f.stands_for, p) for k in ks]
+        else:
+            keys = programs.get(name)
         if not keys:
             raise ValueError(f"cost model: no program ran for the pass '{name}'")
         f.ops = merged(keys)
+        f.programs = tuple(dict.fromkeys(n for k in keys for n in k.names))

@@ -66,6 +66,13 @@ def _figures(renderer, technique, result, opts, unbounded, widths, sample):
     return out, last, part.shading
 
 
+def from_json(text: str) -> dict[int, dict[str, waves.Figures]]:
+    """The figures a results row's `waves` column holds (app.bench.measure.model_cells)."""
+    import json
+    return {int(w): {name: waves.Figures.from_dict(d) for name, d in passes.items()}
+            for w, passes in json.loads(text).items()}
+
+
 def modelled(figures: dict[int, dict[str, waves.Figures]], gpus=cost.GPUS) -> dict[str, dict]:
     """Per GPU: culling and shading ms, and which limit bounds the shading pass."""
     out = {}

@@ -288,6 +288,9 @@ class Figures:
     # (app.model.counts.program_counts: kind / "test:<shape>" / "shade:<shape>" / "ggx" /
     # "wave" -> [alu, trans]); None until the cost model's counts are attached
     ops: dict | None = None
+    programs: tuple = ()           # the shader files of the programs the counts come from
+    stands_for: str = ""           # a regex of the frame's passes this figure prices, where
+                                   # it is not one pass of its own name (raster's proxies)
 
     def loop_sum(self, name: str) -> int:
         """A field summed over every loop kind."""
@@ -317,6 +320,7 @@ class Figures:
                 out[k] = int(getattr(self, k))
         if self.ops is not None:
             out["ops"] = {k: [float(x) for x in v] for k, v in sorted(self.ops.items())}
+            out["programs"] = list(self.programs)
         return out
 
     @classmethod
@@ -328,7 +332,8 @@ class Figures:
                 unique_bytes={"all": int(d.get("unique_bytes", 0))},
                 barriers=int(d.get("barriers", 0)), atomics=int(d.get("atomics", 0)),
                 shared_atomics=int(d.get("shared_atomics", 0)), graphics=bool(d["graphics"]),
-                fragments=int(d.get("fragments", 0)), ops=d.get("ops"))
+                fragments=int(d.get("fragments", 0)), ops=d.get("ops"),
+                programs=tuple(d.get("programs", ())))
         for k, kind in enumerate(KINDS):
             for j, name in enumerate(FIELDS):
                 f.loops[k, j] = int(d.get(f"{kind}_{name}", 0))
@@ -350,7 +355,8 @@ class Figures:
                       unique_bytes={n: min(k(b), -(-caps.get(n, b) // LINE) * LINE)
                                     for n, b in self.unique_bytes.items()},
                       atomics=self.atomics, shared_atomics=self.shared_atomics,
-                      graphics=self.graphics, fragments=self.fragments, ops=self.ops)
+                      graphics=self.graphics, fragments=self.fragments, ops=self.ops,
+                      programs=self.programs)
         return out
 
     @property

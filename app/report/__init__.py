@@ -39,6 +39,7 @@ from .path import fig_path, fig_path_cpu
 from .temporal import CSV as TEMPORAL_CSV, EXPLANATION as TEMPORAL_EXPLANATION, fig_temporal
 from .tables import floor_table, summary_table
 from .tradeoff import EXPLANATION as TRADEOFF_EXPLANATION, fig_tradeoff
+from .model import model_section
 from .validation import validation
 
 
@@ -70,6 +71,7 @@ def write_report(out: Path, rows: list[dict], maps: dict, info: dict) -> list[st
             *fig_gpu_scenes(rows, out, colors, roles))
     section("Culling waste against modelled GPU time: the Pareto front under each GPU",
             *fig_gpu_pareto(rows, out, colors, roles))
+    section("The cost model: what it counts and what it assumes", None, *model_section(rows))
     vpng, vtext, vtables = validation(rows, out, colors)
     section("Validation: the cost model beside the papers' measurements", vpng, vtext, vtables)
     section("Measured on a real GPU against modelled", *fig_measured(rows, out, colors, info))

@@ -207,7 +207,8 @@ class Raster(Technique, register_at=80):
              "fragment": (up(frags), frags, up(frags), atomics)},
             {"lights": len(b.lights) * layouts.GPU_LIGHT.itemsize, "raster_proxies": len(b.lights) * rp.RASTER_PROXY.itemsize,
              "raster_bits": int(b.stats.get("bits_bytes", 0)), **bounds},
-            graphics=True, fragments=frags, atomics=atomics)
+            graphics=True, fragments=frags, atomics=atomics,
+            stands_for=r"raster \w+ (front|back|mark|walk|inside)")
         return out
 
     def wave_program(self, frame, width):

@@ -113,3 +113,22 @@ def test_measured_against_modelled_on_a_named_gpu(paper_rows, tmp_path):
     frames = len({(r["scene"], r["lights"]) for r in rows})
     assert f"In {frames} of {frames} frames" in text[1]
     assert cost.match(info["gl_renderer"]).key == "h200" and cost.match("llvmpipe") is None
+
+
+def test_every_modelled_time_is_derived_again_from_its_row(paper_rows, tmp_path):
+    """A row's waves column (its figures and the counts that priced them) gives its modelled
+    times again, and the report's model section prints the counts per variant."""
+    from app.report import model as section
+    for r in paper_rows:
+        again = section.remodel(r)
+        for g in cost.GPUS:
+            for part in ("cull", "shade"):
+                assert again[g.key][part] == pytest.approx(r[f"model_{g.key}_{part}_ms"], rel=1e-9), \
+                    (r["study"], r["technique"], g.key, part)
+    text, tables = section.model_section(paper_rows)
+    assert f"Model v{cost.MODEL_VERSION}" in text[0]
+    for name in cost.ASSUMED:
+        assert any(f"`{name}`" in t for t in text), name
+    for v in range(1, 4):                          # zbin's variants each their own counts
+        assert f"| zbin | zbin_variant={v} |" in tables or (v == 3 and "| zbin | defaults |" in tables)
+    assert "light_aabb (fptl_aabb.comp): aabb" in tables
