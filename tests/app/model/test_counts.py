@@ -3,9 +3,13 @@ counting rule on a shader small enough to count by hand, the '// priced:' marks,
 technique's programs pricing every step its replay issues."""
 from __future__ import annotations
 
+import json
+import os
+from pathlib import Path
+
 import pytest
 
-from app.model import counts, predict, spirv
+from app.model import cost, counts, predict, spirv
 from app.pipeline.renderer import Renderer
 from app.pipeline.shaders import Source
 from app.techniques import REGISTRY
@@ -118,3 +122,25 @@ def test_shapes_cost_what_their_code_does(modelled):
     test = {s: sum(ops[f"test:{s}"]) for s in ("point", "spot", "capsule", "box")}
     assert test["point"] < test["spot"] and test["point"] < test["capsule"] < test["box"]
     assert sum(ops["ggx"]) > 0
+
+
+RECORD = Path(__file__).with_name("counts_record.json")
+
+
+def test_a_changed_count_comes_with_a_new_model_version(modelled):
+    """The counts of every run above are recorded with the model version that priced them:
+    a shader edit or a rule change that moves a count must bump cost.MODEL_VERSION (every
+    modelled column in results.csv carries it).  LAB_WRITE_COUNTS=1 rewrites the record."""
+    now = {" ".join([name, *(f"{k}={v}" for k, v in opts)]): {p: f.ops for p, f in fig[32].items()}
+           for (name, opts), fig in sorted(modelled.items())}
+    record = {"model_version": cost.MODEL_VERSION, "rule_version": counts.RULE_VERSION,
+              "counts": now}
+    if os.environ.get("LAB_WRITE_COUNTS"):
+        RECORD.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
+    old = json.loads(RECORD.read_text())
+    if old["counts"] != json.loads(json.dumps(now)):
+        assert old["model_version"] != cost.MODEL_VERSION, (
+            "instruction counts changed: bump cost.MODEL_VERSION, then LAB_WRITE_COUNTS=1 "
+            "pytest tests/app/model/test_counts.py")
+        pytest.fail("counts and model version changed: record them (LAB_WRITE_COUNTS=1)")
+    assert old["model_version"] == cost.MODEL_VERSION, "the record is of another model version"
