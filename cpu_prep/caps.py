@@ -1,4 +1,4 @@
-"""The engines' view-level light caps (issue 21 item 2): which of a frame's visible lights
+"""The engines' view-level light caps: which of a frame's visible lights
 an engine would keep, numpy in, numpy out.  docs/research/accuracy_policies.md has the
 sources, read file by file; each policy below names the file and function it follows.
 

@@ -352,7 +352,7 @@ def _corridor_geometry() -> list[Mesh]:
 
 
 def build_corridor(lights: int | None = None, seed: int = 0, distribution: str | None = None) -> Scene:
-    """All four light shapes (issue 11): tube lights (capsules) along the ceiling, light
+    """All four light shapes: tube lights (capsules) along the ceiling, light
     shafts (boxes) in the windows of the left wall, spots washing the right wall, and point
     lights (uniform in the corridor or on its geometry).  `lights=N`: 40% capsules, 20%
     boxes, 20% spots, the rest points; default 512."""

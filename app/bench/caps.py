@@ -1,4 +1,4 @@
-"""The engines' light caps as a bench series (issue 21 item 5): what a cap policy
+"""The engines' light caps as a bench series: what a cap policy
 (cpu_prep.caps, `--cap-policy`) saves in frame cost and loses in image, measured beside the
 light cutoff study's levels (the report's lead figure, app.report.tradeoff).
 

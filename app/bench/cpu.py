@@ -9,14 +9,14 @@ all (nothing here imports moderngl; a test checks it).
                                      (or, with --json, one object in "rows") a count, and
                                      the growth of the total from the first to the last
     --growth [--threads 1,2] [--out DIR]
-                                     issue 23 item 4: every technique with a CPU build (a
+                                     every technique with a CPU build (a
                                      bin or build step; --technique a,b to choose) at each
                                      count of --sweep (default 8,192 doubling to 1,048,576)
                                      on each thread count, interleaved; the time per
                                      doubling and each build buffer's bytes; --out writes
                                      growth.csv (results.csv's schema, study "growth"),
                                      cpu_growth.png and growth.md (the report's CPU page)
-    --c-reference                    issue 23 item 5: hybrid (or clustered) against the plain
+    --c-reference                    hybrid (or clustered) against the plain
                                      single-threaded C reference of its CPU stage (point
                                      lights; app.bench.c_reference), the two interleaved on
                                      the same frame (numba on --threads, default 1): per step
@@ -230,7 +230,7 @@ def _cpu_main(argv) -> None:
     p.add_argument("--sweep", metavar="N,N,...",
                    help="light counts to run in turn (instead of --lights): one row each")
     p.add_argument("--growth", action="store_true",
-                   help="the growth series (issue 23 item 4): techniques x counts x threads")
+                   help="the growth series: techniques x counts x threads")
     p.add_argument("--out", help="--growth: folder for growth.csv, cpu_growth.png, growth.md")
     p.add_argument("--c-reference", action="store_true",
                    help="hybrid or clustered against the plain single-threaded C reference of "

@@ -1,5 +1,5 @@
 """`python -m app.bench gpu-build`: each technique's structures built on the CPU and on the
-GPU (--build cpu / gpu, issue 23 item 1) at each light count, as a ratio, and where the GPU
+GPU (--build cpu / gpu) at each light count, as a ratio, and where the GPU
 build's time goes: on llvmpipe the passes run on the same two cores as the numba stage, so
 only the ratio (and the passes' shares) mean anything (DESIGN "Measuring").
 

@@ -1,4 +1,4 @@
-"""Temporal stability along a moving path (issue 21 item 4): `DIR/temporal.csv`.
+"""Temporal stability along a moving path: `DIR/temporal.csv`.
 
 Consecutive frames 0..F-1 of the scene's camera path (a loop of `loop` frames, so the camera
 moves a little each frame) with its lights bouncing (scenes.motion, `--motion bounce`), each

@@ -1,4 +1,4 @@
-"""What a technique would cost on a GPU, without one (issue 19).
+"""What a technique would cost on a GPU, without one.
 
     waves.py     per-wave execution figures: a lockstep replay of the technique's own built
                  structure (its wave_program), for waves of 32 and 64 lanes

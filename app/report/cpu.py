@@ -42,13 +42,13 @@ def fig_cpu(rows, out) -> tuple[str | None, list[str], str]:
     parts = []
     if png or gtext:
         parts.append("\n\n".join(x for x in (
-            "### Growth from 8k to 1M lights (issue 23 item 4)", f"![CPU stage growth]({png})" if png else "",
+            "### Growth from 8k to 1M lights", f"![CPU stage growth]({png})" if png else "",
             _bullets(gtext), gtables) if x))
     if btext:
-        parts.append("\n\n".join(("### The build on the CPU and on the GPU (--build gpu, issue 23 "
-                                   "item 1)", _bullets(btext), btable)))
+        parts.append("\n\n".join(("### The build on the CPU and on the GPU (--build gpu)",
+                                   _bullets(btext), btable)))
     if ctext:
-        parts.append("\n\n".join(("### Against plain single-threaded C (issue 23 item 5)",
+        parts.append("\n\n".join(("### Against plain single-threaded C",
                                    _bullets(ctext), ctable)))
     if not parts:
         return name, text, table
@@ -123,7 +123,7 @@ def _fig4(rows, out) -> tuple[str | None, list[str], str]:
     return name, text, "\n".join(table)
 
 
-# ---- growth: the CPU stage from 8k to 1M lights (issue 23 item 4) ------------------------
+# ---- growth: the CPU stage from 8k to 1M lights ------------------------
 
 GROWTH_STUDY = "growth"          # app.bench.cpu.GROWTH
 LINEAR = (0.85, 1.15)            # a doubling whose exponent log2(t(2n) / t(n)) lies here is linear
@@ -406,7 +406,7 @@ def growth_report(rows, out) -> tuple[str | None, list[str], str]:
     return png, text, growth_tables(series, techs)
 
 
-# ---- the build on the CPU and on the GPU (issue 23 item 1; app.bench.gpu_build) ----------
+# ---- the build on the CPU and on the GPU (app.bench.gpu_build) ----------
 
 GPU_BUILD_STUDY = "gpu_build"    # app.bench.gpu_build.STUDY
 GPU_BUILD_CSV = "gpu_build.csv"  # app.bench.gpu_build.CSV
@@ -465,7 +465,7 @@ def gpu_build_report(rows) -> tuple[list[str], str]:
     return text, "\n".join(table)
 
 
-# ---- the CPU stage against plain single-threaded C (issue 23 item 5) ---------------------
+# ---- the CPU stage against plain single-threaded C ---------------------
 
 C_REFERENCE_STUDY = "c_reference"    # app.bench.c_reference.compare.STUDY
 ISSUE_C_MS = {"hybrid": 6.7, "clustered": 4.6}   # the issue's C figures (docs/cpu_stage.md)

@@ -1,4 +1,4 @@
-"""--build cpu|gpu: where a technique's structures are built (issue 23 item 1).
+"""--build cpu|gpu: where a technique's structures are built.
 
 cpu (the default) is the CPU stage (cpu_prep, numba); gpu builds the same buffers, bit for
 bit, as compute passes of the frame graph before the shading pass (app/gpu_build), timed

@@ -1,5 +1,5 @@
 """The plain single-threaded C reference of the hybrid's (and clustered's) CPU stage, for
-point lights (issue 23 item 5: our numba stage "at or under plain single-threaded C").
+point lights (the bar: our numba stage at or under plain single-threaded C).
 
     hybrid_ref.c        cull, radix sort, gather into depth order (GPU rows, screen
                         rectangles, depth ranges), binning, listing 2's plan, the trees: plain

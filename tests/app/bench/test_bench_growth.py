@@ -1,4 +1,4 @@
-"""The CPU stage's growth series (issue 23 item 4): which techniques it runs, its rows'
+"""The CPU stage's growth series: which techniques it runs, its rows'
 counts and bytes, the cap, the thread count restored, the command without OpenGL, and the
 report's reading of linear, fixed-cost and superlinear series."""
 import json
