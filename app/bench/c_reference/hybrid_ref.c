@@ -1,6 +1,6 @@
 /* A plain single-threaded C version of the hybrid's (and clustered's) CPU stage for point
- * lights: the reference issue 23 item 5 compares our numba kernels with ("at or under plain
- * single-threaded C").  Written as a first version: plain scalar loops, no SIMD intrinsics,
+ * lights: the reference our numba kernels are held to ("at or under plain single-threaded
+ * C").  Written as a first version: plain scalar loops, no SIMD intrinsics,
  * no prefetch, no streaming stores, no threads.  Every output is bit for bit what cpu_prep
  * gives (tests/app/bench/test_c_reference.py): the same IEEE operations in the same order
  * and precision as the kernels (float32 where they round to float32, float64 elsewhere).
