@@ -39,8 +39,12 @@ import re
 from scenes.model import LIGHT_TYPES
 
 from ..pipeline import features as feat
+from ..pipeline.gl import WAVE_KHR
 from ..pipeline.shaders import ProgramKey, Source, stage_texts
 from . import spirv
+from .waves import KINDS
+
+PRICED_KINDS = frozenset(KINDS) | {"test", "shade"}
 
 RULE_VERSION = "1"          # the counting rule's version: part of the cache key
 _PRICED = re.compile(r"^\s*//\s*priced:\s*(\w+)((?:\s+(?:minus|with):(?:\s+\w+)+)*)\s*$")
@@ -48,7 +52,6 @@ _TRIPS = re.compile(r"^\s*//\s*trips:\s*(\d+)\s*$")
 _LOOP = re.compile(r"^\s*(for|while|do)\b")
 _FUNCTION = re.compile(r"^\s*(?:precise\s+)?\w+\s+(\w+)\s*\((?!.*\)\s*;\s*$)")
 _CODE = re.compile(r"^\s*(//.*)?$")          # blank or comment-only lines
-WAVE_KHR = 2                                  # app.pipeline.gl.WAVE_KHR (no GL import here)
 OFF = {"CELLS_ONLY": 0, "DEBUG_PIXEL": 0}
 STAGES = {1: ("comp",), 2: ("vert", "frag")}
 
@@ -80,6 +83,9 @@ def annotations(source: Source) -> tuple[list[tuple[str, tuple, frozenset, froze
                 if re.search(r"//\s*priced\b", text):
                     raise ValueError(f"{where}: not a priced mark: {text.strip()}")
                 continue
+            if m.group(1) not in PRICED_KINDS:
+                raise ValueError(f"{where}: '{m.group(1)}' is no priced kind "
+                                 f"({', '.join(sorted(PRICED_KINDS))})")
             nxt = _next_code(lines, no, where)
             named = {"minus:": [], "with:": []}
             into = None

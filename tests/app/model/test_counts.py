@@ -66,6 +66,9 @@ def test_a_mark_must_name_a_function_or_a_loop():
     typo = {"b.glsl": "#version 430\n// priced light\nvoid f() {}\n"}
     with pytest.raises(ValueError, match="not a priced mark"):
         counts.annotations(Source("b.glsl", typo))
+    unknown = {"d.glsl": "#version 430\n// priced: ligth\nvoid f() {}\n"}
+    with pytest.raises(ValueError, match="'ligth' is no priced kind"):
+        counts.annotations(Source("d.glsl", unknown))
     ok = {"c.glsl": "#version 430\n// priced: node minus: g with: h\n// why\nvoid f() {\n"
                     "    // trips: 6\n    for (int i = 0; i < 6; ++i) {}\n}\n"}
     marks, trips = counts.annotations(Source("c.glsl", ok))
