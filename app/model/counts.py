@@ -29,6 +29,7 @@ the modelling switches off (CELLS_ONLY, DEBUG_PIXEL), cached by the hash of the 
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
 import hashlib
 import json
@@ -46,7 +47,11 @@ from .waves import KINDS
 
 PRICED_KINDS = frozenset(KINDS) | {"test", "shade"}
 
-RULE_VERSION = "1"          # the counting rule's version: part of the cache key
+RULE_VERSION = "1"          # the counting rule's version (the record the tests keep)
+# the cache key holds the rule's own source too, so that an edit of the rule never reads a
+# count the old rule made
+_RULE_SOURCE = hashlib.sha256(b"".join(Path(m).read_bytes() for m in (spirv.__file__, __file__))
+                              ).hexdigest()[:16]
 _PRICED = re.compile(r"^\s*//\s*priced:\s*(\w+)((?:\s+(?:minus|with):(?:\s+\w+)+)*)\s*$")
 _TRIPS = re.compile(r"^\s*//\s*trips:\s*(\d+)\s*$")
 _LOOP = re.compile(r"^\s*(for|while|do)\b")
@@ -162,7 +167,7 @@ def _cache_dir() -> Path:
 
 
 def _cached(texts: list[str], compute) -> dict:
-    digest = hashlib.sha256("\0".join([RULE_VERSION, *texts]).encode()).hexdigest()[:24]
+    digest = hashlib.sha256("\0".join([RULE_VERSION, _RULE_SOURCE, *texts]).encode()).hexdigest()[:24]
     path = _cache_dir() / f"{digest}.json"
     try:
         return json.loads(path.read_text())
@@ -196,17 +201,18 @@ def stage_counts(key: ProgramKey) -> dict[str, list[float]]:
 @lru_cache(maxsize=256)
 def program_counts(key: ProgramKey) -> dict[str, list[float]]:
     """The module doc's counts of one program (a frame graph pass's ProgramKey)."""
-    base = counting_key(key)
-    out = {k: v for k, v in stage_counts(base).items() if k not in ("test", "shade")}
-    if "features.glsl" not in dict(key.virtual):
+    shaded = "features.glsl" in dict(key.virtual)
+    variants = [None] + ([(s,) for s in LIGHT_TYPES] + [("point", feat.SPECULAR)] if shaded else [])
+    with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:   # glslang runs apart
+        got = dict(zip(variants, pool.map(lambda f: stage_counts(counting_key(key, f)), variants)))
+    out = {k: v for k, v in got[None].items() if k not in ("test", "shade")}
+    if not shaded:
         return out
     for shape in LIGHT_TYPES:
-        one = stage_counts(counting_key(key, (shape,)))
         for part in ("test", "shade"):
-            if part in one:
-                out[f"{part}:{shape}"] = one[part]
-    spec = stage_counts(counting_key(key, ("point", feat.SPECULAR)))
-    plain = stage_counts(counting_key(key, ("point",)))
+            if part in got[(shape,)]:
+                out[f"{part}:{shape}"] = got[(shape,)][part]
+    spec, plain = got[("point", feat.SPECULAR)], got[("point",)]
     if "shade" in spec and "shade" in plain:
         out["ggx"] = [a - b for a, b in zip(spec["shade"], plain["shade"])]
     return out
