@@ -20,6 +20,8 @@ The report's validation section sets each beside the published figure (app.repor
                        --cluster 1 at each raster_variant, 256 lights in ZBIN_SCENE, the
                        slides' 60x40x32 grid (CLUSTER_TILE-px clusters: 60 x 34 at 1080p,
                        CLUSTER_SLICES slices)
+    paper_cluster_tile (preset paper_raster) the same, atomic, at each of CLUSTER_TILES px
+                       (the table's row at CLUSTER_TILE): what the clusters' size wastes
     paper_fptl         Mikkelsen's interior at 1080p: fine-pruned vs coarse lists (the lab's
                        corridor, 1,024 lights: the chapter's 10-bit index limit)
     paper_fptl_visible the same at the chapter's own scene size, "no more than 40-120 lights
@@ -59,6 +61,7 @@ FPTL_LIGHTS = 1024                # the chapter's 10-bit indices
 FPTL_VISIBLE = (40, 80, 120)      # the chapter's "40-120 lights inside the camera frustum"
 CLUSTER_TILE = 32                 # the slides' 60 columns at 1920 px (their 40 rows: 27 px)
 CLUSTER_SLICES = 32
+CLUSTER_TILES = (8, 16, 32, 64)   # the cluster_tile sweep: is the clusters' waste their size?
 
 
 FIG7_BASE = 8192                  # figure 7's radii: the overdraw of this count at every count
@@ -122,6 +125,10 @@ def paper_jobs(p: Preset) -> list[PaperJob]:
     for v in range(4 if p.paper_raster else 0):
         add("cluster_raster", ZBIN_SCENE, ZBIN_LIGHTS, 0, "raster", raster_variant=v, cluster=1,
             cluster_tile=CLUSTER_TILE, cluster_slices=CLUSTER_SLICES)
+    for tile in CLUSTER_TILES if p.paper_raster else ():
+        if tile != CLUSTER_TILE:                   # that one is the cluster table's first row
+            add("cluster_tile", ZBIN_SCENE, ZBIN_LIGHTS, 0, "raster", cluster=1,
+                cluster_tile=tile, cluster_slices=CLUSTER_SLICES)
     for v in (0, 1):
         add("fptl", "corridor", FPTL_LIGHTS, 0, "fptl", fptl_variant=v)
     for k in FPTL_VISIBLE:

@@ -49,6 +49,8 @@ def test_paper_jobs_are_the_papers_settings():
     assert sorted(o.raster_variant for o in cluster) == [0, 1, 2, 3]
     assert {(o.cluster, o.cluster_tile, o.cluster_slices) for o in cluster} == {(1, 32, 32)}
     assert 1920 // 32 == 60                        # the slides' 60 columns
+    swept = [j.job.opts for j in full if j.job.study == PAPER_PREFIX + "cluster_tile"]
+    assert sorted(o.cluster_tile for o in swept) == [8, 16, 64]     # 32: the table's row
     scenes = [j.job for j in jobs if j.job.study == PAPER_PREFIX + "scenes"]
     assert {j.technique for j in scenes} == {t for t, x in REGISTRY.items() if x.role != "floor"}
     assert not paper_jobs(replace(QUICK, paper_size=None))
@@ -83,7 +85,7 @@ def paper_rows(gl):
 
 def test_paper_rows_are_modelled_not_shaded(paper_rows):
     assert {r["study"] for r in paper_rows} == {PAPER_PREFIX + k for k in (
-        "fig7", "zbin_table", "cluster_raster", "fptl", "fptl_visible", "scenes")}
+        "fig7", "zbin_table", "cluster_raster", "cluster_tile", "fptl", "fptl_visible", "scenes")}
     # the chapter's scene sizes: exactly 40, 80, 120 visible lights, a prefix of the scene's
     seen = sorted((r["visible"], r["fptl_variant"]) for r in paper_rows
                   if r["study"] == PAPER_PREFIX + "fptl_visible")
@@ -118,6 +120,7 @@ def test_report_sections_from_paper_rows(paper_rows, tmp_path):
     assert "| variant | slides | atomics | of atomic | modelled PS4 culling | of atomic |" in md
     assert "| atomic + compaction + 4xMSAA | 0.32 ms (35%) |" in md
     assert "Mikkelsen's interior" in md and "| serial ms | hidden ms |" in md
+    assert "The cluster rasterizer's clusters swept" in md and "The waste " in md
     for k in FPTL_VISIBLE:
         assert f"| {k} visible | fine |" in md and f"- {k} visible: fine pruning cheaper with the build hidden" in md
     assert "frame along the path" not in md and "along 2 frames spread over" in md
