@@ -73,8 +73,8 @@ class Claim:
 
 
 def judged(cid: str, text: str, model_gap: float, paper_gap: float | None = None) -> Claim:
-    return Claim(cid, text + f" (model gap {model_gap:+.0%}" + (
-        "" if paper_gap is None else f", the paper's {paper_gap:+.0%}") + ")",
+    return Claim(cid, text + f" (model gap {model_gap:+.1%}" + (
+        "" if paper_gap is None else f", the paper's {paper_gap:+.1%}") + ")",
                  verdict(model_gap, paper_gap))
 
 
@@ -274,7 +274,7 @@ def zbin_claims(rows, ms: Ms = modelled_ms) -> list[Claim]:
             continue
         m = {v: ms(r, SLIDES_GPU, "shade") for v, r in by.items()}
         for a, b in TABLE_PAIRS:
-            out.append(judged(f"zbin_table/{t}/{a}<{b}", f"{t}: {VARIANTS[a]} below {VARIANTS[b]} "
+            out.append(judged(f"zbin_table/{t}/{a}<{b}", f"Drobot's table, {t}: {VARIANTS[a]} below {VARIANTS[b]} "
                               f"(slides {SLIDES_TABLE[a]:.0%} vs {SLIDES_TABLE[b]:.0%}; model "
                               f"{m[a] / m[0]:.0%} vs {m[b] / m[0]:.0%})", gap(m[a], m[b]),
                               gap(SLIDES_TABLE[a], SLIDES_TABLE[b])))
@@ -336,7 +336,7 @@ def hangar_claims(rows, ms: Ms = modelled_ms) -> list[Claim]:
     if 0 not in by or 1 not in by:
         return []
     a, z = ms(by[0], SLIDES_GPU, "shade"), ms(by[1], SLIDES_GPU, "shade")
-    return [judged("hangar/zbin", f"z-binning saves {1 - z / a:.0%} of the lighting pass "
+    return [judged("hangar/zbin", f"Drobot's hangar: z-binning saves {1 - z / a:.0%} of the lighting pass "
                    f"({a:.3g} -> {z:.3g} ms; slides 9.00 -> 7.65 ms)", gap(z, a), gap(*SLIDES_HANGAR[::-1]))]
 
 
@@ -368,7 +368,7 @@ def cluster_raster_claims(rows, ms: Ms = modelled_ms) -> list[Claim]:
         return []
     m = {v: ms(r, SLIDES_GPU, "cull") for v, r in by.items()}
     share = {v: p for v, (_, p) in SLIDES_CLUSTER.items()}
-    return [judged(f"cluster_raster/{v}<0", f"{VARIANTS[v]} below atomic (slides "
+    return [judged(f"cluster_raster/{v}<0", f"Drobot's cluster rasterizer: {VARIANTS[v]} below atomic (slides "
                    f"{share[v]:.0%}; model {m[v] / m[0]:.0%})",
                    gap(m[v], m[0]), gap(share[v], share[0])) for v in (1, 2, 3)]
 
@@ -440,6 +440,7 @@ def fptl_claims(rows, ms: Ms = modelled_ms) -> list[Claim]:
         g = SLIDES_GPU
         (cb, cl), (fb, fl) = ((ms(by[v], g, "cull"), ms(by[v], g, "shade")) for v in (1, 0))
         cid = f"fptl/{label.replace(' ', '_')}"
+        label = f"Mikkelsen, {label}"
         out += [judged(f"{cid}/build", f"{label}: coarse lists cheaper to build ({cb:.3g} vs "
                        f"{fb:.3g} ms)", gap(cb, fb), gap(pc[0], pf[0])),
                 judged(f"{cid}/lighting", f"{label}: fine-pruned lighting cheaper ({fl:.3g} vs "
@@ -484,10 +485,14 @@ def _fptl(rows) -> str:
                if all(by[v].get(f"model_{g}_bound") == "dram" for v in (0, 1))]
     if floored:
         r = settings[0][1][0]
+        same = all(modelled_ms(by[0], g, "cull") == modelled_ms(by[1], g, "cull")
+                   for label, by in settings if label in floored)
         lines += ["", f"At {', '.join(floored)} both variants' shading passes sit on the model's "
                   f"DRAM floor ({dram_floor_ms(int(num(r['width'])), int(num(r['height'])), g):.3g} "
-                  f"ms on the PS4): the model cannot see what pruning saves there, so the claims "
-                  f"below disagree by the rule while the lights evaluated a pixel still fall."]
+                  f"ms on the PS4)" + (" and their list builds model at the same time (the "
+                                       "tiles' depth reads, not the lights, bound them)" if same else "")
+                  + ": the model cannot see what pruning saves there, so the claims below "
+                  "disagree by the rule while the lights evaluated a pixel still fall."]
     return "\n".join(lines + ["", bullets(fptl_claims(rows))])
 
 

@@ -122,7 +122,7 @@ def test_report_sections_from_paper_rows(paper_rows, tmp_path):
     assert "Mikkelsen's interior" in md and "| serial ms | hidden ms |" in md
     assert "The cluster rasterizer's clusters swept" in md and "The waste " in md
     for k in FPTL_VISIBLE:
-        assert f"| {k} visible | fine |" in md and f"- {k} visible: fine pruning cheaper with the build hidden" in md
+        assert f"| {k} visible | fine |" in md and f"- Mikkelsen, {k} visible: fine pruning cheaper with the build hidden" in md
     assert "frame along the path" not in md and "along 2 frames spread over" in md
     for claim in ("fig7/", "zbin_table/zbin/", "zbin_table/raster/", "hangar/", "cluster_raster/",
                   "fptl/"):
