@@ -112,6 +112,7 @@ def test_report_sections_from_paper_rows(paper_rows, tmp_path):
                   "Which number to believe"):
         assert title in md, title
     assert md.count("**agrees**") + md.count("**close**") + md.count("**disagrees**") >= 20
+    assert "-bound)" in md and "lowest geometric mean" in md and " by the rule); bound: " in md
     assert "The verdict rule" in md and "Where the model departs from the papers' GPUs" in md
     assert "Drobot's optimization table" in md and "| scalarized tile + zbin | 80% |" in md
     assert "| variant | slides | zbin: gtx980 |" in md and "| raster: ps4 |" in md
