@@ -33,9 +33,9 @@ Each configuration is rendered once on llvmpipe with its shading passes' CELLS_O
 the G-buffer, the CPU stage and the culling passes run, and the shading pass records each
 pixel's cell without running its light loops (at 1080p they would cost llvmpipe seconds a
 frame and say nothing the path study does not).  The wave replay, over every
-`paper_sample`-th 8x8 group and scaled, stands for the shading loops; the row's per-pixel
-figures are the replay's (tests/app/model: they equal the shaders' counters).  No timing
-samples, no exactness columns: the same techniques are checked at the path resolution.
+`paper_sample`-th 8x8 group (figure 7's: `paper_path_sample`-th) and scaled, stands for
+the shading loops; the row's per-pixel figures are the replay's (tests/app/model: they
+equal the shaders' counters).  No timing samples, no exactness columns: the same techniques are checked at the path resolution.
 The floor (perfect) is left out of paper_scenes: its untimed set-up tests every light at
 every pixel, minutes a 1080p frame on llvmpipe.
 """
