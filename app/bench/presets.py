@@ -42,8 +42,10 @@ class Preset:
     # the papers' settings, modelled only (app.bench.validation); paper_size None: none
     paper_size: tuple[int, int] | None = (1920, 1080)
     paper_lights: tuple[int, ...] = (8192, 16384, 32768, 65536)
-    paper_frames: int = 2         # camera-path frames of figure 7
+    paper_frames: int = 16        # camera-path frames of figure 7, spread over each path
     paper_sample: int = 8         # the shading replay over every k-th 8x8 group (scaled)
+    paper_path_sample: int = 0    # ... figure 7's rows (0: paper_sample)
+    paper_raster: bool = True     # raster's rows of Drobot's tables (zbin table, cluster table)
     # the CPU stage's growth (issue 23 item 4; app.bench.cpu.growth_series) in cpu_scene at
     # cpu_size: every technique with a CPU build, each count on each thread count in turn;
     # () none.  growth_cap_ms: a technique whose median build passes it runs no larger count
@@ -99,7 +101,12 @@ QUICK = Preset(
     # 2 counts x the --build techniques, both builds, at 320x180: GPU_BUILD_QUICK_S below
     gpu_build_lights=(4096, 16384),
     # 2 techniques x 2 thread counts x 21 frames each side at 65,536 lights: ~3 s
-    c_reference_lights=(65536,))
+    c_reference_lights=(65536,),
+    # figure 7 along 16 frames of each path at 65,536 lights only (96 rows, ~1.7 s each on
+    # 2 loaded cores, ~170 s; at two counts ~330 s), every 32nd 8x8 group replayed; raster's
+    # rows of Drobot's tables only in --full (the cluster rasterizer's MARK / WALK draws at
+    # 1080p: ~25 s a row on llvmpipe, ~140 s the 8 rows)
+    paper_lights=(65536,), paper_path_sample=32, paper_raster=False)
 
 FULL = Preset(
     name="full", size=(1920, 1080), scenes=("arena", "city", "hangar", "gallery", "corridor"),

@@ -300,7 +300,7 @@ class Sweep:
         """app.bench.validation's configurations at the papers' resolution: one read-back
         render each, its wave figures and modelled GPU ms; no timing samples."""
         from ..pipeline.renderer import Renderer
-        from .validation import paper_jobs, scaled_lights
+        from .validation import job_lights, paper_jobs
         jobs = paper_jobs(self.p)
         renderer, current = None, None
         try:
@@ -315,12 +315,13 @@ class Sweep:
                 w, h = self.p.paper_size
                 self.progress(i, len(jobs), f"{job.describe()} at {w}x{h} (modelled)")
                 tech = REGISTRY[job.technique]
-                res = renderer.render(tech, job.frame, job.opts, frames=pj.frames,
-                                      lights=scaled_lights(self.lights_for(job), pj.radius_scale),
+                lights = job_lights(pj, self.lights_for(job), lambda L: renderer.frame_input(
+                    job.frame, pj.frames, lights=L))
+                res = renderer.render(tech, job.frame, job.opts, frames=pj.frames, lights=lights,
                                       defines={"CELLS_ONLY": 1})
                 figures, implied = predict.modelled_frame(renderer, tech, res, job.opts,
-                                                          sample=self.p.paper_sample)
-                r = {"study": job.study, "scene": job.scene, "lights": job.lights,
+                                                          sample=pj.sample or self.p.paper_sample)
+                r = {"study": job.study, "scene": job.scene, "lights": len(lights),
                      "visible": int(res.meta["stats"].get("visible_lights", 0)), "width": w,
                      "height": h, "frame": job.frame, "frames": pj.frames,
                      "technique": tech.name, "role": tech.role, "cutoff": 0}

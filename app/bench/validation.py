@@ -2,34 +2,48 @@
 what the GPU cost model (app.model) predicts where the papers published a measurement.
 The report's validation section sets each beside the published figure (app.report.validation).
 
-    paper_fig7         tree paper figure 7: clustered, tree, hybrid along the camera path at
-                       8k-65k lights; "CTF-TitanPass" (lights in the level's box) is the lab's
+    paper_fig7         tree paper figure 7: clustered, tree, hybrid along paper_frames
+                       frames spread over the camera path at paper_lights (8k-65k); "CTF-TitanPass" (lights in the level's box) is the lab's
                        arena, "EpicCitadel" (lights on geometry, long views) its city.  The
                        paper chose "a light size distribution which results in low per-pixel
                        overdraw ... only a few light sources affect each pixel" at every
                        count: the builtin scenes keep their radii as the count grows (at 65k
                        the arena has ~40 lights on a pixel), so here the radii shrink by
                        (8192 / n)^(1/3), which keeps each pixel's overdraw at its 8k value
-    paper_zbin_table   Drobot's optimization table: zbin's four variants, a 256-light bit
-                       array (Zombies opening scene: the lab's hangar, ZBIN_SCENE)
-    paper_zbin_hangar  Drobot's hangar: tiled buffer vs + z-bin, the lab's hangar, 256 lights
+    paper_zbin_table   Drobot's optimization table: the four zbin_variant rows, a 256-light
+                       bit array (Zombies opening scene: the lab's hangar, ZBIN_SCENE), on
+                       zbin's CPU tiles and (preset paper_raster) on raster's rasterized
+                       tiles (the slides' own pipeline).  The slides' hangar (tiled vs
+                       + z-bin) is read from the same rows: a second render would be the
+                       same frame
+    paper_cluster_raster  (preset paper_raster) Drobot's cluster rasterizer table: raster
+                       --cluster 1 at each raster_variant, 256 lights in ZBIN_SCENE, the
+                       slides' 60x40x32 grid (CLUSTER_TILE-px clusters: 60 x 34 at 1080p,
+                       CLUSTER_SLICES slices)
+    paper_cluster_tile (preset paper_raster) the same, atomic, at each of CLUSTER_TILES px
+                       (the table's row at CLUSTER_TILE): what the clusters' size wastes
     paper_fptl         Mikkelsen's interior at 1080p: fine-pruned vs coarse lists (the lab's
                        corridor, 1,024 lights: the chapter's 10-bit index limit)
+    paper_fptl_visible the same at the chapter's own scene size, "no more than 40-120 lights
+                       inside the camera frustum": the corridor's lights up to its 40th, 80th
+                       and 120th visible one (FPTL_VISIBLE)
     paper_scenes       every builtin scene at 4,096 lights: the modelled ranking per GPU
 
 Each configuration is rendered once on llvmpipe with its shading passes' CELLS_ONLY switch:
 the G-buffer, the CPU stage and the culling passes run, and the shading pass records each
 pixel's cell without running its light loops (at 1080p they would cost llvmpipe seconds a
 frame and say nothing the path study does not).  The wave replay, over every
-`paper_sample`-th 8x8 group and scaled, stands for the shading loops; the row's per-pixel
-figures are the replay's (tests/app/model: they equal the shaders' counters).  No timing
-samples, no exactness columns: the same techniques are checked at the path resolution.
+`paper_sample`-th 8x8 group (figure 7's: `paper_path_sample`-th) and scaled, stands for
+the shading loops; the row's per-pixel figures are the replay's (tests/app/model: they
+equal the shaders' counters).  No timing samples, no exactness columns: the same techniques are checked at the path resolution.
 The floor (perfect) is left out of paper_scenes: its untimed set-up tests every light at
 every pixel, minutes a 1080p frame on llvmpipe.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+import numpy as np
 
 from ..results import PAPER_PREFIX
 from ..techniques import REGISTRY
@@ -44,6 +58,10 @@ ZBIN_LIGHTS = 256                 # the slides' 256-bit array
 # light 0.2 a pixel: a pass at the bandwidth floor, where no variant can show)
 ZBIN_SCENE = "hangar"
 FPTL_LIGHTS = 1024                # the chapter's 10-bit indices
+FPTL_VISIBLE = (40, 80, 120)      # the chapter's "40-120 lights inside the camera frustum"
+CLUSTER_TILE = 32                 # the slides' 60 columns at 1920 px (their 40 rows: 27 px)
+CLUSTER_SLICES = 32
+CLUSTER_TILES = (8, 16, 32, 64)   # the cluster_tile sweep: is the clusters' waste their size?
 
 
 FIG7_BASE = 8192                  # figure 7's radii: the overdraw of this count at every count
@@ -54,6 +72,8 @@ class PaperJob:
     job: Job
     frames: int                   # the camera path's frames for job.frame
     radius_scale: float = 1.0     # the scene's light radii times this
+    visible: int = 0              # the scene's lights up to its visible-th visible one (0: all)
+    sample: int = 0               # the shading replay's sample (0: the preset's paper_sample)
 
 
 def scaled_lights(lights, scale: float):
@@ -67,28 +87,53 @@ def scaled_lights(lights, scale: float):
     return out
 
 
+def visible_prefix(lights, frame_input, k: int):
+    """The scene's lights up to and including its k-th visible one (in scene order) in the
+    frame of `frame_input`: exactly k visible lights (all of them where fewer are)."""
+    from cpu_prep.lights import cull
+    keyed, _ = cull(lights, frame_input.camera, frame_input.arena)
+    ids = np.sort(keyed & np.uint64(0xFFFFFFFF)).astype(np.int64)
+    return lights if len(ids) <= k else lights[:int(ids[k - 1]) + 1]
+
+
+def job_lights(pj: PaperJob, lights, frame_input):
+    """The lights a paper job renders: the scene's at its frame, sized and cut as it says."""
+    lights = scaled_lights(lights, pj.radius_scale)
+    return visible_prefix(lights, frame_input(lights), pj.visible) if pj.visible else lights
+
+
 def paper_jobs(p: Preset) -> list[PaperJob]:
     """The papers' configurations of a preset (skipped when the preset has no paper size)."""
     if not p.paper_size:
         return []
     out = []
 
-    def add(study, scene, lights, frame, name, frames=1, scale=1.0, **opts):
+    def add(study, scene, lights, frame, name, frames=1, scale=1.0, visible=0, sample=0, **opts):
         t = REGISTRY[name]
         out.append(PaperJob(Job(PAPER_PREFIX + study, scene, lights, frame, name,
-                                t.Options().with_(**opts)), frames, scale))
+                                t.Options().with_(**opts)), frames, scale, visible, sample))
 
     for scene in FIG7_SCENES:
         for n in p.paper_lights:
             for f in range(p.paper_frames):
                 for name in FIG7_TECHNIQUES:
-                    add("fig7", scene, n, f, name, p.paper_frames, (FIG7_BASE / n) ** (1 / 3))
-    for v in range(4):
-        add("zbin_table", ZBIN_SCENE, ZBIN_LIGHTS, 0, "zbin", zbin_variant=v)
-    for v in (0, 1):
-        add("zbin_hangar", "hangar", ZBIN_LIGHTS, 0, "zbin", zbin_variant=v)
+                    add("fig7", scene, n, f, name, p.paper_frames, (FIG7_BASE / n) ** (1 / 3),
+                        sample=p.paper_path_sample)
+    for name in ("zbin", "raster") if p.paper_raster else ("zbin",):
+        for v in range(4):
+            add("zbin_table", ZBIN_SCENE, ZBIN_LIGHTS, 0, name, zbin_variant=v)
+    for v in range(4 if p.paper_raster else 0):
+        add("cluster_raster", ZBIN_SCENE, ZBIN_LIGHTS, 0, "raster", raster_variant=v, cluster=1,
+            cluster_tile=CLUSTER_TILE, cluster_slices=CLUSTER_SLICES)
+    for tile in CLUSTER_TILES if p.paper_raster else ():
+        if tile != CLUSTER_TILE:                   # that one is the cluster table's first row
+            add("cluster_tile", ZBIN_SCENE, ZBIN_LIGHTS, 0, "raster", cluster=1,
+                cluster_tile=tile, cluster_slices=CLUSTER_SLICES)
     for v in (0, 1):
         add("fptl", "corridor", FPTL_LIGHTS, 0, "fptl", fptl_variant=v)
+    for k in FPTL_VISIBLE:
+        for v in (0, 1):
+            add("fptl_visible", "corridor", FPTL_LIGHTS, 0, "fptl", visible=k, fptl_variant=v)
     for scene in p.scenes:
         for name, t in REGISTRY.items():
             if t.role != "floor":

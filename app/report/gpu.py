@@ -60,7 +60,8 @@ def fig_gpu_scenes(rows, out, colors, roles) -> tuple[str | None, list[str]]:
             v = {t: x for t, x in v.items() if not math.isnan(x)}
             best = min(v, key=v.get)
             near = [t for t in v if t != best and v[t] <= 1.1 * v[best]]
-            cells.append(f"{g.key} **{best}** {v[best]:.3g} ms" +
+            bound = next(r.get(f"model_{g.key}_bound") for r in sel(sub, scene=s, technique=best))
+            cells.append(f"{g.key} **{best}** {v[best]:.3g} ms ({bound}-bound)" +
                          (f" ({', '.join(near)} within 10%)" if near else ""))
         measured = _llvmpipe_fastest(path, s, roles)
         text.append(f"**{s}**: " + "; ".join(cells) +
@@ -126,8 +127,11 @@ def believe_text(rows, info, roles) -> list[str]:
            f"- *What a technique costs on a GPU*: the **modelled** GPU milliseconds (model "
            f"v{cost.MODEL_VERSION}: {names}; app/model/cost.py, from public specifications, "
            f"never fitted). Read them as a ranking and as ratios on one GPU; the absolute "
-           f"scale is an estimate (it ignores occupancy and latency, so it errs low). The "
-           f"validation section says where they agree with the papers' measurements.",
+           f"scale is an estimate whose error has no known sign: it ignores occupancy and "
+           f"latency (reading low), and charges every pixel's G-buffer and colour at full DRAM "
+           f"bandwidth (a floor that reads high: EpicCitadel's 0.38 ms in the tree paper is "
+           f"below it). The validation section says, by one rule, where they agree with the "
+           f"papers' measurements, and which rows sit on a floor.",
            "- *What it costs on this machine's software rasterizer*: the llvmpipe "
            "milliseconds (gpu_*_ms). They are measured, but on a CPU that pays every wave "
            "vote with barriers: they rank the papers' wave techniques (hybrid's paths, zbin's "

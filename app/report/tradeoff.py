@@ -52,7 +52,10 @@ EXPLANATION = (
     "takes the temporal series' error of the same configuration on moving lights (a cutoff "
     "level's and a cap policy's measured once, for every technique at it: their images are the "
     "same). Frame cost: "
-    "CPU stage + culling passes + shading, the median of the timing samples (bars: min-max). "
+    "CPU stage + culling passes + shading, the median of the timing samples (bars: min-max); "
+    "every culling pass counts in full (serially), fptl's list build too, which its chapter "
+    "hides under shadow-map rendering on asynchronous compute (the validation section reads "
+    "fptl both ways: serial, and the build hidden up to a shadow-pass budget). "
     "The dashed staircase is the Pareto front; the advice names a step only where its cost "
     "exceeds the cheaper choice's beyond the measured spread.")
 

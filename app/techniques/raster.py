@@ -610,10 +610,45 @@ def _cluster_text(study) -> list[str]:
             f"against {u.get('raster_atomics', '-')}, culling {float(by[1]['gpu_cull_ms']):.3g} ms "
             f"against {float(by[2]['gpu_cull_ms']):.3g} ms (the bound's own depth pass included).")
     ctile = st.get(1, st.get(2, {})).get("bit_tile_used", "?")
-    text.append(f"What the clusters waste is their size on screen: {ctile} px clusters against "
-                f"{tile} px tiles, each marked wherever a light's volume passes through it, where "
-                f"a tile is marked only by a lit surface pixel of its own.")
+    text.append(f"What the clusters waste would be their size on screen: {ctile} px clusters "
+                f"against {tile} px tiles, each marked wherever a light's volume passes through "
+                f"it, where a tile is marked only by a lit surface pixel of its own (argued here; "
+                f"the --full preset's cluster_tile sweep measures it).")
     return [" ".join(text)]
+
+
+def _cluster_tile_text(rows) -> list[str]:
+    """The paper_cluster_tile sweep (with the cluster table's atomic row, and the rasterized
+    tiles of the optimization table beside it): lights evaluated a pixel against the
+    clusters' size."""
+    import json
+    from ..results import PAPER_PREFIX
+    sweep = [r for r in rows if r.get("study") == PAPER_PREFIX + "cluster_tile" or (
+        r.get("study") == PAPER_PREFIX + "cluster_raster" and int(float(r["raster_variant"])) == 0)]
+    if len(sweep) < 2:
+        return []
+    px = lambda r: int(json.loads(r.get("stats") or "{}").get("bit_tile_used", 0))
+    sweep.sort(key=px)
+    f = lambda r, k: float(r[k])
+    cells = [f"{px(r)} px {f(r, 'evaluated_pp'):.3g} lights a pixel (waste {f(r, 'waste'):.3g}x, "
+             f"modelled PS4 culling {f(r, 'model_ps4_cull_ms'):.3g} + shading "
+             f"{f(r, 'model_ps4_shade_ms'):.3g} ms)" for r in sweep]
+    tiles = {int(float(r["zbin_variant"])): r for r in rows
+             if r.get("study") == PAPER_PREFIX + "zbin_table"}
+    waste = [f(r, "waste") for r in sweep]
+    falls = all(a <= b for a, b in zip(waste, waste[1:]))
+    r0 = sweep[0]
+    text = (f"\nThe cluster rasterizer's clusters swept ({r0['scene']}, {int(float(r0['lights']))} "
+            f"lights, {int(float(r0['width']))}x{int(float(r0['height']))}, "
+            f"{int(float(r0['cluster_slices']))} slices, atomic): " + "; ".join(cells) + ".  ")
+    if 0 in tiles:
+        t = tiles[0]
+        text += (f"The rasterized 8-px tiles (base tile, no z-bins) evaluate "
+                 f"{f(t, 'evaluated_pp'):.3g} (waste {f(t, 'waste'):.3g}x).  ")
+    text += ("The waste falls as the clusters shrink: it is their size on screen, as argued "
+             "above." if falls else "The waste does not fall steadily as the clusters shrink: "
+             "their size on screen is not all of it.")
+    return [text]
 
 
 def _notes(technique, rows) -> tuple[str, str]:
@@ -624,6 +659,7 @@ def _notes(technique, rows) -> tuple[str, str]:
         text += _variant_table(technique, study, [r for r in rows if r.get("study") ==
                                                   f"raster_variant@{CONTENTION_SCENE}"])
     text += _cluster_text([r for r in rows if r.get("study") == "cluster"])
+    text += _cluster_tile_text(rows)
     path = [r for r in rows if r.get("study") == "path"]
     st = [json.loads(r["stats"]) for r in path if r.get("stats")]
     if st:

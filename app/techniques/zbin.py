@@ -141,6 +141,9 @@ class ZBin(Technique, register_at=60):
             zbin_id_bits=32 if wide else zb.ZBIN_ID_BITS)
         return b
 
+    # the variant study's rows of every technique (raster's rasterized tiles beside these)
+    report_studies = ("zbin_variant",)
+
     def report_notes(self, rows):
         """The slides' memory and optimization tables beside this run's (app/report/notes.py)."""
         return _notes(self, rows)

@@ -11,16 +11,19 @@ import numpy as np
 import pytest
 
 from app import report
+from app.report.validation import claims
 from app.bench.plan import plan
-from app.bench.presets import GPU_CHECK, QUICK
+from app.bench.presets import FULL, GPU_CHECK, QUICK
 from app.bench.sweep import Sweep
-from app.bench.validation import FIG7_BASE, FIG7_TECHNIQUES, paper_jobs, scaled_lights
+from app.bench.validation import (FIG7_BASE, FIG7_TECHNIQUES, FPTL_VISIBLE, paper_jobs,
+                                  scaled_lights)
 from app.model import cost
 from app.results import PAPER_PREFIX
 from app.techniques import REGISTRY
 
-SMALL = replace(QUICK, paper_size=(96, 64), paper_lights=(256, 512), paper_frames=1,
-                paper_sample=2, scenes=("arena", "corridor"), study_lights=256)
+SMALL = replace(QUICK, paper_size=(96, 64), paper_lights=(256, 512), paper_frames=2,
+                paper_sample=2, paper_path_sample=0, paper_raster=True,
+                scenes=("arena", "corridor"), study_lights=256)
 
 
 def test_paper_jobs_are_the_papers_settings():
@@ -29,9 +32,25 @@ def test_paper_jobs_are_the_papers_settings():
     assert len(fig7) == 2 * len(QUICK.paper_lights) * QUICK.paper_frames * len(FIG7_TECHNIQUES)
     for j in fig7:     # radii shrink so that a pixel's overdraw stays at the 8k value
         assert j.radius_scale == pytest.approx((FIG7_BASE / j.job.lights) ** (1 / 3))
+    assert {j.sample for j in fig7} == {QUICK.paper_path_sample}
+    assert {j.job.frame for j in fig7} == set(range(QUICK.paper_frames)) and QUICK.paper_frames >= 16
     table = [j.job for j in jobs if j.job.study == PAPER_PREFIX + "zbin_table"]
-    assert sorted(j.opts.zbin_variant for j in table) == [0, 1, 2, 3]
+    assert sorted(j.opts.zbin_variant for j in table) == [0, 1, 2, 3]    # raster's: --full
     assert all(j.lights == 256 for j in table)
+    assert not [j for j in jobs if j.job.study == PAPER_PREFIX + "cluster_raster"]
+    visible = [j for j in jobs if j.job.study == PAPER_PREFIX + "fptl_visible"]
+    assert sorted((j.visible, j.job.opts.fptl_variant) for j in visible) == \
+        [(k, v) for k in FPTL_VISIBLE for v in (0, 1)]
+    full = paper_jobs(FULL)
+    table = [j.job for j in full if j.job.study == PAPER_PREFIX + "zbin_table"]
+    assert sorted((j.technique, j.opts.zbin_variant) for j in table) == \
+        [(t, v) for t in ("raster", "zbin") for v in range(4)]
+    cluster = [j.job.opts for j in full if j.job.study == PAPER_PREFIX + "cluster_raster"]
+    assert sorted(o.raster_variant for o in cluster) == [0, 1, 2, 3]
+    assert {(o.cluster, o.cluster_tile, o.cluster_slices) for o in cluster} == {(1, 32, 32)}
+    assert 1920 // 32 == 60                        # the slides' 60 columns
+    swept = [j.job.opts for j in full if j.job.study == PAPER_PREFIX + "cluster_tile"]
+    assert sorted(o.cluster_tile for o in swept) == [8, 16, 64]     # 32: the table's row
     scenes = [j.job for j in jobs if j.job.study == PAPER_PREFIX + "scenes"]
     assert {j.technique for j in scenes} == {t for t, x in REGISTRY.items() if x.role != "floor"}
     assert not paper_jobs(replace(QUICK, paper_size=None))
@@ -65,8 +84,13 @@ def paper_rows(gl):
 
 
 def test_paper_rows_are_modelled_not_shaded(paper_rows):
-    assert {r["study"] for r in paper_rows} == {PAPER_PREFIX + k for k in
-                                                ("fig7", "zbin_table", "zbin_hangar", "fptl", "scenes")}
+    assert {r["study"] for r in paper_rows} == {PAPER_PREFIX + k for k in (
+        "fig7", "zbin_table", "cluster_raster", "cluster_tile", "fptl", "fptl_visible", "scenes")}
+    # the chapter's scene sizes: exactly 40, 80, 120 visible lights, a prefix of the scene's
+    seen = sorted((r["visible"], r["fptl_variant"]) for r in paper_rows
+                  if r["study"] == PAPER_PREFIX + "fptl_visible")
+    assert seen == [(k, v) for k in FPTL_VISIBLE for v in (0, 1)]
+    assert all(r["lights"] < 1024 for r in paper_rows if r["study"] == PAPER_PREFIX + "fptl_visible")
     for r in paper_rows:
         where = f"{r['study']} {r['scene']} {r['technique']}"
         assert r["width"] == 96 and r["height"] == 64, where
@@ -87,9 +111,23 @@ def test_report_sections_from_paper_rows(paper_rows, tmp_path):
                   "Validation: the cost model beside the papers' measurements",
                   "Which number to believe"):
         assert title in md, title
-    assert md.count("agrees") + md.count("disagrees") >= 6
+    assert md.count("**agrees**") + md.count("**close**") + md.count("**disagrees**") >= 20
+    assert "-bound)" in md and "lowest geometric mean" in md and " by the rule); bound: " in md
+    assert "The verdict rule" in md and "Where the model departs from the papers' GPUs" in md
     assert "Drobot's optimization table" in md and "| scalarized tile + zbin | 80% |" in md
-    assert "Mikkelsen's interior" in md and "Drobot's hangar" in md
+    assert "| variant | slides | zbin: gtx980 |" in md and "| raster: ps4 |" in md
+    assert "Drobot's hangar" in md and "re-counts the table's own" in md
+    assert "Drobot's cluster-rasterizer table" in md
+    assert "| variant | slides | atomics | of atomic | modelled PS4 culling | of atomic |" in md
+    assert "| atomic + compaction + 4xMSAA | 0.32 ms (35%) |" in md
+    assert "Mikkelsen's interior" in md and "| serial ms | hidden ms |" in md
+    assert "The cluster rasterizer's clusters swept" in md and "The waste " in md
+    for k in FPTL_VISIBLE:
+        assert f"| {k} visible | fine |" in md and f"- Mikkelsen, {k} visible: fine pruning cheaper with the build hidden" in md
+    assert "frame along the path" not in md and "along 2 frames spread over" in md
+    for claim in ("fig7/", "zbin_table/zbin/", "zbin_table/raster/", "hangar/", "cluster_raster/",
+                  "fptl/"):
+        assert any(c.id.startswith(claim) for c in claims(paper_rows)), claim
     assert "No real GPU in this run" in md
     for png in ("gpu_scenes.png", "gpu_pareto.png", "validation_fig7.png"):
         assert (tmp_path / png).stat().st_size > 10_000, png
