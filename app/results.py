@@ -34,7 +34,8 @@ One row is one measured configuration (a rendered frame, or a CPU-stage-only ser
 Studies (column `study`):
     path        every technique, every scene, light count and camera-path frame
     paper_<name> the papers' own settings (1920x1080), modelled only (app.bench.validation):
-                paper_fig7, paper_zbin_table, paper_zbin_hangar, paper_fptl, paper_scenes
+                paper_fig7, paper_zbin_table, paper_fptl, paper_fptl_visible, paper_scenes,
+                and with --full paper_cluster_raster, paper_cluster_tile
     <option>    one per technique option that declares study values (OptionSpec.study): its
                 values, over the techniques that declare it, on the study scene (frame 0)
     <option>@<scene>  the same in a scene of its own (OptionSpec.also_study), read by the

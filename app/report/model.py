@@ -162,11 +162,18 @@ def sensitivity(rows, judge) -> tuple[str, list[str]]:
     return "\n".join(head + body), words
 
 
+def judge(rows, ms):
+    """The validation section's claims under accessor `ms`: (id, text, verdict)."""
+    from .validation import claims
+    return [(c.id, c.text, c.verdict) for c in claims(rows, ms)]
+
+
 def model_section(rows) -> tuple[list[str], str]:
     """The section's bullets and tables."""
     table, cull = counts_table(rows), cull_table(rows)
     if not table:
         return [], ""
+    sens, fragile = sensitivity(rows, judge)
     text = [f"Model v{cost.MODEL_VERSION} (app/model/cost.py).  Its GPU figures are the vendors' "
             "public specifications; the instructions of every step it prices are counted from "
             "the SPIR-V of the program that runs the step (glslang, unoptimised; the rule in "
@@ -176,5 +183,14 @@ def model_section(rows) -> tuple[list[str], str]:
             "function rate), ÷ integer divisions, R wave reductions (priced by the assumptions).",
             "The assumptions, the only numbers that are neither a published figure nor counted:",
             *[f"  - {t}" for t in assumptions_text()]]
-    return text, "The shading passes' counted steps:\n\n" + table + (
+    if sens:
+        text += [f"Sensitivity: every verdict of the validation section judged again from the "
+                 f"rows' own figures with each assumption moved by -{SENSITIVITY:.0%} and "
+                 f"+{SENSITIVITY:.0%}, one at a time (the table below: '=' where the verdict "
+                 f"holds).  A verdict that changes is fragile: it rests on that assumption.",
+                 *fragile]
+    tables = "The shading passes' counted steps:\n\n" + table + (
         "\n\nThe culling passes':\n\n" + cull if cull else "")
+    if sens:
+        tables += "\n\nThe verdicts under each assumption moved:\n\n" + sens
+    return text, tables
