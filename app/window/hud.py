@@ -31,10 +31,12 @@ def hud_lines(f: dict, *, position: str, role: str, software: bool, playing: boo
     tag = f" [{role}]" if role != "technique" else ""
     lines = [
         f"{f['technique']}{tag} ({position})   view: {f['view']}   "
-        f"{f['size'][0]}x{f['size'][1]}" + ("   path" if playing else "") + (f"   {status}" if status else ""),
+        f"{f['size'][0]}x{f['size'][1]}{scale_text(f)}" + ("   path" if playing else "")
+        + (f"   {status}" if status else ""),
         f"lights {f['lights']}   visible {f['visible_lights']}   "
         f"evaluated/px {f['evaluated_per_pixel']:.2f}   exact/px {f['exact_per_pixel']:.2f}"
-        + capped_text(f.get("capped")),
+        + capped_text(f.get("capped")) + ("   (figures: the last full-size frame)"
+                                          if f.get("scale", 1.0) < 1.0 else ""),
         f"CPU {sum(cpu.values()):.1f} ms{threads_text(f.get('cpu_threads'))}: " + "  ".join(f"{k} {v:.1f}" for k, v in cpu.items()),
         f"GPU {sum(gpu.values()):.1f} ms{wall}: " + "  ".join(f"{k} {v:.1f}" for k, v in gpu.items()),
     ]
@@ -54,6 +56,21 @@ def hud_lines(f: dict, *, position: str, role: str, software: bool, playing: boo
     if message:
         lines.append(message)
     return lines
+
+
+def scale_text(f: dict) -> str:
+    """The frame's scale (dynamic resolution, app.window.scale): ' at 50% (480x270), moving,
+    9.6 fps (target 10)' on a reduced frame, ' at 100%' on a full-size one; '' when it is
+    off (--target-fps 0) or the figures have no scale."""
+    scale, target, fixed = f.get("scale"), f.get("target_fps") or 0.0, f.get("move_scale")
+    if scale is None or (target <= 0.0 and fixed is None):
+        return ""
+    if scale >= 1.0:
+        return " at 100%"
+    w, h = f["render_size"]
+    how = "--move-scale" if fixed is not None else f"target {target:g}"
+    fps = f" {1000.0 / f['frame_ms']:.1f} fps" if f.get("frame_ms") else ""
+    return f" at {scale:.0%} ({w}x{h}), moving,{fps} ({how})"
 
 
 def capped_text(capped) -> str:
