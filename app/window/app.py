@@ -352,8 +352,9 @@ class LabWindow(mglw.WindowConfig):
         r = self.renderer
         rerender = lambda: (r, tech, opts, r.render(tech, shown_frame, opts, frames=self.args.path_frames,
                                                    lights=lights, readback=False, camera=fc, figures=True))
+        t_model = time.perf_counter()
         if full and self.model.update((config, key), self.composer.still_s(key), self.scripted, rerender):
-            self.scaler.skip()                    # the model's replay is not the frame's time
+            self.scaler.exclude(time.perf_counter() - t_model)     # the replay: not the frame's time
         self.figures["model"] = self.model.line((config, key))
         self._log(step)
         if self.quitting:

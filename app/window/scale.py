@@ -58,10 +58,15 @@ class DynamicScale:
         self.last_s = None            # the last frame's seconds, as timed
         self._since = None            # the clock at the last next()
         self._skip = False
+        self._excluded = 0.0
 
     def skip(self) -> None:
-        """This frame's time is no measure (it compiles, takes a screenshot, probes ...)."""
+        """This frame's time is no measure (it compiles, takes a screenshot ...)."""
         self._skip = True
+
+    def exclude(self, seconds: float) -> None:
+        """Work in this frame that is not the frame's (the modelled GPU time's replay)."""
+        self._excluded += seconds
 
     def next(self, moving: bool) -> float:
         """This frame's scale: full size at rest; moving, the scale the target allows.
@@ -70,8 +75,8 @@ class DynamicScale:
         if self._since is not None:
             self.last_s = now - self._since
             if not self._skip:
-                self.measured(self.scale, self.last_s)
-        self._since, self._skip = now, False
+                self.measured(self.scale, self.last_s - self._excluded)
+        self._since, self._skip, self._excluded = now, False, 0.0
         self.scale = self._moving() if moving else 1.0
         return self.scale
 

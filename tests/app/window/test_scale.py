@@ -88,6 +88,17 @@ def test_skipped_frames_are_no_measure():
     assert ctl.next(True) == 1.0
 
 
+def test_excluded_work_is_not_the_frames():
+    clock = FakeClock()
+    ctl = DynamicScale(10.0, clock=clock)
+    ctl.next(False)
+    clock.t += 3.1                   # a frame of 0.1 s, and 3 s of the model's replay
+    ctl.exclude(3.0)
+    ctl.next(False)
+    clock.t += 0.1
+    assert ctl.next(True) == 1.0
+
+
 def test_off_and_fixed():
     clock = FakeClock()
     off = DynamicScale(0.0, clock=clock)
@@ -106,7 +117,7 @@ def test_snap_and_sizes():
 def test_hud_says_the_scale():
     f = {"scale": 0.5, "render_size": [480, 270], "target_fps": 10.0, "move_scale": None,
          "frame_ms": 98.0}
-    assert scale_text(f) == " at 50% (480x270), moving, 10.2 fps (target 10)"
-    assert scale_text(dict(f, scale=1.0)) == " at 100%"
-    assert scale_text(dict(f, move_scale=0.5)).endswith("(--move-scale)")
+    assert scale_text(f) == "moving: scale 50% (480x270), 10.2 fps (target 10); figures below: full size, at rest"
+    assert scale_text(dict(f, scale=1.0)) == "scale 100%"
+    assert "(--move-scale);" in scale_text(dict(f, move_scale=0.5))
     assert scale_text(dict(f, target_fps=0.0, scale=1.0)) == ""
