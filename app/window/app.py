@@ -15,8 +15,8 @@ Dynamic resolution: a frame renders at DynamicScale's scale when the camera move
 changed since the last frame, a fly key or a mouse button is held) in the shaded view, and
 at full size otherwise: at rest, in the views that show statistics (heat, tiles, diff,
 split, maps ...), when inspecting, on a screenshot's frame, and on the first frame of a
-configuration (technique, options, lights, size).  The present pass scales the frame to
-the window (nearest: each window pixel reads the render pixel it falls in).  A reduced
+configuration (technique, options, lights, size).  A reduced frame is presented at its
+own size and scaled up to the window bilinearly (compose.FrameComposer.draw).  A reduced
 frame's statistics are not shown or logged: its figures carry the last full-size frame's
 (STAT_KEYS, with `stats_frame` saying which), and only full-size frames reach the timers,
 the frame costs and the modelled GPU time.
