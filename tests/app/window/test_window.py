@@ -220,7 +220,8 @@ def test_hud_and_panel_on_screenshot_without_old_messages(tmp_path):
                                   ["--technique", "brute", "--tile", "32"],
                                   ["--technique", "tree", "--slices", "8"],
                                   ["--technique", "tree", "--tile", "7000"],
-                                  ["--replay", "/nonexistent/path.json"]])
+                                  ["--replay", "/nonexistent/path.json"],
+                                  ["--move-scale", "0.1"], ["--target-fps", "-1"]])
 def test_bad_flags_one_line_exit_2(args):
     proc = run(["app.window", "--window", "headless", *args])
     assert proc.returncode == 2
