@@ -360,7 +360,7 @@ class LabWindow(mglw.WindowConfig):
         if self.quitting:
             self._write_screenshot(self.args.screenshot)
             self.wnd.close()
-        if self.args.frames is not None and self.frame >= self.args.frames:
+        elif self.args.frames is not None and self.frame >= self.args.frames:
             if self.args.screenshot:
                 self._write_screenshot(self.args.screenshot)
             self.wnd.close()

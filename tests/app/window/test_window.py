@@ -449,3 +449,13 @@ def test_moving_frames_render_reduced_and_statistics_come_from_full_size(tmp_pat
     ref, = list((tmp_path / "b").glob("*.png"))
     diff = np.abs(load_rgb(shot) - load_rgb(ref))
     assert diff.max() <= 2 and (diff > 0).mean() < 0.01, (diff.max(), (diff > 0).mean())
+
+
+def test_esc_on_a_reduced_frame_saves_a_full_size_one(tmp_path):
+    # the path moves the camera every frame: frame 1 is reduced, Esc on frame 2 renders that
+    # frame at full size for --screenshot, then quits
+    shot = tmp_path / "esc.png"
+    frames, summary, _ = run_window(SMALL + ["--technique", "clustered", "--path", "--move-scale", "0.5",
+                                             "--json", "--keys", "f1,f1,escape", "--screenshot", str(shot)])
+    assert [f["scale"] for f in frames] == [1.0, 0.5, 1.0] and summary["frames"] == 3
+    assert summary["screenshots"] == [str(shot)] and load_rgb(shot).shape == (90, 160, 3)
