@@ -3,6 +3,7 @@ panel (imgui-bundle, through moderngl-window's integration).
 
     python -m app.window [--scene city] [--technique T] [--view V] [--lights N] [--size WxH]
                          [--exposure auto|X] [--ambient A] [--heat-max N]
+                         [--target-fps 10] [--move-scale auto|S]
                          [--record PATH.json | --replay PATH.json] [--inspect XxY]
                          [--frames N] [--screenshot PATH] [--keys "3,v,tile=32"]
                          [technique options] [--window pyglet|glfw|headless] [--backend egl]
@@ -26,6 +27,11 @@ Keys: one table, app.window.keys.KEYS, which gives the key names, the HUD's help
 panel's key list and the dispatch (1-9 the first nine techniques, T the next one, every one
 past the ninth too; the panel's technique list has them all).
 
+Dynamic resolution (scale.py): while the camera moves, the shaded view renders at the scale
+that holds --target-fps (or --move-scale), scaled up bilinearly; at rest, in the views that
+show statistics, on a screenshot's frame, full size; a reduced frame's figures are the last
+full-size frame's (app.py says which frames and why).
+
 Views (views.py): shaded, heat, tiles, slices, classes, diff (pixels whose light set differs
 from the reference's), split (two techniques side by side); a technique offers the ones its
 `views` attribute names.
@@ -48,6 +54,7 @@ to an EGL framebuffer with no display (backend egl by default).
     inspect.py  what is under the cursor              lightsets.py the light draws
     probe.py    start-up probe, frame costs           timers.py   timer history
     progress.py console lines for slow work           variant_view.py the variants view, legend
+    scale.py    dynamic resolution's controller
 """
 from .camera import FlyCamera
 from .keys import KEY_NAMES, key_names, parse_keys

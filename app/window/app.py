@@ -6,10 +6,20 @@
     recorder.py  PathRecorder: the camera path played and recorded
     panel.py     the state a frame renders, and the one way values get in
 
-A frame: last frame's panel changes and the next scripted step, the fly camera, the
-composer's frame, the figures, the view and the UI drawn, screenshots, the JSON line.  A
-frame predicted to take more than probe.SLOW_MS is announced in the HUD (a frame with the
-warning is shown) before it starts.
+A frame: last frame's panel changes and the next scripted step, the fly camera, its scale
+(scale.py), the composer's frame, the figures, the view and the UI drawn, screenshots, the
+JSON line.  A frame predicted to take more than probe.SLOW_MS is announced in the HUD (a
+frame with the warning is shown) before it starts.
+
+Dynamic resolution: a frame renders at DynamicScale's scale when the camera moves (it
+changed since the last frame, a fly key or a mouse button is held) in the shaded view, and
+at full size otherwise: at rest, in the views that show statistics (heat, tiles, diff,
+split, maps ...), when inspecting, on a screenshot's frame, and on the first frame of a
+configuration (technique, options, lights, size).  A reduced frame is presented at its
+own size and scaled up to the window bilinearly (compose.FrameComposer.draw).  A reduced
+frame's statistics are not shown or logged: its figures carry the last full-size frame's
+(STAT_KEYS, with `stats_frame` saying which), and only full-size frames reach the timers,
+the frame costs and the modelled GPU time.
 """
 from __future__ import annotations
 
@@ -39,12 +49,17 @@ from .model import FrameModel
 from .options import WindowOptions
 from .panel import LabState, Panel
 from .recorder import PathRecorder
+from .scale import DynamicScale, scaled_size
 from .timers import Timers
 from .ui import LabUI
 
 REPLAY_STEP_S = 0.25          # a replayed W/A/S/D/Q/E moves this many seconds' worth
 MESSAGE_S = 3.0
 STARTED_FRAMES = 600          # the panel says how the start chose the technique this long
+# the figures a reduced frame takes from the last full-size one (frame_figures' statistics)
+STAT_KEYS = ("visible_lights", "evaluated_per_pixel", "exact_per_pixel", "max_evaluated",
+             "max_exact", "covered", "lit", "cpu_ms", "cpu_threads", "gpu_ms", "setup_ms",
+             "capped", "grid", "heat_max")
 
 
 class LabWindow(mglw.WindowConfig):
@@ -64,6 +79,7 @@ class LabWindow(mglw.WindowConfig):
         self.renderer = Renderer(self.scene, self._buffer_size())
         self.reference = with_role("reference")
         self.state = self._initial_state(setup)
+        self.state.target_fps, self.state.move_scale = a.target_fps, a.move_scale
         self.panel = Panel(self.state, actions={
             "play": ("play / stop the path (P)", lambda: self.key_play("p")),
             "record": ("record / stop and save (C)", lambda: self.key_record("c")),
@@ -84,6 +100,13 @@ class LabWindow(mglw.WindowConfig):
         self.replay = list(a.keys)
         self.scripted = a.frames is not None or bool(a.keys)
         self.frame, self.frame_dt = 0, 1 / 60
+        self.full_size = self._buffer_size()
+        self.scaler = DynamicScale(a.target_fps, a.move_scale)
+        self.scale = 1.0                  # the shown frame's
+        self.rest: tuple | None = None    # the last full-size frame: (config, figures, frame)
+        self.last_view = None             # the last frame's camera (scale: moving or not)
+        self.dragging = False             # a mouse button held over the image
+        self.quitting = False             # Esc with --screenshot on a reduced frame
         self.mouse = self._parse_cursor(a.cursor)
         self.message, self.message_until, self.warning = "", 0.0, ""
         self.shots = Screenshots(self.ctx)
@@ -98,7 +121,7 @@ class LabWindow(mglw.WindowConfig):
             raise UserError(f"--view {self.state.view}: {self.state.technique} has no such view")
         self.state.version = 0
         if self.recorder.record_to is not None:
-            self.recorder.toggle_record(self.renderer.size)
+            self.recorder.toggle_record(self.full_size)
 
     # ---- start-up -------------------------------------------------------------------------
     def _initial_state(self, setup) -> LabState:
@@ -178,7 +201,7 @@ class LabWindow(mglw.WindowConfig):
         self.recorder.toggle_play(self.cam)
 
     def key_record(self, _: str) -> None:
-        self.recorder.toggle_record(self.renderer.size)
+        self.recorder.toggle_record(self.full_size)
 
     def key_reset(self, _: str) -> None:
         self.recorder.reset(self.cam)
@@ -202,6 +225,9 @@ class LabWindow(mglw.WindowConfig):
 
     def key_quit(self, _: str) -> None:
         if self.args.screenshot and self.frame:
+            if self.scale < 1.0:          # a reduced frame on screen: one full-size frame first
+                self.quitting = True
+                return
             self._write_screenshot(self.args.screenshot)
         self.wnd.close()
 
@@ -265,9 +291,11 @@ class LabWindow(mglw.WindowConfig):
 
     def on_mouse_press_event(self, x, y, button):
         self.ui.forward("mouse_press_event", x, y, button)
+        self.dragging = not self.ui.want_mouse          # a drag looks around: moving
 
     def on_mouse_release_event(self, x, y, button):
         self.ui.forward("mouse_release_event", x, y, button)
+        self.dragging = False
 
     def on_mouse_scroll_event(self, x_offset, y_offset):
         self.ui.forward("mouse_scroll_event", x_offset, y_offset)
@@ -287,21 +315,28 @@ class LabWindow(mglw.WindowConfig):
         if self.wnd.is_closing:
             return
         self._fly(frame_time)
-        size = self._buffer_size()
-        if size != self.renderer.size:
-            self.renderer.resize(size)
+        size = self.full_size = self._buffer_size()
         cam = self.recorder.camera(self.cam)
         self.recorder.add(cam)
         # the lights of the path frame shown: they move while a path plays (scenes.motion)
         lights = lights_at(self.lights.of(self.state), self.scene.motion, self.recorder.frame,
                            self.args.path_frames)
-        plan, c, fc, key = self._compose(cam, lights, size)
-        tech, opts = plan.technique, plan.opts
+        tech = self.state.tech
+        opts = self.state.options.for_technique(tech)[0]
         config = (tech.name, tuple(sorted(opts.as_dict().items())), LightSets.key(self.state), size)
+        self.scale = self._frame_scale(cam, config)
+        full = self.scale >= 1.0
+        render_size = scaled_size(size, self.scale)
+        if render_size != self.renderer.size:
+            self.renderer.resize(render_size)
+        plan, c, fc, key = self._compose(cam, lights, render_size)
+        self._scale_figures(config, render_size)
         self.figures["model"] = self.model.line((config, key))     # the HUD shows it this frame
-        self._draw(self.wnd.fbo, self._buffer_size())
-        if config in self.seen:          # its first frame compiles: not a measure
+        self._draw(self.wnd.fbo, size)
+        if full and config in self.seen:          # its first frame compiles: not a measure
             self.costs.record(tech.name, c.render_ms, size[0] * size[1], len(lights))
+        if config not in self.seen or self.shots.pending:
+            self.scaler.skip()                    # compiles or saves: not a frame's time
         self.seen.add(config)
         shown_frame = self.recorder.frame
         self.recorder.advance()
@@ -311,18 +346,53 @@ class LabWindow(mglw.WindowConfig):
             name = f"window-{self.scene.name}-{tech.name}-{self.state.view}-{self.frame:05d}.png"
             self._write_screenshot(Path(self.args.shot_dir) / name)
         wall_ms = (time.perf_counter() - t_start) * 1e3
-        self.timers.add(config, c.result.meta["gpu_ms"], c.result.meta["cpu_ms"], wall_ms)
+        if full:
+            self.timers.add(config, c.result.meta["gpu_ms"], c.result.meta["cpu_ms"], wall_ms)
         self.figures["wall_ms"] = round(wall_ms, 2)
         r = self.renderer
         rerender = lambda: (r, tech, opts, r.render(tech, shown_frame, opts, frames=self.args.path_frames,
                                                    lights=lights, readback=False, camera=fc, figures=True))
-        self.model.update((config, key), self.composer.still_s(key), self.scripted, rerender)
+        t_model = time.perf_counter()
+        if full and self.model.update((config, key), self.composer.still_s(key), self.scripted, rerender):
+            self.scaler.exclude(time.perf_counter() - t_model)     # the replay: not the frame's time
         self.figures["model"] = self.model.line((config, key))
         self._log(step)
-        if self.args.frames is not None and self.frame >= self.args.frames:
+        if self.quitting:
+            self._write_screenshot(self.args.screenshot)
+            self.wnd.close()
+        elif self.args.frames is not None and self.frame >= self.args.frames:
             if self.args.screenshot:
                 self._write_screenshot(self.args.screenshot)
             self.wnd.close()
+
+    def _frame_scale(self, cam, config) -> float:
+        """This frame's scale (the module's docstring says when it may be reduced)."""
+        view = (tuple(cam.position), tuple(cam.target), tuple(cam.up), cam.fov_y_deg)
+        moving = (self.last_view is not None and view != self.last_view) or bool(self.held) or self.dragging
+        self.last_view = view
+        s, a = self.state, self.args
+        self.scaler.target_fps, self.scaler.fixed = s.target_fps, s.move_scale
+        last_shot = a.screenshot and a.frames is not None and self.frame + 1 >= a.frames
+        shaded = s.view == "shaded" and not s.inspect
+        full = (not shaded or self.shots.pending or self.quitting or last_shot
+                or self.rest is None or self.rest[0] != config)
+        scale = self.scaler.next(moving and not full)
+        if not shaded:
+            self.scaler.skip()        # renders more than a shaded frame: not what moving costs
+        return scale
+
+    def _scale_figures(self, config, render_size) -> None:
+        """The frame's scale in its figures; a full-size frame is the one statistics come
+        from (self.rest), a reduced one takes them from it."""
+        f, s = self.figures, self.state
+        f.update(scale=self.scale, render_size=list(render_size), target_fps=s.target_fps,
+                 move_scale=s.move_scale, frame_ms=None if self.scaler.last_s is None
+                 else round(self.scaler.last_s * 1e3, 1))
+        if self.scale >= 1.0:
+            self.rest = (config, dict(f), self.frame)
+        else:
+            f.update({k: self.rest[1][k] for k in STAT_KEYS})
+        f["stats_frame"] = self.rest[2]
 
     def _take_inputs(self):
         """Last frame's panel changes, then this frame's scripted step (returned)."""
@@ -343,12 +413,13 @@ class LabWindow(mglw.WindowConfig):
             self._move(MOVE_KEYS[k], dt, fast)
 
     def _compose(self, cam, lights, size):
-        """This frame through the composer: (plan, Composed, frame camera, view key); the
-        figures and the present pass's uniforms follow from it."""
+        """This frame through the composer at render size `size`: (plan, Composed, frame
+        camera, view key: of the full size); the figures and the present pass's uniforms
+        follow from it."""
         s = self.state
         fc = frame_camera(cam, *size)
         key = (tuple(cam.position), tuple(cam.target), tuple(cam.up), cam.fov_y_deg,
-               LightSets.key(s), size, self.recorder.frame if self.scene.motion else 0)
+               LightSets.key(s), self.full_size, self.recorder.frame if self.scene.motion else 0)
         settled = self.scripted or self.composer.still_s(key) >= REF_SETTLE_S
         plan = self.composer.plan(s, key, settled)
         self._announce_slow(plan.renders(), lights, cam)
@@ -357,7 +428,7 @@ class LabWindow(mglw.WindowConfig):
         c = self.composer.render(plan, s, (lights, fc, size, self.recorder.frame, self.args.path_frames),
                                  key, debug_pixel)
         self.composed = c
-        self.figures = frame_figures(c, s, lights=int(len(lights)), size=self.renderer.size,
+        self.figures = frame_figures(c, s, lights=int(len(lights)), size=self.full_size,
                                      recorder=self.recorder, cam=cam, reference=self.reference.name)
         if s.view == "maps":
             self.figures["map"] = self.composer.map_shown[0]
@@ -408,7 +479,7 @@ class LabWindow(mglw.WindowConfig):
         """The UI's model of this frame; for_shot: a screenshot's, without transient messages
         (the last screenshot's name, ...)."""
         s, c = self.state, self.composed
-        w, h = self.renderer.size
+        w, h = self.full_size
         predicted = self.costs.predict(s.technique, w * h, s.lights)
         now = time.perf_counter() < self.message_until
         message = self.message if not for_shot and now else ""

@@ -72,6 +72,7 @@ class FrameComposer:
         self.map_index = 0                # the maps view: which of the technique's maps
         self.map_shown = ("", "", 0.0)    # its name, label and heat-scale top
         self._map_tex = None
+        self._upscale = passes.Upscale(ctx)   # a reduced frame's view, before it is scaled up
         self._variants = None             # the variants view: the frame's stats, when it has them
         self.view_shown = "shaded"
         self.uniforms: dict = {}
@@ -214,19 +215,29 @@ class FrameComposer:
             "u_map_max": float(self.map_shown[2] or 1.0)}
 
     def draw(self, target, viewport) -> None:
-        """The view now shown into `target` (a moderngl framebuffer)."""
+        """The view now shown into `target` (a moderngl framebuffer); a frame rendered at
+        another size than `viewport` (dynamic resolution) is presented at its own size and
+        scaled up bilinearly (a software rasterizer pays the present pass per pixel)."""
         r = self.renderer
         r.gbuffer.bind_textures()
         self.ref_stash.bind()
         self.split_stash.bind()
         if self._map_tex is not None:
             self._map_tex.use(passes.UNITS["MAP_UNIT"])
+        reduced = tuple(r.size) != tuple(viewport)
+        into, at = target, viewport
+        if reduced:
+            self._upscale.ensure(r.size)
+            into, at = self._upscale.fbo, r.size
         own = self.view_shown in PASS_VIEWS      # drawn over the shaded view by a pass of its own
-        steps = [passes.present_pass(target, r.size, viewport, "shaded" if own else self.view_shown,
+        steps = [passes.present_pass(into, r.size, at, "shaded" if own else self.view_shown,
                                      self.uniforms)]
         if self.view_shown == "variants" and self._variants is not None:
-            steps.append(variant_view.overlay_pass(target, r.size, viewport, self._variants))
+            steps.append(variant_view.overlay_pass(into, r.size, at, self._variants))
         r.run(steps)
+        if reduced:
+            self._upscale.bind()
+            r.run([passes.upscale_pass(target, viewport)])
 
 
 class Screenshots:

@@ -38,6 +38,9 @@ def hud_lines(f: dict, *, position: str, role: str, software: bool, playing: boo
         f"CPU {sum(cpu.values()):.1f} ms{threads_text(f.get('cpu_threads'))}: " + "  ".join(f"{k} {v:.1f}" for k, v in cpu.items()),
         f"GPU {sum(gpu.values()):.1f} ms{wall}: " + "  ".join(f"{k} {v:.1f}" for k, v in gpu.items()),
     ]
+    scale = scale_text(f)
+    if scale:
+        lines.insert(1, scale)
     if f.get("model"):
         lines.append(f["model"])
     if setup:
@@ -54,6 +57,22 @@ def hud_lines(f: dict, *, position: str, role: str, software: bool, playing: boo
     if message:
         lines.append(message)
     return lines
+
+
+def scale_text(f: dict) -> str:
+    """The HUD's line of the frame's scale (dynamic resolution, app.window.scale): 'moving:
+    scale 50% (480x270), 9.6 fps (target 10); figures below: full size, at rest' on a reduced
+    frame, 'scale 100%' on a full-size one; '' when it is off (--target-fps 0) or the
+    figures have none."""
+    scale, target, fixed = f.get("scale"), f.get("target_fps") or 0.0, f.get("move_scale")
+    if scale is None or (target <= 0.0 and fixed is None):
+        return ""
+    if scale >= 1.0:
+        return "scale 100%"
+    w, h = f["render_size"]
+    how = "--move-scale" if fixed is not None else f"target {target:g}"
+    fps = f", {1000.0 / f['frame_ms']:.1f} fps" if f.get("frame_ms") else ""
+    return f"moving: scale {scale:.0%} ({w}x{h}){fps} ({how}); figures below: full size, at rest"
 
 
 def capped_text(capped) -> str:
@@ -81,7 +100,8 @@ def window_hud(f: dict, state, *, message: str, warning: str, predicted_ms, stat
     """The window's HUD: hud_lines of the figures `f`, the view's note, the split's line,
     the inspection; a warning line starts with '!' (the UI colours it)."""
     s = state
-    warning = warning or slow_warning(s.technique, predicted_ms)
+    moving = bool(f) and f.get("scale", 1.0) < 1.0       # a reduced frame is not the slow one
+    warning = warning or ("" if moving else slow_warning(s.technique, predicted_ms))
     warning = "!" + warning if warning else ""
     if not f:
         return [l for l in (warning, message) if l] or ["starting ..."]

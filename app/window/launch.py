@@ -13,6 +13,7 @@ from ..errors import UserError
 from . import progress
 from .keys import parse_keys
 from .options import DISPLAY, DISPLAY_FLAGS
+from .scale import MIN_SCALE
 from .views import ALL_VIEWS, views_of, with_view
 
 DESCRIPTION = ("Live window: the capture pipeline, every frame, with a panel of every option "
@@ -65,6 +66,30 @@ def add_display_args(p) -> None:
                        help=f"{s.help}; {lo_hi(s)}, default {s.default:g}".replace("%", "%%"))
 
 
+def _move_scale(text: str):
+    """--move-scale: 'auto' (None: held by --target-fps) or a scale in MIN_SCALE..1."""
+    if text == "auto":
+        return None
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected 'auto' or a scale, got '{text}'") from None
+    if not MIN_SCALE <= v <= 1.0:
+        raise argparse.ArgumentTypeError(f"expected 'auto' or a scale in {MIN_SCALE:g}..1, got {v:g}")
+    return v
+
+
+def add_scale_args(p) -> None:
+    """--target-fps, --move-scale: dynamic resolution while the camera moves (app.window.scale)."""
+    s = DISPLAY["target_fps"]
+    p.add_argument(s.flag, type=cli._option_type(s), default=s.default,
+                   help=f"{s.help}; {s.lo:g}..{s.hi:g}, default {s.default:g} (the panel's "
+                        f"'target fps')".replace("%", "%%"))
+    p.add_argument("--move-scale", type=_move_scale, default=None,
+                   help="'auto' (the default: the scale --target-fps holds) or the scale every "
+                        f"moving frame takes, {MIN_SCALE:g}..1 (1: always full size)")
+
+
 def add_motion_arg(p) -> None:
     """--motion: the lights' motion (scenes.motion), shared with capture and the bench."""
     from scenes.motion import MOTION_CHOICES
@@ -93,6 +118,7 @@ def build_parser():
                         "starts on the one the last probe found fastest for this scene and size)")
     p.add_argument("--view", choices=ALL_VIEWS, default="shaded", help="starting view (one the technique has)")
     add_display_args(p)
+    add_scale_args(p)
     p.add_argument("--frames", type=_positive, help="exit after N frames (scripted run)")
     p.add_argument("--screenshot", help="PNG of the last frame")
     p.add_argument("--keys", type=lambda t: parse_keys(t, panel_keys(REGISTRY)), default=[],
@@ -232,7 +258,7 @@ def main(argv=None) -> None:
             sequence.append([i] + state)
     print(json.dumps({"exit": "ok", "window": name, "frames": app.frame,
                       "wall_s": round(time.perf_counter() - t0, 2), "sequence": sequence,
-                      "size": list(app.renderer.size), "screenshots": app.shots.paths, "screenshot_hud": app.shots.huds,
+                      "size": list(app.full_size), "screenshots": app.shots.paths, "screenshot_hud": app.shots.huds,
                       "paths": app.recorder.saved, "started": app.started[0] if app.started else "",
                       "probe_skipped": app.started[1:],
                       "renderer": app.renderer.limits.renderer}), flush=True)

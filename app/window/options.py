@@ -90,6 +90,7 @@ class WindowOptions:
 
 def _display_specs():
     from .. import images
+    from . import scale
     from ..techniques.options import OptionSpec
     return {s.name: s for s in (
         # a factor on the radiance (the panel's slider shows it as EV, log2 of it); the
@@ -104,6 +105,10 @@ def _display_specs():
                    "(fix it so two runs compare)", lo=0.0, hi=1e7),
         OptionSpec("split_at", float, 0.0, "where the split is, a fraction of the width (0: the "
                    "middle of what the panel leaves visible)", lo=0.0, hi=0.95),
+        # dynamic resolution (app.window.scale): the window's own, not capture's
+        OptionSpec("target_fps", float, scale.DEFAULT_FPS, "while the camera moves, render at the "
+                   "scale that holds this frame rate (full size at rest; the shaded view only); "
+                   "0: always full size", lo=0.0, hi=240.0),
     )}
 
 

@@ -51,6 +51,8 @@ class LabState:
     split_view: str = "shaded"
     split_at: float = 0.0                   # 0: the middle of what the panel leaves visible
     inspect: bool = False
+    target_fps: float = DISPLAY["target_fps"].default   # dynamic resolution (app.window.scale)
+    move_scale: float | None = None         # a fixed scale of moving frames; None: the target's
     hud: bool = True
     panel: bool = True
     version: int = 0                        # bumped by every change
@@ -231,7 +233,7 @@ class Panel:
 
     FIXED_KEYS = ("technique", "view", "defaults", "lights", "seed", "distribution",
                   "exposure_auto", "exposure_ev", "ambient", "heat_max", "heat_of",
-                  "heat_overlay", "split_with", "split_view", "split_at", "inspect")
+                  "heat_overlay", "split_with", "split_view", "split_at", "inspect", "target_fps")
 
     def __init__(self, state: LabState, actions: dict | None = None):
         self.state = state
@@ -277,6 +279,10 @@ class Panel:
                              f"exposure off"),
                 self._display("ambient", "ambient"),
                 self._display("heat_max", "heat max"),
+                spec_control(DISPLAY["target_fps"], "target fps", s.target_fps, "display",
+                             self._set_target_fps,
+                             help=f"--target-fps: {DISPLAY['target_fps'].help}; moving it ends a "
+                                  f"fixed --move-scale"),
                 Control("heat_of", "heat of", "choice", s.heat_of, choices=HEAT_OF, section="display",
                         help="lights evaluated per pixel, or exact lights (contrib_count)",
                         set=lambda v: self._setattr("heat_of", _choice(v, "heat of", HEAT_OF))),
@@ -353,6 +359,11 @@ class Panel:
         v = _float(v, "exposure EV", *EV_RANGE)
         self.state.exposure_ev = v
         self.state.exposure_auto = False
+        self.state.changed()
+
+    def _set_target_fps(self, v) -> None:
+        self.state.target_fps = DISPLAY["target_fps"].check(v)
+        self.state.move_scale = None
         self.state.changed()
 
     def _set_split(self, v) -> None:

@@ -11,6 +11,8 @@ window's cost, not the technique's):
     stash       present.vert/.frag   out_color, out_stats -> two textures (radiance, counters)
                                      that outlive the frame: the reference's (diff view) and
                                      the second technique's (split view)
+    upscale     present.vert         a reduced frame's view, presented at its render size into
+                upscale.frag         a texture (Upscale), over the window's viewport, bilinear
 
 Textures: the G-buffer at units 0-2 (GBuffer.bind_textures); the stashes at the *_UNIT
 units below (defines of present.frag, so each number is written here only).
@@ -32,6 +34,7 @@ STATS_BLOCK = 32                     # pixels a side of one view_stats group (pr
 EXTRA_WORDS = len(EXTRA_HEAD) + images.HIST_BINS
 UNITS = {"REF_COLOR_UNIT": 4, "REF_STATS_UNIT": 5, "SPLIT_COLOR_UNIT": 6, "SPLIT_STATS_UNIT": 7,
          "MAP_UNIT": 8}
+FRAME_UNIT = 9                       # upscale.frag's (present.frag takes UNITS only)
 FULL = (-1.0, -1.0, 1.0, 1.0)        # u_rect of a full-viewport quad (NDC x0, y0, x1, y1)
 
 
@@ -86,6 +89,43 @@ def stash_pass(fbo, size) -> Pass:
                 draw=_quad(fbo, size), timed=False,
                 defines=dict(present_defines(), STASH=1, **view_defines(), **UNITS),
                 uniforms={"u_rect": FULL, "u_size": tuple(size)})
+
+
+def upscale_pass(target, viewport) -> Pass:
+    """The view presented into Upscale's texture (bound at FRAME_UNIT), scaled to `viewport`
+    of `target` with bilinear filtering."""
+    return Pass("upscale", ("present.vert", "upscale.frag"), draw=_quad(target, viewport),
+                timed=False, defines={"FRAME_UNIT": FRAME_UNIT}, uniforms={"u_rect": FULL})
+
+
+class Upscale:
+    """A reduced frame's view at its render size: an RGBA8 texture, filtered linearly."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+        self.size = None
+        self.fbo = self.color = None
+
+    def ensure(self, size) -> None:
+        if self.size == tuple(size):
+            return
+        self.release()
+        import moderngl
+        self.size = tuple(size)
+        self.color = self.ctx.texture(self.size, 4)
+        self.color.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        self.color.repeat_x = self.color.repeat_y = False
+        self.fbo = self.ctx.framebuffer([self.color])
+
+    def bind(self) -> None:
+        self.color.use(FRAME_UNIT)
+
+    def release(self) -> None:
+        for o in (self.fbo, self.color):
+            if o is not None:
+                o.release()
+        self.fbo = self.color = None
+        self.size = None
 
 
 class Stash:

@@ -128,3 +128,44 @@ def test_diff_marks_exactly_the_differing_pixels(frame):
 def test_view_ids_are_the_window_order():
     from app.window.views import view_defines
     assert view_defines() == {f"VIEW_{v.upper()}": i for i, v in enumerate(VIEWS)}
+
+
+def _bilinear_2x(img: np.ndarray) -> np.ndarray:
+    """`img` (h, w, 3) at twice its size, sampled as a GL_LINEAR texture clamped to its edge."""
+    h, w, _ = img.shape
+    def taps(n):
+        t = np.clip((np.arange(2 * n) + 0.5) / 2 - 0.5, 0, n - 1)
+        lo = np.floor(t).astype(int)
+        return lo, np.minimum(lo + 1, n - 1), t - lo
+    y0, y1, fy = taps(h)
+    x0, x1, fx = taps(w)
+    f = img.astype(np.float64)
+    top = f[y0][:, x0] * (1 - fx)[None, :, None] + f[y0][:, x1] * fx[None, :, None]
+    bottom = f[y1][:, x0] * (1 - fx)[None, :, None] + f[y1][:, x1] * fx[None, :, None]
+    return top * (1 - fy)[:, None, None] + bottom * fy[:, None, None]
+
+
+def test_a_reduced_frame_is_scaled_up_bilinearly(frame):
+    # dynamic resolution: the view presented at its render size into Upscale's texture, then
+    # drawn over a viewport twice its size (compose.FrameComposer.draw)
+    r, _, _ = frame
+    w, h = r.size
+    small = _present(r, "shaded", u_exposure=4.0, u_ambient=0.05)
+    up = passes.Upscale(r.ctx)
+    up.ensure((w, h))
+    r.gbuffer.bind_textures()
+    u = {"u_exposure": 4.0, "u_ambient": 0.05, "u_heat_max": 10.0, "u_heat_of": 0, "u_heat_overlay": 0,
+         "u_tile": 0, "u_slices": 0, "u_slice_scale": 0.0, "u_slice_bias": 0.0, "u_ref_valid": 0,
+         "u_split_x": w + 1, "u_split_view": 0, "u_cursor_tile": (-1, -1, -1, -1), "u_cursor": (-1, -1),
+         "u_light_sphere": (0.0, 0.0, 0.0, 0.0), "u_tan_half": (0.5, 0.3)}
+    r.run([passes.present_pass(up.fbo, (w, h), (w, h), "shaded", u)])
+    big = r.ctx.simple_framebuffer((2 * w, 2 * h), components=4)
+    up.bind()
+    r.run([passes.upscale_pass(big, (2 * w, 2 * h))])
+    got = np.frombuffer(big.read(components=3, alignment=1), np.uint8).reshape(2 * h, 2 * w, 3)[::-1]
+    big.release()
+    up.release()
+    want = _bilinear_2x(small)
+    assert np.abs(got - want).max() <= 1.0
+    nearest = small.repeat(2, 0).repeat(2, 1)
+    assert (np.abs(got - nearest) > 1).mean() > 0.05            # filtered, not repeated

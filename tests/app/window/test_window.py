@@ -220,7 +220,8 @@ def test_hud_and_panel_on_screenshot_without_old_messages(tmp_path):
                                   ["--technique", "brute", "--tile", "32"],
                                   ["--technique", "tree", "--slices", "8"],
                                   ["--technique", "tree", "--tile", "7000"],
-                                  ["--replay", "/nonexistent/path.json"]])
+                                  ["--replay", "/nonexistent/path.json"],
+                                  ["--move-scale", "0.1"], ["--target-fps", "-1"]])
 def test_bad_flags_one_line_exit_2(args):
     proc = run(["app.window", "--window", "headless", *args])
     assert proc.returncode == 2
@@ -414,3 +415,47 @@ def test_hud_shows_the_modelled_gpu_time():
     values = {g.key: float(line.split(f"{g.key} ")[1].split()[0]) for g in cost.GPUS}
     assert all(v > 0 for v in values.values()), line
     assert values["h200"] < values["ps4"], line          # 10x the ALUs and 27x the bandwidth
+
+
+def test_moving_frames_render_reduced_and_statistics_come_from_full_size(tmp_path):
+    """Dynamic resolution under Xvfb: the scene's path plays from the first frame (the camera
+    moves every frame); F1 (no HUD: nothing changes) thrice, K, P stops, a frame at rest.
+    Moving frames render at --move-scale 0.5 and carry the last full-size frame's figures;
+    the first frame, the screenshot's and the one at rest render at full size.  A run with
+    dynamic resolution off, every frame full size, gives the same screenshot and figures."""
+    xvfb = shutil.which("xvfb-run")
+    if xvfb is None:
+        pytest.fail("xvfb-run not found: install xvfb (LAB_WITH_XVFB=1 scripts/setup.sh)")
+    common = LIT + ["--technique", "hybrid", "--path", "--no-hud", "--keys", "f1,f1,f1,k,p",
+                    "--window", "pyglet"]
+    pyglet = {"prefix": [xvfb, "-a", "-s", "-screen 0 640x480x24"], "headless": False}
+    frames, summary, _ = run_window(common + ["--move-scale", "0.5", "--frames", "6",
+                                              "--shot-dir", str(tmp_path / "a")], **pyglet)
+    assert [f["scale"] for f in frames] == [1.0, 0.5, 0.5, 1.0, 0.5, 1.0]
+    assert [f["render_size"] for f in frames] == [[160, 90], [80, 45], [80, 45], [160, 90], [80, 45], [160, 90]]
+    assert all(f["size"] == [160, 90] for f in frames) and summary["size"] == [160, 90]
+    assert [f["stats_frame"] for f in frames] == [0, 0, 0, 3, 3, 5]
+    stats = ("evaluated_per_pixel", "exact_per_pixel", "visible_lights", "covered", "gpu_ms")
+    for f in frames:
+        assert {k: f[k] for k in stats} == {k: frames[f["stats_frame"]][k] for k in stats}
+    assert frames[1]["camera"] != frames[0]["camera"] and frames[5]["camera"] == frames[4]["camera"]
+    full, _, _ = run_window(common + ["--target-fps", "0", "--frames", "4", "--shot-dir", str(tmp_path / "b")],
+                            **pyglet)
+    assert [f["scale"] for f in full] == [1.0] * 4 and full[3]["camera"] == frames[3]["camera"]
+    assert full[0]["evaluated_per_pixel"] == frames[1]["evaluated_per_pixel"]      # frame 0's
+    assert full[1]["evaluated_per_pixel"] != frames[1]["evaluated_per_pixel"]
+    assert {k: full[3][k] for k in stats[:-1]} == {k: frames[3][k] for k in stats[:-1]}
+    shot, = list((tmp_path / "a").glob("*.png"))
+    ref, = list((tmp_path / "b").glob("*.png"))
+    diff = np.abs(load_rgb(shot) - load_rgb(ref))
+    assert diff.max() <= 2 and (diff > 0).mean() < 0.01, (diff.max(), (diff > 0).mean())
+
+
+def test_esc_on_a_reduced_frame_saves_a_full_size_one(tmp_path):
+    # the path moves the camera every frame: frame 1 is reduced, Esc on frame 2 renders that
+    # frame at full size for --screenshot, then quits
+    shot = tmp_path / "esc.png"
+    frames, summary, _ = run_window(SMALL + ["--technique", "clustered", "--path", "--move-scale", "0.5",
+                                             "--json", "--keys", "f1,f1,escape", "--screenshot", str(shot)])
+    assert [f["scale"] for f in frames] == [1.0, 0.5, 1.0] and summary["frames"] == 3
+    assert summary["screenshots"] == [str(shot)] and load_rgb(shot).shape == (90, 160, 3)
