@@ -303,6 +303,13 @@ class StochasticOptions(TechniqueOptions):
     stochastic_frame: int = option(0, "frame of the stochastic ranges' draw (with --stochastic: "
                                       "a new draw a frame, the same for a seed)", lo=0, hi=2**31 - 1)
 
+    def ignored(self) -> dict[str, str]:
+        """Without --stochastic there is no draw: its seed and frame select nothing."""
+        out = dict(super().ignored())
+        if not self.stochastic:
+            out.update(dict.fromkeys(("stochastic_seed", "stochastic_frame"), "without --stochastic"))
+        return out
+
     def check_modes(self) -> None:
         super().check_modes()
         # A per-tile cap (HDRP FPTL) caps the lists built from the draw's ranges, and its check

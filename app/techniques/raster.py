@@ -101,10 +101,10 @@ class Raster(Technique, register_at=80):
             tiles of bit_tile; tile mode has no clusters, and its zbin loop ignores what
             zbin.ShadingOptions.ignored says (the z-bins' count and mask without z-bins, the
             wave ops in the base tile; compaction's wave ops follow raster_variant)."""
+            out = dict(super().ignored())          # zbin's shading loop's, the draw's
             if self.cluster:
                 mode = f"in cluster mode (--cluster {self.cluster})"
-                return dict.fromkeys(CLUSTER_IGNORES, mode)
-            out = dict(super().ignored())          # zbin's shading loop's (ShadingOptions)
+                return dict(out, **dict.fromkeys(CLUSTER_IGNORES, mode))
             out.update(dict.fromkeys(("cluster_tile", "cluster_slices"), "in tile mode (--cluster 0)"))
             return out
 
