@@ -89,10 +89,14 @@ def test_every_mask_is_exact(frames, name):
     assert (frames["brute"].contrib_count > 0).sum() > 300
 
 
-def test_variants_leave_the_image_and_counters_alone(frames, renderer):
-    """The same loops over the same lists: the same image and evaluated lights."""
-    off = renderer.render(REGISTRY["tiled"], opts={"tile": 8})
-    on = frames["tiled"]
+@pytest.mark.parametrize("name", list(CASES))
+def test_variants_leave_the_image_and_counters_alone(frames, renderer, name):
+    """The same loops over the same lists: the same image and evaluated lights (a mask's
+    program that skipped a shape's or the specular lobe's shading would keep the light sets
+    and change the image)."""
+    off = renderer.render(REGISTRY[name], opts={k: v for k, v in CASES[name].items() if k not in ON})
+    on = frames[name]
+    assert off.meta["options"]["feature_variants"] is False and on.meta["options"]["feature_variants"] is True
     assert np.array_equal(on.image, off.image) and np.array_equal(on.evaluated, off.evaluated)
     assert np.array_equal(on.wave, off.wave)
 

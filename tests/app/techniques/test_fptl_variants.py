@@ -77,9 +77,10 @@ def test_every_mask_is_exact_and_the_words_are_the_lists(renderer, brute, varian
     assert {"fptl_lists", "variant_classify", "variant_compact"} <= set(res.meta["gpu_ms"])
 
 
-def test_variants_leave_the_image_and_counters_alone(renderer):
-    off = renderer.render(T, opts={"fptl_variant": 2})
-    on = renderer.render(T, opts=dict(ON, fptl_variant=2))
+@pytest.mark.parametrize("variant,loops", CASES)
+def test_variants_leave_the_image_and_counters_alone(renderer, variant, loops):
+    off = renderer.render(T, opts={"fptl_variant": variant, "type_loops": loops})
+    on = renderer.render(T, opts=dict(ON, fptl_variant=variant, type_loops=loops))
     assert np.array_equal(on.image, off.image) and np.array_equal(on.evaluated, off.evaluated)
     assert np.array_equal(on.wave, off.wave)
 
