@@ -27,3 +27,11 @@ def test_shared_reference_scopes_name_real_tests():
     for name in BUILTIN_SCENES:       # the exactness check's uniform draw and the tree options
         assert scopes[f"reference {name}"] == 2, (name, scopes)
     assert scopes["reference arena 4096"] >= 10, scopes
+
+
+def test_grouped_modules_exist():
+    """conftest's GROUPED paths name real test modules: a moved or renamed one would
+    otherwise drop out of its group silently, its expensive fixture run on every worker."""
+    from conftest import GROUPED
+    root = Path(__file__).parent.parent
+    assert [p for p in GROUPED if not (root / p).is_file()] == []
