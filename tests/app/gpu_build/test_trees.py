@@ -56,7 +56,7 @@ def test_a_cell_past_65535_lights_splits_and_listing_2_sums_over_windows(gl):
     two leaves (16-bit counts), as is tree's one-leaf tree; both bit for bit, exact, lit."""
     from app.pipeline.passes import FrameInput
     from app.techniques.base import windows
-    from tests.app.techniques.test_loop_budget import budget_frame, budget_lights
+    from tests.app.techniques.hard_frames import budget_frame, budget_lights
     with budget_frame() as f:
         L, _ = budget_lights(f, np.random.default_rng(65_537))
         brute = f.render(L, techniques=["brute"])["brute"]

@@ -40,7 +40,7 @@ def test_budget_doubles_the_tile_on_the_gpu_as_on_the_cpu(gl):
 def test_past_65536_lights_the_gpu_builds_the_wide_lut(gl):
     """70,000 visible lights, the lit ones sorted past id 65,535 (test_loop_budget's case):
     the GPU's 32-bit LUT and bits are the CPU's, and the frame is exact."""
-    from tests.app.techniques.test_loop_budget import budget_frame, budget_lights
+    from tests.app.techniques.hard_frames import budget_frame, budget_lights
     with budget_frame() as f:
         L, _ = budget_lights(f, np.random.default_rng(65_537))
         cpu, gpu = render_both(f.renderer, "zbin", {"zbin_variant": 3}, lights=L)
