@@ -35,3 +35,15 @@ def test_grouped_modules_exist():
     from conftest import GROUPED
     root = Path(__file__).parent.parent
     assert [p for p in GROUPED if not (root / p).is_file()] == []
+
+
+def test_no_test_module_imports_another():
+    """A test module imported as a library is imported twice (as its base name by pytest, as
+    tests.x.test_y by the importer): what tests share lives in helper modules instead."""
+    import re
+    root = Path(__file__).parent
+    pending = {"app/window/test_variant_view.py"}      # imports test_window (the window's)
+    bad = [str(p.relative_to(root)) for p in root.rglob("test_*.py")
+           if re.search(r"^\s*(from tests\.\S*\btest_\w+ import|from tests\.\S* import .*\btest_\w+)",
+                        p.read_text(), re.M)]
+    assert sorted(set(bad) - pending) == [], bad
