@@ -58,7 +58,7 @@ THREADS = pytest.mark.parametrize("nthreads", [1, 2])
 
 
 @THREADS
-@settings(max_examples=13, deadline=None)
+@settings(max_examples=12, deadline=None)
 @given(st.integers(0, 2**31), st.integers(0, 1500), st.sampled_from([0, 0, 64]),
        st.sampled_from([(320, 180), (97, 61), (1, 1)]))
 def test_prepare_lights_equals_the_plain_stage(nthreads, seed, n, buckets, size):
@@ -76,7 +76,7 @@ def test_prepare_lights_equals_the_plain_stage(nthreads, seed, n, buckets, size)
 
 
 @THREADS
-@settings(max_examples=13, deadline=None)
+@settings(max_examples=12, deadline=None)
 @given(st.integers(0, 2**31), st.integers(0, 1200), st.sampled_from([8, 16, 48]),
        st.sampled_from([1, 4, 16]))
 def test_binning_and_trees_equal_the_plain_stage(nthreads, seed, n, tile, slices):
