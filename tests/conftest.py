@@ -35,9 +35,10 @@ import pytest
 from hypothesis import settings
 
 # No per-example deadline (first calls compile numba kernels and shaders); CI replays the
-# same examples every run (derandomize) so a red build is reproducible.
-settings.register_profile("lab", deadline=None)
-settings.register_profile("ci", deadline=None, derandomize=True)
+# same examples every run (derandomize) so a red build is reproducible; a local run draws
+# new ones, and a failure prints the @reproduce_failure blob that replays it (print_blob).
+settings.register_profile("lab", deadline=None, print_blob=True)
+settings.register_profile("ci", deadline=None, derandomize=True, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI") else "lab")
 
 

@@ -200,13 +200,16 @@ def render_on(renderer, opts: dict | None = None, techniques=None, reference=Non
     return out
 
 
-@lru_cache(maxsize=8)
+@lru_cache(maxsize=None)
 def builtin_reference(name: str, lights: int, seed: int, distribution: str,
                       size: tuple[int, int]):
     """(scene, the reference's result of its frame 0 at `size`) for one draw of a builtin
     scene, rendered once per test process: the tests that check every technique and every
     option set on the builtin scenes share it (the reference takes none of their options),
-    and tests/conftest.py schedules the tests of one scene on one worker (SHARED_REFERENCE)."""
+    and tests/conftest.py schedules the tests of one scene on one worker (SHARED_REFERENCE).
+    Every draw asked stays cached (the suite asks for 15, two distributions of each builtin
+    scene and arena's 4,096 lights: a few MB each): an evicted one is a brute frame of 8,192
+    lights rendered again."""
     from app.pipeline.renderer import Renderer
     from scenes import load_scene
     scene = load_scene(name, lights=lights, seed=seed, distribution=distribution)
@@ -256,9 +259,43 @@ def assert_exact(results: dict, where: str = "") -> None:
     assert not bad, f"{where}: " + "; ".join(bad)
 
 
+def assume_lit(results: dict) -> None:
+    """In a Hypothesis test: an example whose reference frame lights no pixel proves nothing
+    about culling (every technique trivially agrees on nothing), so another is drawn."""
+    from hypothesis import assume
+    assume(bool((results[with_role("reference").name].contrib_count > 0).any()))
+
+
+IMAGE_RTOL = 1e-4      # of the reference image's peak: float32 sums in another order
+
+
+def assert_same_image(results: dict, where: str = "", rtol: float = IMAGE_RTOL) -> None:
+    """Every technique's image equals the reference's to within rtol of its peak radiance:
+    the light sets (assert_exact) do not see a light's weight, the image does."""
+    ref = results[with_role("reference").name].image.astype(np.float64)
+    peak = float(np.abs(ref).max())
+    assert peak > 0, f"{where}: the reference image is black"
+    bad = {n: float(np.abs(r.image - ref).max()) / peak for n, r in results.items()}
+    bad = {n: e for n, e in bad.items() if not e <= rtol}
+    assert not bad, f"{where}: image differs from the reference's by (of its peak) " + \
+        ", ".join(f"{n} {e:.3g}" for n, e in bad.items())
+
+
+def threads_or_skip(n: int) -> None:
+    """Skip the test, saying why, when numba has fewer than n threads: a case of n threads
+    would run on fewer (numba clamps) and check what the one-thread case already does."""
+    import numba
+    import pytest
+    if n > numba.config.NUMBA_NUM_THREADS:
+        pytest.skip(f"{n} threads asked, numba has {numba.config.NUMBA_NUM_THREADS} "
+                    f"(NUMBA_NUM_THREADS, cores): the case would run on fewer")
+
+
 def with_threads(n: int, fn):
-    """fn() with numba's thread count set to n (at most what numba has), restored after."""
+    """fn() with numba's thread count set to n (the test skipped where numba has fewer:
+    threads_or_skip), restored after."""
     from cpu_prep import using_threads
+    threads_or_skip(n)
     with using_threads(n):
         return fn()
 

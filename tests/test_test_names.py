@@ -27,3 +27,23 @@ def test_shared_reference_scopes_name_real_tests():
     for name in BUILTIN_SCENES:       # the exactness check's uniform draw and the tree options
         assert scopes[f"reference {name}"] == 2, (name, scopes)
     assert scopes["reference arena 4096"] >= 10, scopes
+
+
+def test_grouped_modules_exist():
+    """conftest's GROUPED paths name real test modules: a moved or renamed one would
+    otherwise drop out of its group silently, its expensive fixture run on every worker."""
+    from conftest import GROUPED
+    root = Path(__file__).parent.parent
+    assert [p for p in GROUPED if not (root / p).is_file()] == []
+
+
+def test_no_test_module_imports_another():
+    """A test module imported as a library is imported twice (as its base name by pytest, as
+    tests.x.test_y by the importer): what tests share lives in helper modules instead."""
+    import re
+    root = Path(__file__).parent
+    pending = {"app/window/test_variant_view.py"}      # imports test_window (the window's)
+    bad = [str(p.relative_to(root)) for p in root.rglob("test_*.py")
+           if re.search(r"^\s*(from tests\.\S*\btest_\w+ import|from tests\.\S* import .*\btest_\w+)",
+                        p.read_text(), re.M)]
+    assert sorted(set(bad) - pending) == [], bad

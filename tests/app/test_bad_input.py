@@ -240,6 +240,8 @@ CASES = {
                                    r"--cluster-slices 24 is ignored in tile mode"),
     "raster_no_zbins_zbins": (flag_case("--technique", "raster", "--zbin-variant", "2", "--zbins", "64"),
                               r"--zbins 64 is ignored without z-bins \(--zbin-variant 2\)"),
+    "stochastic_seed_without_budget": (flag_case("--stochastic-seed", "3"),
+                                       r"--stochastic-seed 3 is ignored without --stochastic"),
 }
 
 

@@ -8,7 +8,7 @@ import pytest
 
 from cpu_prep import share
 from cpu_prep.intrinsics import fetch_add
-from tests.helpers import with_threads
+from tests.helpers import threads_or_skip, with_threads
 
 
 @numba.njit(nogil=True)
@@ -32,8 +32,7 @@ def test_every_chunk_once(threads, chunks):
 
 
 def test_a_helper_held_busy_does_not_stall_the_caller():
-    if numba.config.NUMBA_NUM_THREADS < 2:
-        pytest.skip("one numba thread")
+    threads_or_skip(2)
     release = threading.Event()
     started = threading.Event()
 

@@ -4,23 +4,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from cpu_prep import layouts, limits, tree
+from cpu_prep import limits, tree
+from tests.cpu_prep.tree_walk import traverse
 
 
-def traverse(nodes, base, count, depth):
-    """Listing 3, in Python: the leaf light ranges hit at `depth`, and nodes visited."""
-    i, hit, visited = 0, [], 0
-    while i < count:
-        n = nodes[base + i]
-        visited += 1
-        leaf, cnt, skip = (int(v) for v in layouts.unpack_node_bits(n["bits"]))
-        if n["min_depth"] <= depth <= n["max_depth"]:
-            if leaf:
-                hit += list(range(n["first_light"], n["first_light"] + cnt))
-            i += 1
-        else:
-            i += skip
-    return hit, visited
 
 
 @pytest.mark.parametrize("leaves", [1, 2, 4, 8, 64])

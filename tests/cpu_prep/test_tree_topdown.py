@@ -11,7 +11,7 @@ from hypothesis import given, settings, strategies as st
 from cpu_prep import grid as gridmod, hybrid, layouts, limits, tree, tree_topdown
 from cpu_prep.camera import frame_camera
 from scenes.model import Camera
-from tests.cpu_prep.test_tree import traverse
+from tests.cpu_prep.tree_walk import traverse
 from tests.helpers import with_threads
 
 TOPDOWN = tree.BUILD_TOPDOWN

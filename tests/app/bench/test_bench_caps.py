@@ -76,12 +76,8 @@ def test_rows_lose_pixels_and_image_where_capped(series):
         # exact on the lights it kept: brute without the dropped ones
         assert r["mismatch_count"] == 0 and r["mismatch_hash"] == 0, where
         assert r["samples"] == TINY.study_repeat and r["frame_cost_ms"] > 0, where
-    # HDRP FPTL per tile: the check's count of entries lost is the GPU's (the arena's small
-    # lights leave its tiles under 24 here: tests/app/techniques/test_fptl_tile_caps.py bites)
-    for p in caps.TILE_NAMES:
-        s = stats(by[("fptl", p)])
-        assert s["lost_entries"] == s["capped_entries"] and s["lost_tiles"] == s["capped_tiles"]
-        assert (s["lost_pixels"] > 0) == (s["lost_entries"] > 0)
+    # HDRP FPTL per tile: the arena's small lights leave its tiles under 24 here, so its rows
+    # drop nothing; tests/app/techniques/test_fptl_tile_caps.py holds the counts where it bites
     for t in RENDERED:
         none = by[(t, caps.NONE)]
         assert stats(none)["lost_pixels"] == 0 and stats(none)["lost_contributions"] == 0

@@ -14,7 +14,7 @@ from app.bench.gpu_build import STUDY as GPU_BUILD, gpu_techniques
 from app.results import CPU_PREFIX, columns, option_studies, read_csv
 from app.techniques import REGISTRY, with_role
 from app.techniques.base import Technique
-from tests.app.techniques.test_frame_graph import Throwaway
+from tests.app.techniques.throwaway import Throwaway
 from tests.helpers import registered
 
 TINY = ["--quick", "--size", "64x36", "--scenes", "arena", "--frames", "1", "--lights", "256",

@@ -15,8 +15,6 @@ from app.techniques import REGISTRY
 from tests.app.gpu_build.helpers import assert_same_build, hard_lights, render_both
 from tests.helpers import assert_exact, make_scene
 
-BUFFERS = ("lights", "ranges", "entries", "nodes")
-
 
 def _both(name, lights, size=(80, 48), **opts):
     with Renderer(make_scene(lights, size=size)) as r:
@@ -33,7 +31,7 @@ def _both(name, lights, size=(80, 48), **opts):
 ])
 def test_gpu_build_gives_the_cpu_builds_trees_bit_for_bit(gl, name, seed, n, opts):
     cpu, gpu, ref = _both(name, hard_lights(seed, n), **opts)
-    assert_same_build(cpu, gpu, BUFFERS)
+    assert_same_build(cpu, gpu, name)
     s = gpu.meta["stats"]
     assert s["trees"] > 0 and s["lists"] > 0 if name == "hybrid" else s["trees"] > 0
     nodes = gpu.build.buffers["nodes"]
@@ -58,7 +56,7 @@ def test_a_cell_past_65535_lights_splits_and_listing_2_sums_over_windows(gl):
     two leaves (16-bit counts), as is tree's one-leaf tree; both bit for bit, exact, lit."""
     from app.pipeline.passes import FrameInput
     from app.techniques.base import windows
-    from tests.app.techniques.test_loop_budget import budget_frame, budget_lights
+    from tests.app.techniques.hard_frames import budget_frame, budget_lights
     with budget_frame() as f:
         L, _ = budget_lights(f, np.random.default_rng(65_537))
         brute = f.render(L, techniques=["brute"])["brute"]
@@ -66,7 +64,7 @@ def test_a_cell_past_65535_lights_splits_and_listing_2_sums_over_windows(gl):
         for name, opts in (("hybrid", {"slices": 2, "tile": 32, "radius_scale": 1e-3}),
                            ("tree", {"tile": 32, "max_leaves": 1})):
             cpu, got[name] = render_both(f.renderer, name, opts, lights=L)
-            assert_same_build(cpu, got[name], BUFFERS)
+            assert_same_build(cpu, got[name], name)
         fi = FrameInput(L, f.cam, f.scene.max_depth, loop_budget=f.renderer.limits.loop_budget)
     assert len(windows(fi, got["hybrid"].build.data["longest_list"])) > 1
     assert got["hybrid"].meta["stats"]["lists_stored_as_trees"] == 1

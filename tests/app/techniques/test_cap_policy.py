@@ -1,6 +1,8 @@
 """--cap-policy on the list techniques: a capped frame differs from brute on purpose, by
 exactly the lights its policy dropped; its meta says so, and the exactness check counts the
-loss (never a pass, never a plain failure).  `none` changes nothing."""
+loss (never a pass, never a plain failure).  Which lights go is held to each engine's rule
+written here (budgets per type group, scene order or distance from the eye) on a scene past
+every view cap, the frame to brute without exactly those.  `none` changes nothing."""
 import subprocess
 import sys
 from pathlib import Path
@@ -8,12 +10,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.exactness import IntendedLoss, Mismatch, check
+from app.exactness import IntendedLoss, Mismatch, check, differing
 from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY, with_role
 from app.techniques.options import CapOptions
 from cpu_prep import caps
-from tests.helpers import make_scene, random_lights
+from cpu_prep.camera import look_at
+from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT
+from tests.helpers import CAMERA, make_scene, random_lights, random_shapes
 
 ROOT = Path(__file__).resolve().parents[3]
 CAPPED = [n for n, t in REGISTRY.items() if issubclass(t.Options, CapOptions)]
@@ -68,6 +72,67 @@ def test_no_cap_changes_nothing(gl, capped_scene):
             assert res.meta["stats"]["capped_lights"] == 0
             m = check(res, ref, r, REGISTRY[name], ref_t, {"opts": {"cap_policy": "filament-256"}})
             assert isinstance(m, IntendedLoss) and m.pixels == 0 and m.lights == 0
+
+
+# ---- who is dropped: each engine's budgets and order, written here from its source
+# (docs/research/accuracy_policies.md), not read from cpu_prep.caps ----------------------
+
+P, S, C, B = LIGHT_POINT, LIGHT_SPOT, LIGHT_CAPSULE, LIGHT_BOX
+ENGINES = {   # policy: ((types of a budget, most kept), ...), order
+    "godot-512": ((((P,), 512), ((S,), 512), ((C,), 512), ((B,), 512)), "scene"),
+    "hdrp-view": ((((P, S, B), 512), ((C,), 64)), "scene"),
+    "filament-256": ((((P, S, C, B), 256),), "nearest"),
+}
+
+
+def expected_drops(policy: str, lights) -> list[int]:
+    """The scene ids an engine's policy drops when every light is visible: past each budget,
+    the last in scene order, or the farthest from the eye (ties: the higher id)."""
+    budgets, order = ENGINES[policy]
+    eye = np.asarray(CAMERA.position, np.float64)
+    far = np.linalg.norm(lights["position"].astype(np.float64) - eye, axis=1)
+    out = []
+    for types, most in budgets:
+        ids = np.flatnonzero(np.isin(lights["type"], types))
+        ranked = ids if order == "scene" else ids[np.lexsort((ids, far[ids]))]
+        out += ranked[most:].tolist()
+    return sorted(out)
+
+
+@pytest.fixture(scope="module")
+def crowd():
+    """700 small lights of the four shapes in scene order shuffled (560 points: past
+    Godot's 512 of a type and, with the spots and boxes, HDRP's 512 punctual; 80 capsules:
+    past HDRP's 64 area lights), every one wholly in view; a tiny frame (the caps act on
+    the lights, not the pixels)."""
+    rng = np.random.default_rng(8)
+    L = np.concatenate([random_shapes(rng, n, (-4, 0.5, -14), (4, 3, -4), radius=(0.3, 0.8),
+                                      length=(0.0, 1.0), extent=(0.1, 0.5), shares=np.eye(4)[t])
+                        for t, n in ((P, 560), (S, 40), (C, 80), (B, 20))])
+    return make_scene(L[rng.permutation(len(L))], size=(32, 24))
+
+
+@pytest.mark.parametrize("policy", list(ENGINES))
+def test_the_engines_view_caps_drop_the_lights_their_order_says(gl, crowd, policy):
+    want = expected_drops(policy, crowd.lights)
+    assert len(want) > 0
+    ref_t = with_role("reference")
+    without = caps.without(crowd.lights, want, look_at(CAMERA.position, CAMERA.target, CAMERA.up))
+    with Renderer(crowd) as r:
+        ref = r.render(ref_t)
+        assert ref.meta["stats"]["visible_lights"] == len(crowd.lights)     # all in view
+        intended = r.render(ref_t, lights=without)
+        assert (intended.contrib_count < ref.contrib_count).any()           # the drops show
+        for name in CAPPED:
+            t = REGISTRY[name]
+            opts = t.Options.make({"cap_policy": policy})
+            res = r.render(t, opts=opts)
+            got = sorted(int(i) for i in res.build.data["capped_ids"])
+            assert got == want, f"{name}: dropped {got[:8]}... expected {want[:8]}..."
+            assert res.meta["stats"]["capped_lights"] == len(want), name
+            bad = differing(res, intended)     # brute without exactly those, at every pixel
+            assert not bad.any(), f"{name} under {policy}: {bad.sum()} pixels differ"
+            assert isinstance(check(res, ref, r, t, ref_t, {"opts": opts}), IntendedLoss), name
 
 
 class LosesMore(type(REGISTRY["tiled"])):

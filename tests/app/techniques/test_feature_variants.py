@@ -12,10 +12,10 @@ from app.model import predict
 from app.pipeline import features as feat
 from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY, variants
-from scenes.geometry import box_mesh
-from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_SPOT, LIGHT_TYPES, Camera, make_lights
+from scenes.model import LIGHT_TYPES
 from tests.app.model.replay_check import check as replay_check
-from tests.helpers import assert_exact, make_scene
+from tests.app.techniques.fptl_frames import mask_scene
+from tests.helpers import assert_exact
 
 SIZE = (96, 64)
 ON = {"feature_variants": True}
@@ -24,29 +24,6 @@ CASES = {"tiled": dict(ON, tile=8), "clustered": dict(ON, tile=8), "zbin": dict(
          "hybrid": dict(ON, tile=8, radius_scale=8.0, lights_per_leaf=1)}
 
 
-def mask_scene(size=SIZE, shapes=LIGHT_TYPES):
-    """A floor, specular far half and matte near half, seen from above with sky around it;
-    two lights of each shape (one over each half) apart from the others, a point light
-    between two of them (mixed tiles), and a heap of twelve points (hybrid's tree cells)."""
-    far = box_mesh((-16, -0.1, -8), (16, 0.0, 0.0))
-    far.roughness = 0.3
-    near = box_mesh((-16, -0.1, 0.0), (16, 0.0, 8))
-    L = make_lights(21)
-    L["type"][:8] = np.repeat(np.arange(4), 2)
-    L["position"][:8] = [(x, 0.6, z) for x in (-9.0, -3.0, 3.0, 9.0) for z in (-4.0, 4.0)]
-    L["radius"][:8] = 2.2
-    L["intensity"] = 4.0
-    spot, cap, box = (L["type"] == t for t in (LIGHT_SPOT, LIGHT_CAPSULE, LIGHT_BOX))
-    L["cos_outer"][spot], L["cos_inner"][spot] = np.cos(np.radians(60)), np.cos(np.radians(30))
-    L["direction"][cap], L["length"][cap], L["radius"][cap] = (1.0, 0.0, 0.0), 2.0, 1.0
-    L["up"][box], L["extent"][box], L["position"][box, 1] = (0.0, 0.0, 1.0), (1.5, 1.5, 1.0), 0.0
-    L["position"][8], L["radius"][8] = (6.0, 0.5, 0.0), 2.0
-    rng = np.random.default_rng(1)
-    L["position"][9:] = (-13.0, 0.3, 4.0) + rng.uniform(-0.6, 0.6, (12, 3))
-    L["radius"][9:] = rng.uniform(0.8, 1.6, 12)
-    L = L[np.isin(L["type"], [LIGHT_TYPES.index(s) for s in shapes])]
-    cam = Camera((0.0, 16.0, 9.0), (0.0, 0.0, 0.0), fov_y_deg=70.0, near=0.1, far=100.0)
-    return make_scene(L, [far, near], size=size, camera=cam, max_depth=60.0)
 
 
 @pytest.fixture(scope="module")
@@ -89,10 +66,14 @@ def test_every_mask_is_exact(frames, name):
     assert (frames["brute"].contrib_count > 0).sum() > 300
 
 
-def test_variants_leave_the_image_and_counters_alone(frames, renderer):
-    """The same loops over the same lists: the same image and evaluated lights."""
-    off = renderer.render(REGISTRY["tiled"], opts={"tile": 8})
-    on = frames["tiled"]
+@pytest.mark.parametrize("name", list(CASES))
+def test_variants_leave_the_image_and_counters_alone(frames, renderer, name):
+    """The same loops over the same lists: the same image and evaluated lights (a mask's
+    program that skipped a shape's or the specular lobe's shading would keep the light sets
+    and change the image)."""
+    off = renderer.render(REGISTRY[name], opts={k: v for k, v in CASES[name].items() if k not in ON})
+    on = frames[name]
+    assert off.meta["options"]["feature_variants"] is False and on.meta["options"]["feature_variants"] is True
     assert np.array_equal(on.image, off.image) and np.array_equal(on.evaluated, off.evaluated)
     assert np.array_equal(on.wave, off.wave)
 

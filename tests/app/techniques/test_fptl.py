@@ -32,6 +32,7 @@ from cpu_prep import layouts, limits
 from cpu_prep.camera import frame_camera, look_at
 from scenes.geometry import box_mesh
 from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT, make_lights
+from tests.app.techniques.fptl_frames import point_crowd, read_lists
 from tests.helpers import CAMERA, affects64, assert_exact, make_scene, random_shapes, render_on
 
 T = REGISTRY["fptl"]
@@ -160,51 +161,6 @@ def render(r, opts=None, lights=None):
     return r.render(T, 0, T.resolve_options(opts or {}), lights=lights)
 
 
-def read_lists(r, res):
-    """{cell: [light indices]} decoded from what shading reads (fptl_common.glsl): the
-    list's words, whose in-band state gives its length and whether it spilled (then the
-    spill heads) or shades every light (then every light); checking the R10G10B10A2
-    blocks' counts and the state against the cells' records on the way; and the records."""
-    n = res.meta["stats"]["visible_lights"]
-    bits = res.meta["stats"]["index_bits"]
-    words = fptl.list_words(bits)
-    cells = r.read("fptl_cells").view(fptl.FPTL_CELL)
-    lists = r.read("fptl_lists").reshape(len(cells), words)
-    heads = r.read("fptl_spill_heads").reshape(-1, len(cells), 2)
-    spill = r.read("fptl_spill")
-    per, mask = {10: 3, 16: 2, 32: 1}[bits], {10: 0x3FF, 16: 0xFFFF, 32: 0xFFFFFFFF}[bits]
-    h0 = fptl.head_words(bits)
-    in_band, state = fptl.decode_state(lists, bits)
-    out = {}
-    for c, rec in enumerate(cells):
-        listed = min(int(rec["pruned"]), fptl.LIST_CAP)
-        assert state[c] == rec["flags"] & fptl.STATE, (c, state[c], rec["flags"])
-        full = bool(state[c] & fptl.FLAG_POOL_FULL)
-        if not full:
-            assert in_band[c] == listed, (c, in_band[c], listed)
-        idx = [int(lists[c, h0 + k // per] >> (32 // per * (k % per))) & mask for k in range(listed)]
-        counts = (lists[c] >> 30).tolist()
-        if bits != 10:                                   # the count word
-            assert lists[c, 0] == (0 if full else listed) | int(state[c]) << 8, c
-        elif full:
-            assert tuple(counts) == fptl.POOL_FULL_COUNTS, (c, counts)
-        elif state[c]:
-            assert tuple(counts) == fptl.SPILLED_COUNTS and listed == 24, (c, counts)
-        else:              # the chapter's blocks: 2-bit count of the active indices
-            assert counts == [min(max(listed - 3 * b, 0), 3) for b in range(8)], (c, counts)
-            assert sum(counts) == listed
-        if state[c] & fptl.FLAG_SPILLED:
-            for h in heads[:, c]:
-                idx += spill[h[0]:h[0] + h[1]].tolist()
-        else:
-            assert not heads[:, c, 1].any(), c
-        if full:
-            idx = list(range(n))                         # the cell shades every light
-        else:
-            assert len(idx) == rec["pruned"], c
-        assert all(i < n for i in idx)
-        out[c] = idx
-    return out, cells
 
 
 def expected_shade_bytes(r, res, lists_of):
@@ -396,19 +352,11 @@ def in_view(rng, n, aspect, depth=(5.0, 30.0)):
     return v @ m[:3, :3].T + m[:3, 3]
 
 
-def crowd(n: int, radius=40.0, seed=0):
-    """n big point lights around the middle of the view: every one lights every pixel."""
-    rng = np.random.default_rng(seed)
-    L = make_lights(n)
-    L["position"] = np.column_stack([rng.uniform(-2, 2, n), rng.uniform(0, 3, n), rng.uniform(-14, -6, n)])
-    L["radius"] = radius
-    L["color"] = rng.uniform(0.2, 1.0, (n, 3))
-    return L
 
 
 def test_coarse_past_64_and_pruned_past_24_spill_and_stay_exact(gl):
     n = 150
-    L = crowd(n)
+    L = point_crowd(n)
     with Renderer(make_scene(L, size=(48, 32), camera=CAMERA)) as r:
         res = render(r)
         lists, cells = read_lists(r, res)
@@ -439,7 +387,7 @@ def test_the_spill_pool_bound_holds_in_every_variant(gl, variant):
     around the eye and through the near plane never run it short, in any variant."""
     rng = np.random.default_rng(variant)
     eye = np.array(CAMERA.position)
-    L = np.concatenate([crowd(90, radius=10.0, seed=variant),
+    L = np.concatenate([point_crowd(90, radius=10.0, seed=variant),
                         random_shapes(rng, 60, eye - 1.5, eye + 1.5, radius=(0.3, 3.0)),
                         random_shapes(rng, 150, (-14, -1, -34), (14, 7, 6))])
     with Renderer(make_scene(L, size=(64, 48), camera=CAMERA)) as r:
@@ -455,7 +403,7 @@ def test_the_spill_pool_bound_holds_in_every_variant(gl, variant):
 def test_a_short_spill_pool_flags_cells_that_shade_every_light(gl, monkeypatch, capacity):
     monkeypatch.setattr(fptl, "SPILL_MAX_ENTRIES", capacity)
     rng = np.random.default_rng(capacity)
-    L = np.concatenate([crowd(60, radius=9.0), random_shapes(rng, 100, (-14, -1, -34), (14, 7, 6))])
+    L = np.concatenate([point_crowd(60, radius=9.0), random_shapes(rng, 100, (-14, -1, -34), (14, 7, 6))])
     with Renderer(make_scene(L, size=(64, 48), camera=CAMERA)) as r:
         res = render(r)
         _, cells = read_lists(r, res)
@@ -520,7 +468,7 @@ def test_scan_windows_give_the_same_lists(gl, monkeypatch):
     state over (and spilling per window): forced small here, the lists are the same lights
     in the same order and the frame exact."""
     n = 300
-    L = np.concatenate([crowd(70, radius=12.0), random_shapes(np.random.default_rng(3), n - 70,
+    L = np.concatenate([point_crowd(70, radius=12.0), random_shapes(np.random.default_rng(3), n - 70,
                                                               (-14, -1, -34), (14, 7, 6))])
     with Renderer(make_scene(L, size=(48, 32), camera=CAMERA)) as r:
         one = render(r)
@@ -548,7 +496,7 @@ def test_shading_reads_the_words_not_the_records(gl, monkeypatch):
     pixel evaluating what its cell's words say (its list and spill, or every light)."""
     from app.pipeline.passes import OUT_CELL, HostStep
     rng = np.random.default_rng(11)
-    L = np.concatenate([crowd(60, radius=9.0), random_shapes(rng, 100, (-14, -1, -34), (14, 7, 6))])
+    L = np.concatenate([point_crowd(60, radius=9.0), random_shapes(rng, 100, (-14, -1, -34), (14, 7, 6))])
     passes = T.passes
     garbage = lambda got: ({"fptl_cells": np.full(got["fptl_cells"].nbytes // 4, 0xFFFFFFFF, np.uint32)}, [])
 
@@ -618,7 +566,7 @@ def test_per_type_loops_shade_like_the_one_loop(gl):
     type evaluate the same lights in the same order, the spill included: same counts and
     hashes as brute, same per-pixel work, the same image up to rounding."""
     rng = np.random.default_rng(7)
-    L = np.concatenate([crowd(40, radius=9.0), random_shapes(rng, 200, (-14, -1, -34), (14, 7, 6))])
+    L = np.concatenate([point_crowd(40, radius=9.0), random_shapes(rng, 200, (-14, -1, -34), (14, 7, 6))])
     assert len(np.unique(L["type"])) == 4
     with Renderer(make_scene(L, size=(64, 48), camera=CAMERA)) as r:
         loops, one = render(r), render(r, {"type_loops": False})

@@ -13,39 +13,22 @@ from app.exactness import IntendedLoss, Mismatch, check
 from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY, fptl
 from cpu_prep import limits
-from scenes.model import LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT, make_lights
+from scenes.model import LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT
+from tests.app.techniques.fptl_frames import CAP_SIZE, capped_crowd, render_checked
 from tests.helpers import CAMERA, make_scene, random_shapes
 
 T, BRUTE = REGISTRY["fptl"], REGISTRY["brute"]
-SIZE = (48, 32)
+SIZE = CAP_SIZE
 
 
-def crowd(points: int, capsules: int, seed: int = 0):
-    """Big point lights and capsules around the middle of the view, each lighting every
-    pixel: every lit tile's categories hold all of them.  Scene ids: points first."""
-    rng = np.random.default_rng(seed)
-    n = points + capsules
-    L = make_lights(n)
-    L["type"][points:] = LIGHT_CAPSULE
-    L["position"] = np.column_stack([rng.uniform(-2, 2, n), rng.uniform(0, 3, n), rng.uniform(-14, -6, n)])
-    L["direction"] = (1.0, 0.0, 0.0)
-    L["length"][points:] = 1.0
-    L["radius"] = 40.0
-    L["color"] = rng.uniform(0.2, 1.0, (n, 3))
-    return L
 
 
-def render_checked(r, policy: str, technique=T):
-    opts = technique.Options.make({"cap_policy": policy})
-    res = r.render(technique, opts=opts)
-    ref = r.render(BRUTE)
-    return res, ref, check(res, ref, r, technique, BRUTE, {"opts": opts})
 
 
 @pytest.mark.parametrize("cap", [24, 63])
 def test_each_tile_keeps_each_categorys_lowest_sort_keys(gl, cap):
     points, capsules = cap + 9, cap + 4
-    with Renderer(make_scene(crowd(points, capsules), size=SIZE, camera=CAMERA)) as r:
+    with Renderer(make_scene(capped_crowd(points, capsules), size=SIZE, camera=CAMERA)) as r:
         res, ref, m = render_checked(r, f"hdrp-fptl-{cap}")
         # a pixel every light reaches keeps the first `cap` points and capsules by scene id
         # (HDRP's key: category, GPU type, then the visible index), whatever their depth
@@ -70,7 +53,7 @@ def test_a_tile_under_its_cap_is_exact(gl):
     """The crowd lights the left of the view only; the right's tiles hold a few lights each,
     under the cap: those pixels equal brute, and are lit."""
     rng = np.random.default_rng(5)
-    crowd_l = crowd(30, 0)
+    crowd_l = capped_crowd(30, 0)
     crowd_l["position"][:, 0] -= 30.0
     crowd_l["radius"] = 24.0
     few = random_shapes(rng, 16, (2, 0, -16), (9, 4, -4), radius=(3.0, 7.0))
@@ -109,7 +92,7 @@ class DepthOrder(type(T)):
 
 
 def test_a_tile_that_keeps_other_lights_fails(gl):
-    with Renderer(make_scene(crowd(40, 0), size=SIZE, camera=CAMERA)) as r:
+    with Renderer(make_scene(capped_crowd(40, 0), size=SIZE, camera=CAMERA)) as r:
         _, _, m = render_checked(r, "hdrp-fptl-24", DepthOrder())
     assert isinstance(m, Mismatch), m
     assert "tile entries hdrp-fptl-24 drops" in m.message() and m.missing and m.extra
@@ -118,7 +101,7 @@ def test_a_tile_that_keeps_other_lights_fails(gl):
 def test_scan_windows_carry_the_category_counts(gl, monkeypatch):
     """Over several list-building dispatches (forced here) each cell's category counts carry
     over: the same capped frame, still the intended loss."""
-    with Renderer(make_scene(crowd(150, 40, seed=1), size=SIZE, camera=CAMERA)) as r:
+    with Renderer(make_scene(capped_crowd(150, 40, seed=1), size=SIZE, camera=CAMERA)) as r:
         one, _, _ = render_checked(r, "hdrp-fptl-24")
         monkeypatch.setattr(limits, "DISPATCH_WINDOW", 128)
         if r.frame_input(0, 64).loop_budget is None:
@@ -151,7 +134,7 @@ def test_stochastic_culling_under_a_per_tile_cap_is_the_counted_loss_of_its_draw
     """The cap acts on the lists the draw's ranges build; the check renders brute and the
     exact lists with the same draw: still exactly the tile cap's loss.  A view cap with a
     draw stays refused."""
-    L = crowd(40, 30, seed=4)
+    L = capped_crowd(40, 30, seed=4)
     L["intensity"] = np.linspace(1.0, 8.0, len(L))
     with Renderer(make_scene(L, size=SIZE, camera=CAMERA)) as r:
         opts = T.Options.make({"cap_policy": "hdrp-fptl-24", "stochastic": 256, "stochastic_frame": 3})

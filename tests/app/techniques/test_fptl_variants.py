@@ -18,9 +18,8 @@ from app.techniques import REGISTRY, fptl, variants
 from cpu_prep import limits
 from scenes.model import LIGHT_BOX, LIGHT_TYPES, make_lights
 from tests.app.model.replay_check import check as replay_check
-from tests.app.techniques.test_feature_variants import mask_scene
-from tests.app.techniques.test_fptl import crowd as point_crowd, read_lists
-from tests.app.techniques import test_fptl_tile_caps as tile_caps
+from tests.app.techniques.fptl_frames import (CAP_SIZE, capped_crowd, mask_scene, point_crowd, read_lists,
+                                              render_checked)
 from tests.helpers import CAMERA, assert_exact, make_scene, random_shapes
 
 T, BRUTE = REGISTRY["fptl"], REGISTRY["brute"]
@@ -77,9 +76,10 @@ def test_every_mask_is_exact_and_the_words_are_the_lists(renderer, brute, varian
     assert {"fptl_lists", "variant_classify", "variant_compact"} <= set(res.meta["gpu_ms"])
 
 
-def test_variants_leave_the_image_and_counters_alone(renderer):
-    off = renderer.render(T, opts={"fptl_variant": 2})
-    on = renderer.render(T, opts=dict(ON, fptl_variant=2))
+@pytest.mark.parametrize("variant,loops", CASES)
+def test_variants_leave_the_image_and_counters_alone(renderer, variant, loops):
+    off = renderer.render(T, opts={"fptl_variant": variant, "type_loops": loops})
+    on = renderer.render(T, opts=dict(ON, fptl_variant=variant, type_loops=loops))
     assert np.array_equal(on.image, off.image) and np.array_equal(on.evaluated, off.evaluated)
     assert np.array_equal(on.wave, off.wave)
 
@@ -151,12 +151,12 @@ def test_a_per_tile_cap_drops_its_lights_from_the_words(gl):
     """hdrp-fptl-24 over 30 points, 3 capsules and 3 boxes that light every pixel: the boxes
     (the punctual category's highest keys) leave every lit tile, and its word; the loss is
     the one the CPU's tile_keep counts, as without variants."""
-    L = tile_caps.crowd(30, 3)
+    L = capped_crowd(30, 3)
     boxes = make_lights(3)
     boxes["type"], boxes["position"] = LIGHT_BOX, L["position"][:3]
     boxes["up"], boxes["extent"], boxes["direction"] = (0.0, 1.0, 0.0), (30.0, 30.0, 30.0), (1.0, 0.0, 0.0)
-    with Renderer(make_scene(np.concatenate([L, boxes]), size=tile_caps.SIZE, camera=CAMERA)) as r:
-        off, ref, m_off = tile_caps.render_checked(r, "hdrp-fptl-24")
+    with Renderer(make_scene(np.concatenate([L, boxes]), size=CAP_SIZE, camera=CAMERA)) as r:
+        off, ref, m_off = render_checked(r, "hdrp-fptl-24")
         opts = T.Options.make(dict(ON, cap_policy="hdrp-fptl-24"))
         res = r.render(T, opts=opts)
         assert_words(r, res, "hdrp-fptl-24")

@@ -1,4 +1,4 @@
-"""The frame graph (issue 9): a technique is one module.  A throw-away technique defined here,
+"""The frame graph (issue 9): a technique is one module.  A throw-away technique (throwaway.py),
 with a compute prepass (its own define, writing a buffer), a raster pass (writing a buffer
 from its fragments) and a shading pass reading both, renders exactly like brute and appears
 in capture, the window and the benchmark with no file outside this test changed (the
@@ -7,7 +7,6 @@ renderer refuses undeclared buffers, reads of buffers nothing provided, and opti
 technique does not take."""
 from __future__ import annotations
 
-from dataclasses import dataclass
 import json
 import os
 from pathlib import Path
@@ -18,81 +17,14 @@ import numpy as np
 import pytest
 
 from app.errors import UserError
-from app.pipeline.passes import Buffer, Draw, Pass
+from app.pipeline.passes import Draw, Pass
 from app.pipeline.renderer import Renderer
 from app.pipeline.shaders import ShaderError
 from app.techniques import REGISTRY
-from app.techniques.base import Technique, prepare, shading_pass
-from app.techniques.options import TechniqueOptions, option
+from tests.app.techniques.throwaway import Throwaway
 from tests.helpers import assert_exact, make_scene, random_lights, registered, render_all
 
 ROOT = Path(__file__).resolve().parents[3]
-
-KEEP = """#version 430
-// define: KEEP_VALUE
-// Throw-away prepass: keep[i] = KEEP_VALUE for every visible light.
-layout(local_size_x = 64) in;
-layout(std430, binding = B_KEEP) writeonly buffer Keep { uint keep[]; };
-uniform uint u_light_count;
-void main() { if (gl_GlobalInvocationID.x < u_light_count) keep[gl_GlobalInvocationID.x] = KEEP_VALUE; }
-"""
-COVER_VERT = """#version 430
-// A triangle over the whole viewport, from gl_VertexID alone.
-void main() {
-    vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);
-    gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
-}
-"""
-COVER_FRAG = """#version 430
-// Throw-away raster pass: every covered pixel marks itself.
-layout(std430, binding = B_COVERED) writeonly buffer Covered { uint covered[]; };
-uniform ivec2 u_size;
-void main() { ivec2 p = ivec2(gl_FragCoord.xy); covered[p.y * u_size.x + p.x] = 1u; }
-"""
-SHADE = """#version 430
-// define: KEEP_VALUE
-#include "generated.glsl"
-#include "wave.glsl"
-#include "common.glsl"
-layout(std430, binding = B_KEEP) readonly buffer Keep { uint keep[]; };
-layout(std430, binding = B_COVERED) readonly buffer Covered { uint covered[]; };
-void main() {
-    PixelState s = load_pixel();
-    if (s.shading && covered[s.pixel.y * u_size.x + s.pixel.x] == 1u)
-        for (uint i = 0u; i < u_light_count; ++i)
-            if (keep[i] == KEEP_VALUE) evaluate_light(s, lights[i]);
-    store_pixel(s);
-    write_wave_stats(s.evaluated, 1u);
-}
-"""
-
-
-class Throwaway(Technique):
-    name = "throwaway"
-    summary = "test only: compute prepass + raster pass + shading pass"
-    glsl = {"tw_keep.comp": KEEP, "tw_cover.vert": COVER_VERT, "tw_cover.frag": COVER_FRAG,
-            "tw_shade.comp": SHADE}
-
-    @dataclass(frozen=True)
-    class Options(TechniqueOptions):
-        keep_value: int = option(7, "the mark the prepass writes and the shading pass wants",
-                                 lo=1, hi=1000)
-
-    def build(self, frame, opts):
-        return prepare(frame)
-
-    def passes(self, build, opts):
-        w, h = build.frame.size
-        n = len(build.lights.gpu)
-        defines = {"KEEP_VALUE": f"{opts.keep_value}u"}
-        return [
-            Pass("keep", "tw_keep.comp", writes={"keep": Buffer(max(n, 1) * 4)},
-                 groups=(max(1, -(-n // 64)), 1, 1), defines=defines),
-            Pass("cover", ("tw_cover.vert", "tw_cover.frag"),
-                 writes={"covered": Buffer(w * h * 4, cleared=True)},
-                 draw=Draw(count=3, target="none")),
-            shading_pass(build, "tw_shade.comp", ("keep", "covered"), defines=defines),
-        ]
 
 
 @pytest.fixture
@@ -202,7 +134,7 @@ def test_throwaway_appears_in_the_window():
     """The window in its own process (one GL context per process): this module registers the
     technique there, then the window starts on it."""
     code = ("import sys; sys.path.insert(0, '.'); "
-            "from tests.app.techniques.test_frame_graph import Throwaway; "
+            "from tests.app.techniques.throwaway import Throwaway; "
             "from app.techniques import register; register(Throwaway()); "
             "from app.window import main; main(sys.argv[1:])")
     env = dict(os.environ)

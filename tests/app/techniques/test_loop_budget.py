@@ -20,42 +20,8 @@ from app.techniques import REGISTRY
 from cpu_prep import limits
 from scenes.geometry import box_mesh
 from scenes.model import Camera, make_lights
-from tests.app.techniques.test_hard_cases import Frame, concat, scene_of
+from tests.app.techniques.hard_frames import DEPTH, N_DECOYS, Frame, budget_frame, budget_lights, concat, scene_of
 
-N_DECOYS, N_LIT = 66_000, 4_000
-DEPTH = 20.5           # view depth of the band of floor pixels the case is about (2 rows)
-
-
-def budget_frame() -> Frame:
-    cam = Camera((0.0, 10.0, 0.0), (0.0, 0.0, -DEPTH), fov_y_deg=40.0, near=0.1, far=300.0)
-    floor = box_mesh((-500.0, -1.0, -500.0), (500.0, 0.0, 500.0))
-    return Frame(scene_of([floor], cam, size=(24, 16), max_depth=60.0))
-
-
-def budget_lights(f: Frame, rng) -> tuple[np.ndarray, np.ndarray]:
-    """(lights, the pixels' band mask): decoys first in depth order, lit lights after."""
-    depth = f.pos[..., 3]
-    band = np.abs(depth - DEPTH) < 1.3
-    assert band.sum() >= 20, "no floor pixels at the case's depth"
-    ys, xs = np.nonzero(band)
-    i = rng.integers(0, len(ys), N_LIT)
-    P = f.pos[ys[i], xs[i], :3].astype(np.float64)          # view space, on the floor
-    lo_d, hi_d = float(depth[band].min()), float(depth[band].max())
-    # decoys: 0.8 m above the floor pixels' band, depth inside it, radius 0.02
-    D = P[rng.integers(0, N_LIT, N_DECOYS)].copy()
-    D[:, 2] = -rng.uniform(lo_d - 0.5, hi_d - 0.05, N_DECOYS)
-    D[:, 1] += 0.8
-    decoys = make_lights(N_DECOYS)
-    decoys["position"] = f.to_world(D)
-    decoys["radius"] = 0.02
-    # lit: on the floor pixels, centre pushed 0.05 m deeper than every decoy centre
-    C = P.copy()
-    C[:, 2] = np.minimum(C[:, 2], -(hi_d - 0.05)) - 0.05
-    lit = make_lights(N_LIT)
-    lit["position"] = f.to_world(C)
-    lit["radius"] = np.linalg.norm(C - P, axis=1) + 0.3
-    lit["color"] = rng.uniform(0.2, 1.0, (N_LIT, 3))
-    return concat(decoys, lit), band
 
 
 def test_lights_past_the_loop_budget_are_shaded_in_every_technique(gl):

@@ -417,6 +417,7 @@ def test_the_modes_take_their_own_options():
     for values in ok:
         assert RASTER.resolve_options(values).as_dict() == dict(RASTER.Options().as_dict(), **values)
     modes = [RASTER.Options(cluster=c, zbin_variant=z) for c in (0, 1, 2) for z in (0, 3) if not (c and z != 3)]
+    modes.append(RASTER.Options(stochastic=4))        # the draw's seed and frame: with a budget
     read = set().union(*(set(RASTER.Options.names()) - set(o.ignored()) for o in modes))
     assert read == set(RASTER.Options.names())
     with pytest.raises(UserError, match="--tile is not an option of this technique"):

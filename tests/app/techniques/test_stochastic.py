@@ -1,6 +1,8 @@
 """--stochastic (Tokuyoshi & Harada 2016; cpu_prep.stochastic) on the techniques: every one
-equals brute under the same draw at every pixel; a seed reproduces its frame bit for bit; box
-lights stay exact; off (0) is today's frame; and, over K seeds, the mean frame converges to
+(raster in both its modes) equals brute under the same draw at every pixel, in its light sets
+and in its image (a light row that lost its 1/p weight keeps its set but not its radiance); a
+seed reproduces its frame bit for bit; box lights stay exact; off (0) is today's frame, and a
+seed or frame without a budget is refused; and, over K seeds, the mean frame converges to
 the unbounded reference (UNBOUNDED_FALLOFF) at the rate 1/sqrt(K) the closed-form variance
 predicts.  Bad budgets are one line and exit 2."""
 import subprocess
@@ -19,14 +21,15 @@ from app.techniques.options import StochasticOptions
 from cpu_prep import stochastic as st
 from cpu_prep.camera import look_at
 from scenes.model import LIGHT_BOX, make_lights
-from tests.helpers import CAMERA, assert_exact, make_scene, random_lights, render_on
+from tests.helpers import (CAMERA, assert_exact, assert_same_image, make_scene, random_lights,
+                           render_on, takes)
 
 ROOT = Path(__file__).resolve().parents[3]
 SIZE = (64, 36)
 BUDGET = 64                       # t = 1/64: most lights are culled well inside the frame
 SEEDS = 256                       # renders of a 64x36 frame with brute: about a second
-# representative structures: GPU tiles, CPU 2.5D lists, trees, bit arrays, proxies, per pixel
-CHECKED = ("tiled", "clustered", "tree", "zbin")
+# every registered technique in its default mode, and raster's cluster rasterizer besides
+MODES = {"default": {}, "raster cluster mode": {"cluster": 1}}
 
 
 @pytest.fixture(scope="module")
@@ -50,11 +53,20 @@ def test_every_technique_takes_it_brute_included():
 
 
 @pytest.mark.parametrize("seed", [1, 9])
-def test_every_structure_is_exact_against_brute_under_the_same_draw(renderer, seed):
-    res = render_on(renderer, draw(seed), ("brute",) + CHECKED)
+@pytest.mark.parametrize("mode", list(MODES))
+def test_every_technique_is_exact_against_brute_under_the_same_draw(renderer, seed, mode):
+    names = [n for n in REGISTRY if mode == "default" or n == "brute" or takes(n, *MODES[mode])]
+    res = render_on(renderer, dict(draw(seed), **MODES[mode]), names)
+    assert len(res) > 1 and (res["brute"].contrib_count > 0).mean() > 0.3
     assert_exact(res, f"seed {seed}")
+    assert_same_image(res, f"seed {seed}")
+    for name, r in res.items():          # each frame was drawn, and with the draw asked for
+        assert {k: r.meta["options"][k] for k in draw(0)} == draw(seed), name
+        assert r.meta["stats"]["stochastic_seed"] == seed, name
     stats = res["brute"].meta["stats"]
-    assert stats["stochastic_seed"] == seed and stats["stochastic_t"] == 1 / BUDGET
+    assert stats["stochastic_t"] == 1 / BUDGET
+    if mode != "default":
+        return
     # the draw changes which lights reach a pixel: another seed's frame differs
     other = renderer.render(REGISTRY["brute"], opts=draw(seed + 1))
     assert (other.contrib_hash != res["brute"].contrib_hash).any()
@@ -78,12 +90,20 @@ def test_a_seed_reproduces_its_frame_bit_for_bit_and_the_dump_says_the_draw(rend
     assert {k: meta["options"][k] for k in draw(0)} == draw(5, frame=2)
     s = meta["stats"]
     assert (s["stochastic_t"], s["stochastic_seed"], s["stochastic_frame"]) == (1 / BUDGET, 5, 2)
-    assert s["stochastic_dark_lights"] >= 0
+    # dark this frame: the lights with alpha_i xi_i >= 1 (no box here), counted from the
+    # scene; at t = 1/64 none of these, at t = 1 (budget 1) some
+    L = renderer.scene.lights
+    peak = L["intensity"].astype(np.float64) * L["color"].max(1)
+    for budget in (BUDGET, 1):
+        dark = (peak.max() / budget / peak) * st.draw_xi(len(L), 5, 2) >= 1.0
+        res = one if budget == BUDGET else renderer.render(b, opts=draw(5, budget=budget, frame=2))
+        assert res.meta["stats"]["stochastic_dark_lights"] == dark.sum(), budget
+    assert dark.sum() > 0
 
 
 def test_off_is_the_exact_frame(renderer):
     b = REGISTRY["brute"]
-    off, plain = renderer.render(b, opts={"stochastic": 0, "stochastic_seed": 3}), renderer.render(b)
+    off, plain = renderer.render(b, opts={"stochastic": 0}), renderer.render(b)
     assert off.image.tobytes() == plain.image.tobytes()
     assert not any(k.startswith("stochastic") for k in plain.meta["stats"])
     assert (plain.build.lights.gpu["right"][:, 3] == 0).all()
@@ -156,6 +176,12 @@ def capture(*args):
 def test_a_budget_out_of_range_is_refused(value):
     with pytest.raises(UserError, match="--stochastic must be in 0..65536 \\(got"):
         REGISTRY["tiled"].Options.make({"stochastic": value})
+
+
+@pytest.mark.parametrize("name", ["seed", "frame"])
+def test_a_draw_without_a_budget_is_refused(name):
+    with pytest.raises(UserError, match=f"--stochastic-{name} 3 is ignored without --stochastic"):
+        REGISTRY["brute"].Options.make({"stochastic": 0, f"stochastic_{name}": 3})
 
 
 def test_bad_stochastic_input_is_one_line_and_exit_2():

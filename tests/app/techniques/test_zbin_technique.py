@@ -21,7 +21,7 @@ from cpu_prep.camera import frame_camera
 from hypothesis import HealthCheck, given, settings, strategies as st
 from scenes import BUILTIN_SCENES, load_scene
 from scenes.model import Camera, make_lights
-from tests.helpers import assert_exact, make_scene, options, random_lights
+from tests.helpers import assert_exact, assume_lit, make_scene, options, random_lights
 
 ROOT = Path(__file__).resolve().parents[3]
 ZBIN = REGISTRY["zbin"]
@@ -162,6 +162,7 @@ def test_random_scenes_every_variant(gl, seed, n, fov, w, h, bit_tile, zbins, ne
                                                         zbins=zbins, native_wave=native,
                                                         printed_mask=printed))
         assert_exact(res, f"seed {seed}")
+        assume_lit(res)
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
@@ -171,8 +172,8 @@ def test_lights_on_zbin_boundaries(gl, seed):
     touching its pixels from in front and behind at r (1 +- a few ulp), and lights whose depth
     range ends exactly on it, small lights on its pixels: the z-bin variants exact, brute
     against the float64 reference."""
-    from tests.app.techniques.test_hard_cases import (F32_EPS, Frame, axis_camera, concat,
-                                                      lights_ending_on, scene_of, wall)
+    from tests.app.techniques.hard_frames import (F32_EPS, Frame, axis_camera, concat,
+                                                  lights_ending_on, scene_of, wall)
     rng = np.random.default_rng(seed)
     with Frame(scene_of([wall(13.7)], axis_camera(fov=60.0, near=0.1, far=1e4), size=(32, 24))) as f:
         L, b = lights_ending_on(rng, f, f.pos[..., 3] > 0)
@@ -249,7 +250,7 @@ def test_dispatch_windows_give_the_same_frame(gl, hangar, monkeypatch, window):
 def test_past_65536_lights_the_lut_widens(gl):
     """70,000 visible lights, the lit ones sorted past id 65,535 (tests/app/techniques/
     test_loop_budget.py's case): the 32-bit LUT keeps their ids; every masked variant exact."""
-    from tests.app.techniques.test_loop_budget import budget_frame, budget_lights
+    from tests.app.techniques.hard_frames import budget_frame, budget_lights
     rng = np.random.default_rng(65_537)
     with budget_frame() as f:
         L, _ = budget_lights(f, rng)
