@@ -7,7 +7,7 @@ from app.pipeline import features as feat
 from app.techniques.variants import MAX_PROGRAMS
 from app.window import variant_view as vv
 from app.window.views import Overlay, view_note
-from tests.app.window.test_window import LIT, load_rgb, run_window
+from tests.app.window.window_run import LIT, load_rgb, run_window
 
 STATS = {"variant_masks": [31, 0, 14], "feature_variants": 2, "variant_tile": 16,
          "variant_tiles": {"point+spot+capsule+box, specular": 5, "empty": 3, "spot+capsule+box": 1}}
