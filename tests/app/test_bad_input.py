@@ -229,7 +229,7 @@ CASES = {
     "frames_zero": (flag_case("--frames", "0"), r"--frames"),
     "repeat_negative": (flag_case("--repeat", "-1"), r"--repeat must be >= 0"),
     "unknown_flag": (flag_case("--bogus-flag"), r"--bogus-flag"),
-    # an option the technique's mode ignores (issue 20 item 7): refused, naming it and the mode
+    # an option the technique's mode ignores: refused, naming it and the mode
     "raster_cluster_stencil": (flag_case("--technique", "raster", "--cluster", "1", "--stencil"),
                                r"--stencil is ignored in cluster mode \(--cluster 1\)"),
     "raster_cluster_native_wave": (flag_case("--technique", "raster", "--cluster", "2", "--native-wave"),

@@ -1,6 +1,6 @@
 """The CPU stage written plainly: the reference the optimized kernels of cpu_prep are held
 to (tests/cpu_prep/test_prep_equivalence.py).  It is the stage as it was before it was
-profiled (issue 15): one kernel for the cull that writes every visible light's GPU row,
+profiled: one kernel for the cull that writes every visible light's GPU row,
 sphere and shape bounds in scene order, a numpy stable sort, numpy gathers for the pack,
 listing 4's logarithm for the slices, a division for the tiles, and Python loops for the
 scatter, listing 2 and the trees.  Slow; for test-sized frames only.

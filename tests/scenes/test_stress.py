@@ -1,4 +1,4 @@
-"""The stress scene (Bevy's many_lights, issue 23 item 2): the sphere's mesh, the lattice,
+"""The stress scene (Bevy's many_lights): the sphere's mesh, the lattice,
 every light reaching the mesh on its side, cameras inside and outside, counts up to a
 million, and every technique exact against brute on it."""
 import numpy as np

@@ -1,4 +1,4 @@
-"""Draw features the raster technique added to the frame graph (issue 12): a technique's own
+"""Draw features the raster technique added to the frame graph: a technique's own
 depth (+ stencil) Target, scaled and multisampled; the greater_equal depth test; per-instance
 stencil sequences (StencilStep); the driver's sample positions."""
 from __future__ import annotations

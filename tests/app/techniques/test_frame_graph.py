@@ -1,4 +1,4 @@
-"""The frame graph (issue 9): a technique is one module.  A throw-away technique (throwaway.py),
+"""The frame graph: a technique is one module.  A throw-away technique (throwaway.py),
 with a compute prepass (its own define, writing a buffer), a raster pass (writing a buffer
 from its fragments) and a shading pass reading both, renders exactly like brute and appears
 in capture, the window and the benchmark with no file outside this test changed (the

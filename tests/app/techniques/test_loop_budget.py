@@ -1,4 +1,4 @@
-"""No silent truncation (issue 13.1): llvmpipe stops every loop of a shader invocation once
+"""No silent truncation: llvmpipe stops every loop of a shader invocation once
 their iterations together pass 65,535, with no error.  A frame whose pixels meet more lights
 than that runs its passes in dispatch windows (glsl/pixel.glsl), so every technique, brute
 included, stays exact at any light count.

@@ -1,4 +1,4 @@
-"""raster (issue 12, Drobot 2017 rasterization based culling): light proxies drawn against
+"""raster (Drobot 2017 rasterization based culling): light proxies drawn against
 the scene's depth mark 8x8 tile bit arrays with atomics.
 
   * the proxies (no GL): every proxy is convex, wound outwards, and holds its light's volume

@@ -1,4 +1,4 @@
-"""Light shapes (issue 11): point, spot, capsule and box, each with its one affects() test,
+"""Light shapes: point, spot, capsule and box, each with its one affects() test,
 in every technique.  brute against a float64 oracle of the light model; every technique
 against brute on random mixes, with the eye inside capsules and boxes, shapes through the
 near plane, boxes on tile edges, capsules of length 0 and spots of inner 0 / outer 90."""
