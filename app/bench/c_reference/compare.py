@@ -19,9 +19,9 @@ rectangles, depth ranges, entries, ranges, nodes): "identical" in the output.
 --lean-reference adds a third, lean_ref.c (the stage as the tree paper describes it, written
 apart from the lab: app.bench.c_reference.lean), interleaved with the two (C, numba, lean,
 C, ...): per step its min / median, numba / lean of the mins and medians, and the median
-and quartiles of the frames' own total ratios (each numba frame against the lean frame
-after it); and how its warm-up frame's per-cell light sets compare with ours ("lean" in
-the result).
+and quartiles of the frames' own ratios (each numba frame against the lean frame after
+it); and how its warm-up frame's per-cell light sets compare with ours ("lean" in the
+result).
 """
 from __future__ import annotations
 
@@ -179,10 +179,10 @@ def _lean_result(ls, ns, hybrid: bool, lists: dict, path) -> dict:
         r = _row(lv, nv)
         rows[name] = {k.replace("c_", "lean_", 1) if k.startswith("c_") else k: v
                       for k, v in r.items()}
-    paired = np.asarray(ns["total"]) / np.maximum(ls["total"], 1e-9)
-    rows["total"]["paired_ratio_median"] = round(float(np.median(paired)), 3)
-    rows["total"]["paired_ratio_quartiles"] = [round(float(q), 3)
-                                               for q in np.percentile(paired, (25, 75))]
+        paired = nv / np.maximum(lv, 1e-9)         # each numba frame against its lean frame
+        rows[name]["paired_ratio_median"] = round(float(np.median(paired)), 3)
+        rows[name]["paired_ratio_quartiles"] = [round(float(q), 3)
+                                                for q in np.percentile(paired, (25, 75))]
     return {"library": str(path), "rows": rows,
             "steps": _steps(ls, STEPS if hybrid else STEPS[:4]), "lists": lists}
 
@@ -307,12 +307,14 @@ def _print_lean(d: dict) -> None:
           f"same light set as ours, {li['ours_only']:,} (cell, light) pairs ours only (its "
           f"margins), {li['lean_only']:,} the lean C's only")
     print(f"{'step':14} {'lean min':>9} {'lean med':>9} {'numba min':>10} {'numba med':>10} "
-          f"{'ratio min':>10} {'ratio med':>10}")
+          f"{'ratio min':>10} {'ratio med':>10} {'paired (quartiles)':>19}")
     f = lambda x: f"{x:.2f}x" if x is not None else "-"
     for name, v in d["rows"].items():
+        q = v["paired_ratio_quartiles"]
         print(f"{name:14} {v['lean_min_ms']:9.3f} {v['lean_median_ms']:9.3f} "
               f"{v['numba_min_ms']:10.3f} {v['numba_median_ms']:10.3f} "
-              f"{f(v['ratio_min']):>10} {f(v['ratio_median']):>10}")
+              f"{f(v['ratio_min']):>10} {f(v['ratio_median']):>10} "
+              f"{v['paired_ratio_median']:6.2f}x ({q[0]:.2f}-{q[1]:.2f})")
     t = d["rows"]["total"]
     q = t["paired_ratio_quartiles"]
     print(f"total ratio numba / lean C, the frames' own ratios: median {t['paired_ratio_median']:.2f}x "
