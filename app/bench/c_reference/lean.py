@@ -86,7 +86,9 @@ class LeanReference:
         sizes = (ctypes.c_int64 * 4)()
         lib.lean_struct_sizes(sizes)
         if (list(sizes) != [LIGHT_DTYPE.itemsize, ctypes.sizeof(_Out), ROW.itemsize, BOX.itemsize]
-                or LIGHT_DTYPE.fields["intensity"][1] != 32):
+                or {k: LIGHT_DTYPE.fields[k][1] for k in ("type", "position", "radius", "color",
+                                                          "intensity")}
+                != {"type": 0, "position": 4, "radius": 16, "color": 20, "intensity": 32}):
             raise CReferenceError("lean_ref.c's structs no longer match LIGHT_DTYPE / lean.py")
         self._lib, self._out, self.path = lib, _Out(), path
         self._ctx = lib.lean_new()
