@@ -121,7 +121,8 @@ def compare(technique, scene, size, opts, repeat: int, frame: int = 0, frames: i
                 f = lref.frame(scene.lights, cam, grid, max_depth, **lkw)
                 for k in STEPS:
                     ls[k].append(f.ms[k])
-                ls["total"].append(f.total_ms)
+                # clustered: the lean C's steps up to its lists (it plans and builds anyway)
+                ls["total"].append(sum(f.ms[k] for k in (STEPS if hybrid else STEPS[:4])))
         visible = int(c.ids.shape[0])          # (c's arrays are the C side's: read them here)
         sizes = {"cells": int(len(c.ranges)), "list_entries": int(len(c.entries))}
         if hybrid:

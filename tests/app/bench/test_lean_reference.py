@@ -189,3 +189,7 @@ def test_bench_prints_the_lean_column(lean, capsys):
                 "--lights", "512", "--size", "97x61", "--repeat", "2"])
     text = capsys.readouterr().out
     assert "lean C" in text and "numba / lean C" in text
+    bench.main(["cpu", "--lean-reference", "--scene", "arena", "--technique", "clustered",
+                "--lights", "512", "--size", "97x61", "--repeat", "2", "--json"])
+    L = json.loads(capsys.readouterr().out.strip().splitlines()[-1])["lean"]
+    assert list(L["steps"]) == ["cull", "sort", "gather", "bin"] and "plan + build" not in L["rows"]
