@@ -249,7 +249,8 @@ def _cpu_main(argv) -> None:
     threads = int_list(args.threads, "--threads") if args.threads else ((1, 2) if args.growth else (1,))
     args.c_reference = args.c_reference or args.lean_reference
     if args.c_reference and (args.growth or args.sweep):
-        raise UserError("--c-reference: one light count (no --sweep or --growth)")
+        raise UserError(f"--{'lean' if args.lean_reference else 'c'}-reference: one light count "
+                        f"(no --sweep or --growth)")
     if args.growth:
         _growth_main(args, threads)
         return
