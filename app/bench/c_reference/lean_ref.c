@@ -12,7 +12,8 @@
  *   gather  in depth order: the frame's 32-byte light rows (view centre, radius, colour x
  *           intensity, scene id) the shader reads through the lists
  *   bin     per light its box of cells: tiles from the clipped, projected sphere bound
- *           (Mara & McGuire 2013, per axis), slices from its depth extent (listing 4, the
+ *           (Mara & McGuire 2013, per axis: the tangents' closed form when the sphere is
+ *           wholly in front of the near plane, their listing otherwise), slices from its depth extent (listing 4, the
  *           scale read as (S - 1) / (logMax - logMin)); the cells' counts by walking each
  *           box, a scan into CSR offsets, the fill in depth order
  *   plan    listing 2 per cell: the mean depth extent clipped to the cell against half the
@@ -141,6 +142,13 @@ int lean_struct_sizes(int64_t *out) {
  * at nearz < 0, as normalized device coordinates lo..hi (proj: 1 / tan of the half angle) */
 static inline void axis_bound(float ca, float cz, float r, float nearz, float proj, float *lo, float *hi) {
     float t2 = ca * ca + cz * cz - r * r;
+    if (cz + r < nearz) {          /* wholly in front of the near plane: the two tangents */
+        float t = sqrtf(t2), tca = t * ca, tcz = t * cz, rca = r * ca, rcz = r * cz;
+        float n0 = proj * (tca + rcz) / (rca - tcz), n1 = proj * (tca - rcz) / (-rca - tcz);
+        *lo = minf(n0, n1);
+        *hi = maxf(n0, n1);
+        return;
+    }
     int inside = t2 <= 0.0f;
     float vx = 0.0f, vy = 0.0f;
     if (!inside) {
