@@ -28,7 +28,7 @@ def _cache_dir() -> Path:
 if not os.environ.get("NUMBA_CACHE_DIR"):
     numba.config.CACHE_DIR = str(_cache_dir())
 # two threads: 0.65-0.87x one thread's time at 65,536 lights with the other core idle, and no
-# more than one thread's with it busy (docs/cpu_stage.md, "Two threads by default")
+# more than one thread's with it busy (docs/cpu_stage.md, "Threads")
 DEFAULT_THREADS = 2
 numba.set_num_threads(max(1, min(int(os.environ.get("LAB_CPU_THREADS", DEFAULT_THREADS)),
                                  numba.config.NUMBA_NUM_THREADS)))

@@ -160,6 +160,21 @@ def _view_light_call(li, m):
     return _view_light(li, m)
 
 
+CULL_BLOCK = 128      # lights a block of the cull: its temporaries stay in L1
+
+
+@numba.njit(inline="always")
+def _culled(cx, cy, cz, r, norm_x, norm_y, near_lo, far_hi, tan_x, tan_y):
+    """Whether the sphere is out of the frustum (the tests as the rejections they are: a
+    NaN sphere is kept, never dropped); branch-free, a quarter of the lights fail at random,
+    which a branch mispredicts."""
+    d = -cz
+    rx, ry = r * norm_x, r * norm_y
+    return ((d + r < near_lo) | (d - r > far_hi) |
+            (cx + tan_x * d < -rx) | (-cx + tan_x * d < -rx) |
+            (cy + tan_y * d < -ry) | (-cy + tan_y * d < -ry))
+
+
 @numba.njit(inline="always")
 def _cull_range(lights, a, b, m, near, far, tan_x, tan_y, keyed, depth):
     """Frustum test of each light's culling sphere against the near/far planes and the four
@@ -175,31 +190,59 @@ def _cull_range(lights, a, b, m, near, far, tan_x, tan_y, keyed, depth):
     rounding of the last bit, a 1e-16 relative shift of a plane that PIXEL_MARGIN already
     moved out by a pixel (~1e-3 of the depth), so the test stays conservative.
 
+    As the pack, blocks of CULL_BLOCK lights in a few loops: the records' fields gathered
+    into one array per value, the view transform, grow()'s square root, the tests and the
+    keys of a point light in loops LLVM turns into SIMD code, the other shapes' spheres
+    redone by _sphere (the same operations, the same bits), then the visible ones written.
+
     Lights a .. b-1 only, their visible ones written from index a (of them, fewer): the
     chunks of _cull_chunks."""
     norm_x, norm_y = math.sqrt(1.0 + tan_x * tan_x), math.sqrt(1.0 + tan_y * tan_y)
     near_lo, far_hi = near * (1 - RADIUS_REL_MARGIN), far * (1 + RADIUS_REL_MARGIN)
-    k = a
-    for i in range(a, b):
-        li = lights[i]
-        px, py, pz = _position(li, m)
-        t = li.type
-        dx = dy = dz = np.float32(0.0)
-        if t == LIGHT_SPOT:
-            dx, dy, dz = _direction(li, m)
-        cx, cy, cz, r = _sphere(t, li, px, py, pz, dx, dy, dz)
-        d = -cz
-        rx, ry = r * norm_x, r * norm_y
-        # branch-free: a quarter of the lights fail at random, which a branch mispredicts
-        # (the tests as the rejections they are: a NaN sphere is kept, never dropped)
-        out = ((d + r < near_lo) | (d - r > far_hi) |
-               (cx + tan_x * d < -rx) | (-cx + tan_x * d < -rx) |
-               (cy + tan_y * d < -ry) | (-cy + tan_y * d < -ry))
-        key = np.uint64(_float_key(f32_to_bits(np.float32(d))))
-        keyed[k] = (key << np.uint64(32)) | np.uint64(i)   # written always, kept when visible
-        depth[k] = d
-        k += 0 if out else 1
-    return k - a
+    m00, m01, m02, m03 = m[0, 0], m[0, 1], m[0, 2], m[0, 3]
+    m10, m11, m12, m13 = m[1, 0], m[1, 1], m[1, 2], m[1, 3]
+    m20, m21, m22, m23 = m[2, 0], m[2, 1], m[2, 2], m[2, 3]
+    wx, wy, wz = np.empty(CULL_BLOCK), np.empty(CULL_BLOCK), np.empty(CULL_BLOCK)
+    rad, cz_ = np.empty(CULL_BLOCK), np.empty(CULL_BLOCK)
+    key = np.empty(CULL_BLOCK, np.uint64)
+    out = np.empty(CULL_BLOCK, np.bool_)
+    kind = np.empty(CULL_BLOCK, np.uint8)
+    k = np.uint64(a)
+    for j0 in range(a, b, CULL_BLOCK):
+        nb = np.uint64(min(j0 + CULL_BLOCK, b) - j0)
+        J0 = np.uint64(j0)
+        for jj in range(nb):                       # unsigned: no wraparound code
+            li = lights[J0 + jj]
+            wx[jj], wy[jj], wz[jj] = float(li.position[0]), float(li.position[1]), float(li.position[2])
+            rad[jj] = float(li.radius)
+            kind[jj] = li.type
+        for jj in range(nb):                       # SIMD: every light as a point
+            x, y, z = wx[jj], wy[jj], wz[jj]
+            # (np.float64, not float(): numba's float() of a float32 stays a float32)
+            cx = np.float64(np.float32(m00 * x + m01 * y + m02 * z + m03))
+            cy = np.float64(np.float32(m10 * x + m11 * y + m12 * z + m13))
+            cz = np.float64(np.float32(m20 * x + m21 * y + m22 * z + m23))
+            r = grow(rad[jj], cx, cy, cz)
+            out[jj] = _culled(cx, cy, cz, r, norm_x, norm_y, near_lo, far_hi, tan_x, tan_y)
+            cz_[jj] = cz
+        for jj in range(nb):                       # scalar: the other shapes' spheres
+            if kind[jj] != LIGHT_POINT:
+                li = lights[J0 + jj]
+                px, py, pz = _position(li, m)
+                t = li.type
+                dx = dy = dz = np.float32(0.0)
+                if t == LIGHT_SPOT:
+                    dx, dy, dz = _direction(li, m)
+                cx, cy, cz, r = _sphere(t, li, px, py, pz, dx, dy, dz)
+                out[jj] = _culled(cx, cy, cz, r, norm_x, norm_y, near_lo, far_hi, tan_x, tan_y)
+                cz_[jj] = cz
+        for jj in range(nb):                       # SIMD: the keys
+            key[jj] = np.uint64(_float_key(f32_to_bits(np.float32(-cz_[jj]))))
+        for jj in range(nb):                       # the visible ones, back to back
+            keyed[k] = (key[jj] << np.uint64(32)) | (J0 + jj)   # written always, kept when visible
+            depth[k] = -cz_[jj]
+            k += np.uint64(0 if out[jj] else 1)
+    return np.int64(k) - a
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")

@@ -21,6 +21,9 @@ all (nothing here imports moderngl; a test checks it).
                                      lights; app.bench.c_reference), the two interleaved on
                                      the same frame (numba on --threads, default 1): per step
                                      and in total min / median of each, the ratio numba / C
+    --lean-reference                 with --c-reference's two, a third interleaved: the lean C
+                                     written from the tree paper alone (lean_ref.c), ratio
+                                     numba / lean, and its per-cell light sets against ours
 
 The machine is shared (2 cores, other work on them): compare minimums and medians over
 many builds (--repeat 31 or more), never single runs.  docs/cpu_stage.md has the profile.
@@ -235,14 +238,19 @@ def _cpu_main(argv) -> None:
     p.add_argument("--c-reference", action="store_true",
                    help="hybrid or clustered against the plain single-threaded C reference of "
                         "its CPU stage (point lights only), interleaved, with the ratio numba / C")
+    p.add_argument("--lean-reference", action="store_true",
+                   help="with the C reference, the lean C of the tree paper's design "
+                        "(lean_ref.c, point lights) interleaved as a third, ratio numba / lean")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     cli.add_option_args(p)
     args = p.parse_args(argv)
     if args.repeat < 1 or args.frames < 1 or args.frame < 0:
         raise UserError("--repeat and --frames must be >= 1, --frame >= 0")
     threads = int_list(args.threads, "--threads") if args.threads else ((1, 2) if args.growth else (1,))
+    args.c_reference = args.c_reference or args.lean_reference
     if args.c_reference and (args.growth or args.sweep):
-        raise UserError("--c-reference: one light count (no --sweep or --growth)")
+        raise UserError(f"--{'lean' if args.lean_reference else 'c'}-reference: one light count "
+                        f"(no --sweep or --growth)")
     if args.growth:
         _growth_main(args, threads)
         return

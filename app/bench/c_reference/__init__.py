@@ -1,6 +1,9 @@
 """The plain single-threaded C reference of the hybrid's (and clustered's) CPU stage, for
 point lights (the bar: our numba stage at or under plain single-threaded C).
 
+    lean_ref.c          the same stage as the tree paper describes it, written apart from
+                        the lab (float32, no margins, no light shapes, 32-byte rows):
+                        what the design costs (app.bench.c_reference.lean: LeanReference)
     hybrid_ref.c        cull, radix sort, gather into depth order (GPU rows, screen
                         rectangles, depth ranges), binning, listing 2's plan, the trees: plain
                         scalar loops, each step timed inside C, every output bit for bit ours
@@ -89,12 +92,14 @@ def compiler() -> str:
     return path
 
 
-def library_path(cc: str | None = None) -> Path:
-    """Where the build of the current source (and flags) lives; built if absent."""
+def library_path(cc: str | None = None, source: Path | None = None, flags=None) -> Path:
+    """Where the build of the current `source` (default SOURCE) and flags lives; built if
+    absent."""
     cc = cc or compiler()
-    src = SOURCE.read_bytes()
-    h = hashlib.sha256(src + " ".join((os.path.basename(cc),) + CFLAGS).encode()).hexdigest()[:16]
-    out = cache_dir() / f"hybrid_ref-{h}.so"
+    source, flags = source or SOURCE, CFLAGS if flags is None else flags
+    src = source.read_bytes()
+    h = hashlib.sha256(src + " ".join((os.path.basename(cc),) + tuple(flags)).encode()).hexdigest()[:16]
+    out = cache_dir() / f"{source.stem}-{h}.so"
     if out.exists():
         return out
     try:
@@ -105,7 +110,7 @@ def library_path(cc: str | None = None) -> Path:
                               f"({exc.strerror}); set XDG_CACHE_HOME") from None
     os.close(fd)
     try:
-        r = subprocess.run([cc, *CFLAGS, "-o", tmp, str(SOURCE), "-lm"],
+        r = subprocess.run([cc, *flags, "-o", tmp, str(source), "-lm"],
                            capture_output=True, text=True)
         if r.returncode != 0:
             first = (r.stderr.strip().splitlines() or ["(no message)"])[0]

@@ -15,6 +15,13 @@ alike; per step and in total min / median of each and the ratio numba / C.
 
 Before timing, the warm-up frame's outputs of both are compared bit for bit (GPU rows, ids,
 rectangles, depth ranges, entries, ranges, nodes): "identical" in the output.
+
+--lean-reference adds a third, lean_ref.c (the stage as the tree paper describes it, written
+apart from the lab: app.bench.c_reference.lean), interleaved with the two (C, numba, lean,
+C, ...): per step its min / median, numba / lean of the mins and medians, and the median
+and quartiles of the frames' own ratios (each numba frame against the lean frame after
+it); and how its warm-up frame's per-cell light sets compare with ours ("lean" in the
+result).
 """
 from __future__ import annotations
 
@@ -64,13 +71,14 @@ def differences(c, b, hybrid: bool) -> list[str]:
 
 
 def compare(technique, scene, size, opts, repeat: int, frame: int = 0, frames: int = 64,
-            progress=None) -> dict:
+            progress=None, lean: bool = False) -> dict:
     """The comparison's result (the --json object): per row of ROWS and 'total', and per C
     step, min / median ms of each side and the ratios numba / C of the mins and medians, the
     median of the frames' own total ratios (each numba frame against the C frame before
     it), whether the outputs are identical, the sizes."""
     from cpu_prep.arena import Arena
     from cpu_prep.camera import frame_camera
+    from cpu_prep import grid as gridmod
     from ...pipeline.passes import FrameInput
     from ...results import CPU_STAGES
     hybrid = technique.name == "hybrid"
@@ -79,6 +87,8 @@ def compare(technique, scene, size, opts, repeat: int, frame: int = 0, frames: i
     max_depth = scene.max_depth or cam.far
     fi = FrameInput(scene.lights, cam, max_depth, Arena())
     ref = CReference()
+    lref = _lean_reference() if lean else None
+    grid = gridmod.make_grid(cam, opts.tile, opts.slices, max_depth, opts.near_slice_depth)
     load = [round(v, 2) for v in os.getloadavg()]
     kw = dict(tile=opts.tile, slices=opts.slices, near_slice_depth=opts.near_slice_depth,
               max_depth=max_depth, hybrid=hybrid)
@@ -89,8 +99,13 @@ def compare(technique, scene, size, opts, repeat: int, frame: int = 0, frames: i
         c = ref.frame(scene.lights, cam, **kw)          # warm-up (and the input's refusal)
         b = technique.build(fi, opts)                   # warm-up (numba's JIT / cache load)
         differ = differences(c, b, hybrid)
+        lkw = dict(lights_per_leaf=opts.lights_per_leaf, max_leaves=opts.max_leaves,
+                   radius_scale=opts.radius_scale) if hybrid else {}
+        lists = _lean_lists(lref.frame(scene.lights, cam, grid, max_depth, **lkw), grid, b) \
+            if lean else None
         cs = {k: [] for k in STEPS + ("total",)}
         ns = {k: [] for k in CPU_STAGES + ("total",)}
+        ls = {k: [] for k in STEPS + ("total",)}
         for i in range(repeat):
             if progress:
                 progress(i + 1, repeat, f"C and numba {technique.name} frames")
@@ -102,12 +117,20 @@ def compare(technique, scene, size, opts, repeat: int, frame: int = 0, frames: i
             for k in CPU_STAGES:
                 ns[k].append(float(ms.get(k, 0.0)))
             ns["total"].append(float(sum(ms.values())))
+            if lean:
+                f = lref.frame(scene.lights, cam, grid, max_depth, **lkw)
+                for k in STEPS:
+                    ls[k].append(f.ms[k])
+                # clustered: the lean C's steps up to its lists (it plans and builds anyway)
+                ls["total"].append(sum(f.ms[k] for k in (STEPS if hybrid else STEPS[:4])))
         visible = int(c.ids.shape[0])          # (c's arrays are the C side's: read them here)
         sizes = {"cells": int(len(c.ranges)), "list_entries": int(len(c.entries))}
         if hybrid:
             sizes.update(nodes=int(len(c.nodes)), trees=int(c.is_tree.sum()))
     finally:
         ref.close()
+        if lref is not None:
+            lref.close()
     rows = {}
     for name, (ck, nk) in list(ROWS.items()) + [("total", (("total",), ("total",)))]:
         if name == "plan + build" and not hybrid:
@@ -125,7 +148,44 @@ def compare(technique, scene, size, opts, repeat: int, frame: int = 0, frames: i
             "rows": rows,
             "c_steps": _steps(cs, STEPS if hybrid else STEPS[:4]),
             "numba_stages": _steps(ns, CPU_STAGES),
-            "load": {"before": load, "after": [round(v, 2) for v in os.getloadavg()]}}
+            "load": {"before": load, "after": [round(v, 2) for v in os.getloadavg()]},
+            **({"lean": _lean_result(ls, ns, hybrid, lists, lref.path)} if lean else {})}
+
+
+def _lean_reference():
+    from .lean import LeanReference
+    return LeanReference()
+
+
+def _lean_lists(f, grid, b) -> dict:
+    """The lean frame's per-cell light sets against our build's (lean.list_differences;
+    our CSR lists made again from our build's rectangles and depth ranges)."""
+    from cpu_prep import grid as gridmod
+    from .lean import list_differences
+    pl = b.lights
+    offsets, entries, _ = gridmod.bin_rects(grid, pl.rect, pl.depth_lo, pl.depth_hi)
+    d = list_differences(f, pl.ids, offsets, entries)
+    d["lean_only"], d["ours_only"] = len(d["lean_only"]), len(d["ours_only"])
+    d["lean_visible"], d["our_visible"] = int(len(f.ids)), int(len(pl.ids))
+    return d
+
+
+def _lean_result(ls, ns, hybrid: bool, lists: dict, path) -> dict:
+    rows = {}
+    for name, (ck, nk) in list(ROWS.items()) + [("total", (("total",), ("total",)))]:
+        if name == "plan + build" and not hybrid:
+            continue
+        lv = np.sum([ls[k] for k in ck], axis=0)
+        nv = np.sum([ns[k] for k in nk], axis=0)
+        r = _row(lv, nv)
+        rows[name] = {k.replace("c_", "lean_", 1) if k.startswith("c_") else k: v
+                      for k, v in r.items()}
+        paired = nv / np.maximum(lv, 1e-9)         # each numba frame against its lean frame
+        rows[name]["paired_ratio_median"] = round(float(np.median(paired)), 3)
+        rows[name]["paired_ratio_quartiles"] = [round(float(q), 3)
+                                                for q in np.percentile(paired, (25, 75))]
+    return {"library": str(path), "rows": rows,
+            "steps": _steps(ls, STEPS if hybrid else STEPS[:4]), "lists": lists}
 
 
 def _steps(samples: dict, keys) -> dict:
@@ -214,6 +274,8 @@ def print_result(r: dict, as_json: bool) -> None:
     for who, key in (("C steps", "c_steps"), ("numba stages", "numba_stages")):
         print(f"{who} (ms min / median): " + ", ".join(
             f"{k} {v['min_ms']:.3f} / {v['median_ms']:.3f}" for k, v in r[key].items()))
+    if "lean" in r:
+        _print_lean(r["lean"])
     print("load average (1, 5, 15 min) before / after: "
           f"{' '.join(map(str, r['load']['before']))} / {' '.join(map(str, r['load']['after']))}")
 
@@ -232,6 +294,31 @@ def main(args, threads, technique, opts) -> None:
     size = tuple(args.size or scene.resolution)
     log = (lambda i, total, what: sys.stderr.write(f"[{i}/{total}] {what}\n")) if not args.json else None
     with using_threads(threads[0]):
-        r = compare(technique, scene, size, opts, args.repeat, args.frame, args.frames, progress=log)
+        r = compare(technique, scene, size, opts, args.repeat, args.frame, args.frames,
+                    progress=log, lean=getattr(args, "lean_reference", False))
     r["scene"] = args.scene
     print_result(r, args.json)
+
+
+def _print_lean(d: dict) -> None:
+    li = d["lists"]
+    print(f"lean C (lean_ref.c, one thread), interleaved with both: {li['lean_visible']:,} "
+          f"visible (ours {li['our_visible']:,}), {li['lean_entries']:,} list entries (ours "
+          f"{li['our_entries']:,}); {li['same_cells']:,} of {li['cells']:,} cells hold the "
+          f"same light set as ours, {li['ours_only']:,} (cell, light) pairs ours only (its "
+          f"margins), {li['lean_only']:,} the lean C's only")
+    print(f"{'step':14} {'lean min':>9} {'lean med':>9} {'numba min':>10} {'numba med':>10} "
+          f"{'ratio min':>10} {'ratio med':>10} {'paired (quartiles)':>19}")
+    f = lambda x: f"{x:.2f}x" if x is not None else "-"
+    for name, v in d["rows"].items():
+        q = v["paired_ratio_quartiles"]
+        print(f"{name:14} {v['lean_min_ms']:9.3f} {v['lean_median_ms']:9.3f} "
+              f"{v['numba_min_ms']:10.3f} {v['numba_median_ms']:10.3f} "
+              f"{f(v['ratio_min']):>10} {f(v['ratio_median']):>10} "
+              f"{v['paired_ratio_median']:6.2f}x ({q[0]:.2f}-{q[1]:.2f})")
+    t = d["rows"]["total"]
+    q = t["paired_ratio_quartiles"]
+    print(f"total ratio numba / lean C, the frames' own ratios: median {t['paired_ratio_median']:.2f}x "
+          f"(quartiles {q[0]:.2f}-{q[1]:.2f}x)")
+    print("lean C steps (ms min / median): " + ", ".join(
+        f"{k} {v['min_ms']:.3f} / {v['median_ms']:.3f}" for k, v in d["steps"].items()))
