@@ -46,14 +46,14 @@ class Preset:
     paper_sample: int = 8         # the shading replay over every k-th 8x8 group (scaled)
     paper_path_sample: int = 0    # ... figure 7's rows (0: paper_sample)
     paper_raster: bool = True     # raster's rows of Drobot's tables (zbin table, cluster table)
-    # the CPU stage's growth (issue 23 item 4; app.bench.cpu.growth_series) in cpu_scene at
+    # the CPU stage's growth (app.bench.cpu.growth_series) in cpu_scene at
     # cpu_size: every technique with a CPU build, each count on each thread count in turn;
     # () none.  growth_cap_ms: a technique whose median build passes it runs no larger count
     growth_lights: tuple[int, ...] = ()
     growth_threads: tuple[int, ...] = (1, 2)
     growth_repeat: int = 1
     growth_cap_ms: float = 0.0
-    # temporal stability along a moving path (issue 21 item 4; app.bench.temporal): frames
+    # temporal stability along a moving path (app.bench.temporal): frames
     # 0..temporal_frames-1 of a temporal_loop-frame loop of temporal_scene's path with its
     # lights bouncing, every technique, cap policy and temporal_cutoffs level against the
     # unbounded reference; temporal_frames < 2: none
@@ -63,20 +63,20 @@ class Preset:
     temporal_lights: int = 2048
     temporal_size: tuple[int, int] = (128, 72)
     temporal_cutoffs: tuple[int, ...] = (256, 4096, 65536)
-    # the engines' light caps (issue 21 item 5; app.bench.caps): every list technique at each
+    # the engines' light caps (app.bench.caps): every list technique at each
     # cap policy that drops lights, in caps_scenes at caps_lights (the cutoff study's count,
     # so the report's lead figure holds both); () none
     caps_scenes: tuple[str, ...] = ()
     caps_lights: int = 2048
-    # the CPU and GPU builds as a ratio (issue 23 item 1; app.bench.gpu_build): every
+    # the CPU and GPU builds as a ratio (app.bench.gpu_build): every
     # technique that takes --build, built both ways at each count in gpu_build_scene at the
     # rendered size, fastest of gpu_build_repeat samples; results.csv study "gpu_build";
     # () none
     gpu_build_lights: tuple[int, ...] = ()
     gpu_build_scene: str = "city"
     gpu_build_repeat: int = 3
-    # the CPU stage against the plain single-threaded C reference (issue 23 item 5;
-    # app.bench.c_reference): hybrid and clustered in cpu_scene at cpu_size, C and numba
+    # the CPU stage against the plain single-threaded C reference (app.bench.c_reference):
+    # hybrid and clustered in cpu_scene at cpu_size, C and numba
     # interleaved frame by frame, numba on each of c_reference_threads; results.csv study
     # "c_reference"; () none (and skipped, with a line, where cpu_scene has other lights
     # than points or no C compiler is found)

@@ -262,9 +262,9 @@ class Sweep:
         measure.fill_floor_positions(self.rows, self.reference, self.floor)
         self.paper_series()
         self.cpu_series()
-        self.rows += preset_growth(self.p, self.progress)      # issue 23 item 4 (none: ())
-        self.rows += self.gpu_build_series()                   # issue 23 item 1 (none: [])
-        self.rows += self.c_reference_series()                 # issue 23 item 5 (none: [])
+        self.rows += preset_growth(self.p, self.progress)      # none: ()
+        self.rows += self.gpu_build_series()                   # none: []
+        self.rows += self.c_reference_series()                 # none: []
         return self.rows
 
     def c_reference_series(self) -> list[dict]:

@@ -1,4 +1,4 @@
-"""The report's lead figure (issue 21 item 5): every accuracy choice the lab measures, its
+"""The report's lead figure: every accuracy choice the lab measures, its
 image error against its frame cost, with the Pareto front (tradeoff.png).
 
     points   in one scene at one light count (frame 0), each a configuration a user can pick:
