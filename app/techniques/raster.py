@@ -472,7 +472,7 @@ def contention_figures(technique, size=SLIDES_SIZE) -> dict[int, dict]:
 @lru_cache(maxsize=4)
 def _contention_figures(technique, size) -> dict[int, dict]:
     from scenes import load_scene
-    from ..model import cost, waves
+    from ..model import cost, counts, waves
     from ..pipeline.renderer import Renderer
     gpu = cost.BY_KEY[MODEL_GPU]
     out = {}
@@ -481,7 +481,9 @@ def _contention_figures(technique, size) -> dict[int, dict]:
         for v in range(len(VARIANTS)):
             opts = technique.resolve_options({"raster_variant": v})
             res = r.render(technique, 0, opts, defines={"CELLS_ONLY": 1})
-            figs = technique.cull_figures(waves.frame_data(r, res, opts), gpu.wave)
+            frame = waves.frame_data(r, res, opts)
+            figs = technique.cull_figures(frame, gpu.wave)
+            counts.attach(figs, frame.programs)        # each pass's counted instructions
             st = res.meta["stats"]
             out[v] = {"atomics": int(st["raster_atomics"]), "fragments": int(st["raster_fragments"]),
                       "model_ms": sum(cost.pass_ms(f, gpu) for f in figs.values()),
