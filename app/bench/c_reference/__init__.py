@@ -135,31 +135,31 @@ def _check_layout(lib) -> None:
                               "matches scenes.model.LIGHT_DTYPE / _Out: update hybrid_ref.c")
 
 
-class CReference:
-    """The compiled reference and its frame buffers (one context: reused frame to frame)."""
+class NativeContext:
+    """A compiled C library with one context of its own, reused frame to frame: its
+    `<prefix>_new`, `<prefix>_free` and `<prefix>_struct_sizes`."""
+    prefix = ""
+    what = ""                      # its name in error messages
 
-    def __init__(self):
-        path = library_path()
+    def _open(self, path: Path):
         try:
             lib = ctypes.CDLL(str(path))
         except OSError as exc:
-            raise CReferenceError(f"loading the C reference {path} failed: {exc}") from None
-        lib.ref_new.restype = ctypes.c_void_p
-        lib.ref_free.argtypes = [ctypes.c_void_p]
-        lib.ref_struct_sizes.argtypes = [ctypes.c_void_p]
-        d, i64, p = ctypes.c_double, ctypes.c_int64, ctypes.c_void_p
-        lib.ref_frame.restype = ctypes.c_int
-        lib.ref_frame.argtypes = [p, p, i64, p, d, d, d, d, d, d, d, d, d, i64, i64, i64,
-                                  p, i64, p, p, d, i64, i64, ctypes.c_int, ctypes.POINTER(_Out)]
-        _check_layout(lib)
-        self._lib = lib
-        self._ctx = lib.ref_new()
-        self._out = _Out()
-        self.path = path
+            raise CReferenceError(f"loading {self.what} {path} failed: {exc}") from None
+        getattr(lib, f"{self.prefix}_new").restype = ctypes.c_void_p
+        getattr(lib, f"{self.prefix}_free").argtypes = [ctypes.c_void_p]
+        getattr(lib, f"{self.prefix}_struct_sizes").argtypes = [ctypes.c_void_p]
+        return lib
+
+    def _start(self, lib, path: Path) -> None:
+        self._lib, self.path = lib, path
+        self._ctx = getattr(lib, f"{self.prefix}_new")()
+        if not self._ctx:
+            raise CReferenceError(f"{self.what} ran out of memory")
 
     def close(self) -> None:
-        if self._ctx:
-            self._lib.ref_free(self._ctx)
+        if getattr(self, "_ctx", None):
+            getattr(self._lib, f"{self.prefix}_free")(self._ctx)
             self._ctx = None
 
     def __del__(self):
@@ -167,6 +167,22 @@ class CReference:
             self.close()
         except Exception:
             pass
+
+
+class CReference(NativeContext):
+    """The compiled reference and its frame buffers (one context: reused frame to frame)."""
+    prefix, what = "ref", "the C reference"
+
+    def __init__(self):
+        path = library_path()
+        lib = self._open(path)
+        d, i64, p = ctypes.c_double, ctypes.c_int64, ctypes.c_void_p
+        lib.ref_frame.restype = ctypes.c_int
+        lib.ref_frame.argtypes = [p, p, i64, p, d, d, d, d, d, d, d, d, d, i64, i64, i64,
+                                  p, i64, p, p, d, i64, i64, ctypes.c_int, ctypes.POINTER(_Out)]
+        _check_layout(lib)
+        self._out = _Out()
+        self._start(lib, path)
 
     def frame(self, lights: np.ndarray, cam, tile: int, slices: int, near_slice_depth: float,
               max_depth: float, lights_per_leaf: int = 6, max_leaves: int = 64,

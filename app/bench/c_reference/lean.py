@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import CReferenceError, library_path
+from . import CReferenceError, NativeContext, library_path
 
 SOURCE = Path(__file__).with_name("lean_ref.c")
 # plain C: -O2 for the host CPU, the compiler's own floating-point contraction allowed
@@ -66,19 +66,14 @@ class LeanFrame:
         return [frozenset(ids[o[c]:o[c + 1]].tolist()) for c in range(len(o) - 1)]
 
 
-class LeanReference:
+class LeanReference(NativeContext):
     """The compiled lean C and its frame buffers (reused frame to frame)."""
+    prefix, what = "lean", "the lean C"
 
     def __init__(self):
         from scenes.model import LIGHT_DTYPE
         path = library_path(source=SOURCE, flags=CFLAGS)
-        try:
-            lib = ctypes.CDLL(str(path))
-        except OSError as exc:
-            raise CReferenceError(f"loading the lean C {path} failed: {exc}") from None
-        lib.lean_new.restype = ctypes.c_void_p
-        lib.lean_free.argtypes = [ctypes.c_void_p]
-        lib.lean_struct_sizes.argtypes = [ctypes.c_void_p]
+        lib = self._open(path)
         f, i, p = ctypes.c_float, ctypes.c_int, ctypes.c_void_p
         lib.lean_frame.restype = ctypes.c_int
         lib.lean_frame.argtypes = [p, p, ctypes.c_int64, p, f, f, f, f, i, i, i, i, f, f, f, f,
@@ -90,21 +85,8 @@ class LeanReference:
                                                           "intensity")}
                 != {"type": 0, "position": 4, "radius": 16, "color": 20, "intensity": 32}):
             raise CReferenceError("lean_ref.c's structs no longer match LIGHT_DTYPE / lean.py")
-        self._lib, self._out, self.path = lib, _Out(), path
-        self._ctx = lib.lean_new()
-        if not self._ctx:
-            raise CReferenceError("the lean C ran out of memory")
-
-    def close(self) -> None:
-        if self._ctx:
-            self._lib.lean_free(self._ctx)
-            self._ctx = None
-
-    def __del__(self):
-        try:
-            self.close()
-        except Exception:
-            pass
+        self._out = _Out()
+        self._start(lib, path)
 
     def frame(self, lights: np.ndarray, cam, grid, max_depth: float, lights_per_leaf: int = 6,
               max_leaves: int = 64, radius_scale: float = 1.0) -> LeanFrame:
