@@ -191,25 +191,24 @@ PIXEL_BYTES = 36 + 16       # G-buffer read, colour written, per pixel (module d
 
 def slots(ops, gpu: GPU) -> float:
     """Issue slots of one counted step (alu, trans, idiv, wred) on `gpu`."""
-    alu, trans, idiv, wred = (list(ops) + [0.0, 0.0])[:4]
+    alu, trans, idiv, wred = ops
     return (alu + (trans + idiv) / gpu.sfu + idiv * _assumed["int_division"]
             + wred * _assumed["wave_reduction"])
 
 
-def _ops(f: Figures, key: str, pass_needs: bool):
+def _ops(f: Figures, key: str):
+    """The counts of a step the pass runs: an error where its program prices none."""
     if f.ops is None:
         raise ValueError("figures without instruction counts (app.model.counts.attach)")
     if key not in f.ops:
-        if pass_needs:
-            raise ValueError(f"the pass runs '{key}' but its program prices no such step "
-                             f"(a '// priced: {key.split(':')[0]}' mark in its shaders)")
-        return (0.0, 0.0, 0.0, 0.0)
+        raise ValueError(f"the pass runs '{key}' but its program prices no such step "
+                         f"(a '// priced: {key.split(':')[0]}' mark in its shaders)")
     return f.ops[key]
 
 
 def instructions(f: Figures, gpu: GPU) -> float:
     """I: instructions per lane slot summed over the pass's waves (module doc)."""
-    w = lambda key, n: n * slots(_ops(f, key, n > 0), gpu) if n else 0.0
+    w = lambda key, n: n * slots(_ops(f, key), gpu) if n else 0.0
     issued = f.loops[:, FIELDS.index("issued")]
     total = sum(w(kind, int(issued[k])) for k, kind in enumerate(KINDS))
     for t, shape in enumerate(LIGHT_TYPES):
@@ -236,10 +235,18 @@ def times(f: Figures, gpu: GPU) -> dict[str, float]:
     graphics = f.graphics
     units = gpu.graphics_units if graphics else gpu.units
     alu = instructions(f, gpu) * gpu.wave / (units * gpu.lanes * hz)
-    dram = (sum(f.unique_bytes.values()) + f.pixels * (PIXEL_BYTES if f.shading_pixels else 0)) \
-        / (gpu.dram_gbs * 1e9 * _assumed["dram_scale"])
+    dram = _dram_s(sum(f.unique_bytes.values()) + f.pixels * (PIXEL_BYTES if f.shading_pixels else 0), gpu)
     rast = f.fragments / (gpu.rops * hz) if graphics else 0.0
     return {"alu": alu, "l1": float(l1_cycles) / (units * hz), "dram": dram, "raster": rast}
+
+
+def _dram_s(nbytes: float, gpu: GPU) -> float:
+    return nbytes / (gpu.dram_gbs * 1e9 * _assumed["dram_scale"])
+
+
+def dram_floor_ms(pixels: int, gpu: GPU) -> float:
+    """A shading pass's least time: every pixel's G-buffer read and colour write from DRAM."""
+    return 1e3 * _dram_s(pixels * PIXEL_BYTES, gpu)
 
 
 def pass_ms(f: Figures, gpu: GPU) -> float:

@@ -15,7 +15,8 @@ a fixed trip count inside a counted function says it on the line before it,
 
     // trips: N
 
-and counts N times (fptl_aabb.comp's faces and planes); any other loop counts once.
+and counts N times (fptl_aabb.comp's corners and their planes); any other loop counts once
+(fptl_aabb's clipping, which most lights skip, counts once a light).
 
     program_counts(key) -> {kind: [alu, trans, idiv, wred], "test:<shape>", "shade:<shape>",
                             "ggx", "wave": [...]}     (app.model.spirv's columns)

@@ -286,7 +286,7 @@ class Figures:
     fragments: int = 0             # its fragments (depth tests)
     # what one issued iteration of each kind costs, counted from the pass's own program
     # (app.model.counts.program_counts: kind / "test:<shape>" / "shade:<shape>" / "ggx" /
-    # "wave" -> [alu, trans]); None until the cost model's counts are attached
+    # "wave" -> [alu, trans, idiv, wred]); None until the cost model's counts are attached
     ops: dict | None = None
     programs: tuple = ()           # the shader files of the programs the counts come from
     stands_for: str = ""           # a regex of the frame's passes this figure prices, where

@@ -44,7 +44,9 @@ def modelled_ms(r: dict, key: str, part: str = "lighting") -> float:
 
 def gap(first: float, second: float) -> float:
     """(second - first) / max(first, second): > 0 where `first` costs less; gap(b, a) =
-    -gap(a, b)."""
+    -gap(a, b); nan where either is (a claim without its figures)."""
+    if math.isnan(first) or math.isnan(second):
+        return math.nan
     top = max(first, second)
     return (second - first) / top if top > 0 else 0.0
 
@@ -184,10 +186,8 @@ def _fig7_scene_claims(scene, key, counts, s) -> list[Claim]:
 
 
 def dram_floor_ms(width: int, height: int, key: str) -> float:
-    """The model's least shading-pass time at a size: every pixel's G-buffer read and
-    colour write at the GPU's DRAM bandwidth (app/model/cost.py)."""
-    g = cost.BY_KEY[key]
-    return 1e3 * width * height * cost.PIXEL_BYTES / (g.dram_gbs * 1e9)
+    """The model's least shading-pass time at a size (cost.dram_floor_ms)."""
+    return cost.dram_floor_ms(width * height, cost.BY_KEY[key])
 
 
 def _bounds(sub, key: str) -> str:
@@ -535,9 +535,9 @@ def _departures(rows) -> str:
                      f"model's DRAM floor on the GTX 980 ({w} x {h} x {cost.PIXEL_BYTES} B / "
                      f"{cost.BY_KEY['gtx980'].dram_gbs:g} GB/s = {floor:.3g} ms), so the ranking "
                      f"there says little about the techniques; and the paper measures clustered "
-                     f"at {CITADEL['clustered'][0]} ms, " + ("below" if CITADEL['clustered'][0] < floor
-                                                              else "above") +
-                     " that floor: there the model reads high, not low.")
+                     f"at {CITADEL['clustered'][0]} ms, " +
+                     ("below that floor: there the model reads high, not low."
+                      if CITADEL['clustered'][0] < floor else "above that floor."))
     scenes = sel(rows, study=PAPER_PREFIX + "scenes")
     if scenes:
         floors = _floored(scenes)

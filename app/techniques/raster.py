@@ -636,7 +636,7 @@ def _cluster_tile_text(rows) -> list[str]:
              f"modelled PS4 culling {f(r, 'model_ps4_cull_ms'):.3g} + shading "
              f"{f(r, 'model_ps4_shade_ms'):.3g} ms)" for r in sweep]
     tiles = {int(float(r["zbin_variant"])): r for r in rows
-             if r.get("study") == PAPER_PREFIX + "zbin_table"}
+             if r.get("study") == PAPER_PREFIX + "zbin_table" and r.get("technique") == "raster"}
     waste = [f(r, "waste") for r in sweep]
     falls = all(a <= b for a, b in zip(waste, waste[1:]))
     r0 = sweep[0]
