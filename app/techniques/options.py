@@ -276,6 +276,26 @@ class ScalarizeOptions(TechniqueOptions):
 
 @dataclass(frozen=True)
 class CapOptions(TechniqueOptions):
+    """`--cap-policy NAME` applies an engine's light cap to the view's visible lights before
+    the technique builds its structure, dropping the over-cap lights in that engine's order:
+    `hdrp-view` (HDRP, 512 punctual and 64 area lights a view, the first in scene order kept),
+    `godot-512` (Godot Forward+, 512 of each light type, the first in scene order),
+    `filament-256` (Filament, the 256 nearest to the camera), `urp-256`, `urp-32`, `urp-16`
+    (URP's per-camera limit on desktop, mobile, low-end mobile: the nearest). The default,
+    `none`, never drops a light. Each policy's source is written beside it in
+    `cpu_prep/caps.py` (research: `docs/research/accuracy_policies.md`). A capped frame
+    differs from `brute` on purpose: `--check` then renders `brute` without the dropped
+    lights, and if the frame equals that at every pixel it prints `intended loss: N pixels,
+    M lights dropped by POLICY` (exit 3: counted, neither a pass, 0, nor a failure); any
+    other difference is a plain failure (exit 1).
+
+    `hdrp-fptl-24` and `hdrp-fptl-63` are HDRP FPTL's per-tile caps (fptl's fine lists per
+    tile only; elsewhere exit 2): each 16x16 tile keeps the lowest HDRP sort keys of each
+    category, punctual and area, up to the budget (lightlistbuild.compute's clamp). A light
+    dropped from some tiles is kept in others, so `--check` holds the frame to each pixel's
+    exact list less the (tile, light) entries HDRP's keys drop (`app/tile_caps.py`), and the
+    intended loss also counts the entries and tiles that dropped one."""
+
     # value k is cpu_prep.caps.NAMES[k]; each policy's budgets, drop order and source are
     # written there (docs/research/accuracy_policies.md)
     cap_policy: int = choice(caps.NONE, caps.NAMES,
@@ -297,6 +317,28 @@ class CapOptions(TechniqueOptions):
 
 @dataclass(frozen=True)
 class StochasticOptions(TechniqueOptions):
+    """`--stochastic N` (every technique, brute included) is Tokuyoshi & Harada's stochastic
+    light culling ("Stochastic Light Culling", JCGT 2016) at budget t = 1/N of the brightest
+    light's peak: each point, spot and capsule light draws its range by Russian roulette
+    once a frame, r = sqrt(1/(alpha xi) - 1) with alpha = t I_max / I (at xi = 1 the cutoff
+    study's radius at t, longer below), one xi per light shared by every pixel, hashed from
+    (`--stochastic-seed`, `--stochastic-frame`, scene id) in `cpu_prep/stochastic.py`; every
+    structure is built from those ranges, and a kept light adds its unbounded falloff
+    divided by its evaluation probability, max(alpha, 1/(d^2+1)), so the frame is an
+    unbiased estimate of the `UNBOUNDED_FALLOFF` reference (noise instead of the cut tails;
+    tested: over K seeds the mean's error falls as 1/sqrt(K) as the closed-form variance
+    predicts). Box lights have no distance falloff and stay exact. The same budget, seed and
+    frame give brute the same ranges, so every technique stays exact against it (`--check`
+    renders brute with the frame's draw); a seed reproduces its frame bit for bit. 0, the
+    default, is off.
+
+    A budget outside 0..65536 is one line and exit 2, and so are `--stochastic` with a view
+    `--cap-policy` (not offered together yet) and `--stochastic-seed` or `--stochastic-frame`
+    without `--stochastic` (there is no draw for them to choose). The bench's light cutoff
+    study runs it (one draw) at t = 1/256 and 1/4096 with tiled and clustered, each row exact
+    against brute of the same draw, beside the cutoff levels in the report's cutoff figure
+    (dashed)."""
+
     # Tokuyoshi & Harada 2016 (cpu_prep/stochastic.py): the light's range drawn each frame,
     # its contribution weighted by 1/p; brute takes it too, so every technique stays exact
     # against brute under the same budget, seed and frame
