@@ -58,6 +58,20 @@ def _own_doc(cls, method: str, base) -> str:
     return _doc(mine)
 
 
+def _mro_docs(cls, method: str, base) -> list[str]:
+    """The docstrings of `method` in every class of cls's MRO that defines it, `base`'s
+    excepted, most derived first, each once (an option group's rule and a technique's own)."""
+    out: list[str] = []
+    for klass in cls.__mro__:
+        if klass is base or method not in vars(klass):
+            continue
+        own = vars(klass)[method].__doc__             # its own: getdoc would inherit one
+        doc = " ".join(inspect.cleandoc(own).split()) if own else ""
+        if doc and doc not in out:
+            out.append(doc)
+    return out
+
+
 def spec_type(s) -> str:
     if s.choices:
         return "choice"
@@ -100,9 +114,10 @@ def _refusals(t) -> list[str]:
     from app.techniques.options import TechniqueOptions
     own = _own_doc(type(t), "refusal", Technique)
     out = [f"- Refuses a frame: {own or ROWS_ONLY}"]
-    mode = _own_doc(t.Options, "ignored", TechniqueOptions)
-    if mode:
-        out.append(f"- Refuses an option its mode ignores (set to other than its default): {mode}")
+    for doc in _mro_docs(t.Options, "ignored", TechniqueOptions):
+        out.append(f"- Refuses an option its mode ignores (set to other than its default): {doc}")
+    for doc in _mro_docs(t.Options, "check_modes", TechniqueOptions):
+        out.append(f"- Refuses a combination of options: {doc}")
     return out
 
 

@@ -307,6 +307,8 @@ class CapOptions(TechniqueOptions):
     tile_caps: ClassVar[bool] = False
 
     def check_modes(self) -> None:
+        """A per-tile policy (hdrp-fptl-*) on a technique whose list build does not apply it
+        (tile_caps False: all but fptl) is a one-line UserError naming the view's caps."""
         super().check_modes()
         policy = cap_policy(self)
         if caps.per_tile(policy) and not self.tile_caps:
@@ -361,6 +363,8 @@ class StochasticOptions(TechniqueOptions):
         return out
 
     def check_modes(self) -> None:
+        """--stochastic with a view cap policy is a one-line UserError: not offered together
+        (the per-tile hdrp-fptl-* caps take it)."""
         super().check_modes()
         # A per-tile cap (HDRP FPTL) caps the lists built from the draw's ranges, and its check
         # renders the exact lists with the same draw on the same lights: sound.  A view cap's
