@@ -30,6 +30,7 @@ many builds (--repeat 31 or more), never single runs.  docs/cpu_stage.md has the
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 import json
 import sys
 from typing import Callable
@@ -42,6 +43,7 @@ from ..pipeline.passes import FrameInput
 from ..results import CPU_STAGES, UPLOAD, stats
 from ..techniques import REGISTRY, get
 from .presets import GROWTH_LIGHTS, int_list
+from .study import Study
 
 
 def cpu_stage_samples(technique, scene, size, opts, repeat: int, frame: int = 0,
@@ -190,12 +192,35 @@ def growth_series(scene_name: str, counts, threads, size, repeat: int, technique
             for (name, n, t), s in samples.items() if name not in dropped]
 
 
-def preset_growth(preset, progress: Callable | None = None) -> list[dict]:
-    """The preset's growth series (its growth_* fields, in cpu_scene at cpu_size): the rows
-    the sweep adds to results.csv (study "growth")."""
-    return growth_series(preset.cpu_scene, preset.growth_lights, preset.growth_threads,
-                         preset.cpu_size, preset.growth_repeat, seed=preset.seed,
-                         frames=preset.frames, cap_ms=preset.growth_cap_ms, progress=progress)
+@dataclass(frozen=True)
+class GrowthConfig:
+    """The growth series of a sweep (presets.Preset.growth_*, in cpu_scene at cpu_size);
+    lights (): none.  cap_ms: a technique whose build passes it runs no larger count."""
+    scene: str
+    lights: tuple[int, ...]
+    threads: tuple[int, ...]
+    size: tuple[int, int]
+    repeat: int
+    cap_ms: float
+    seed: int
+    frames: int
+
+    @classmethod
+    def of(cls, p) -> "GrowthConfig":
+        return cls(p.cpu_scene, tuple(p.growth_lights), tuple(p.growth_threads),
+                   tuple(p.cpu_size), p.growth_repeat, p.growth_cap_ms, p.seed, p.frames)
+
+
+class GrowthStudy(Study):
+    """The sweep's growth series: results.csv rows of study "growth" (the report's CPU page)."""
+    name = GROWTH
+    section = "cpu"
+    Config = GrowthConfig
+
+    def run(self, out, sweep) -> list[dict]:
+        c = self.config
+        return growth_series(c.scene, c.lights, c.threads, c.size, c.repeat, seed=c.seed,
+                             frames=c.frames, cap_ms=c.cap_ms, progress=sweep.progress)
 
 
 def set_cpu_threads(n: int) -> int:
@@ -207,19 +232,27 @@ def set_cpu_threads(n: int) -> int:
     return int(numba.get_num_threads())
 
 
+DESCRIPTION = "CPU stage of one technique, no GL context"
+
+
 def cpu_main(argv) -> None:
+    """`bench cpu ARGV` (the command's one parser: app.bench.main)."""
+    from . import main
+    main(["cpu", *argv])
+
+
+def run(args) -> None:
     """`bench cpu`; a build past a buffer limit (cpu_prep.limits.LimitError, e.g. a light
     index list over the storage-block limit) is one line, as the other user errors."""
     from cpu_prep.limits import LimitError
     try:
-        _cpu_main(argv)
+        _run(args)
     except LimitError as exc:
         raise UserError(str(exc)) from None
 
 
-def _cpu_main(argv) -> None:
-    p = cli.Parser(prog="python -m app.bench cpu",
-                   description="CPU stage of one technique, no GL context")
+def add_args(p) -> None:
+    """The `cpu` subcommand's flags."""
     cli.add_scene_args(p)
     p.add_argument("--technique", default=None,
                    help="technique id (default hybrid; with --growth a list a,b, default every "
@@ -243,7 +276,9 @@ def _cpu_main(argv) -> None:
                         "(lean_ref.c, point lights) interleaved as a third, ratio numba / lean")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     cli.add_option_args(p)
-    args = p.parse_args(argv)
+
+
+def _run(args) -> None:
     if args.repeat < 1 or args.frames < 1 or args.frame < 0:
         raise UserError("--repeat and --frames must be >= 1, --frame >= 0")
     threads = int_list(args.threads, "--threads") if args.threads else ((1, 2) if args.growth else (1,))

@@ -36,17 +36,17 @@ import time
 import numpy as np
 
 from .. import cli
-from ..model import predict
 from ..results import CPU_PREFIX, STAGES, columns, option_studies, read_csv, stats, write_csv
 from ..techniques import REGISTRY, with_role
 from ..techniques.options import STOCHASTIC_NAMES
 from . import measure
 from .caps import CAPS, loss_cells, with_caps_jobs
-from .cpu import cpu_stage_samples, preset_growth, set_cpu_threads
+from .cpu import cpu_stage_samples, set_cpu_threads
 from .cutoff import cutoff_lights, stochastic_draw, unbounded_lights
 from .machine import machine_info
 from .plan import Job, plan, study_scene
-from .presets import Preset, preset_from_args
+from .presets import STUDY_ORDER, Preset, preset_from_args
+from .study import STUDIES, Study, time_lines, timed
 
 # The wave replay of a rendered row walks about this many lane iterations a width: every
 # k-th 8x8 group of a heavier frame (app.model.predict.frame_figures), scaled
@@ -152,6 +152,7 @@ class Sweep:
 
     def model_cells(self, renderer, job: Job, res) -> dict:
         """The modelled GPU columns of a frame the renderer still holds (app.model)."""
+        from ..model import predict        # GL: not at import (the command's parser has it)
         return measure.model_cells(predict.modelled_or_none(
             renderer, REGISTRY[job.technique], res, job.opts, unbounded=job.cutoff < 0,
             budget=REPLAY_BUDGET))
@@ -232,8 +233,11 @@ class Sweep:
                 self.maps[f"own/{job.technique}/{name}"] = np.asarray(values)
                 self.maps[f"ownlabel/{job.technique}/{name}"] = np.array(label)
 
-    def run(self) -> list[dict]:
+    def render_jobs(self) -> list[dict]:
+        """The rendered study: every job of the plan and the caps series, scene by scene,
+        with the floor positions filled; its rows (also kept in self.rows)."""
         from ..pipeline.renderer import Renderer
+        first = len(self.rows)
         jobs = with_caps_jobs(plan(self.p, self.light_counts), self.p, self.light_counts,
                               self.scene, self.log)
         total = len(jobs)
@@ -259,49 +263,21 @@ class Sweep:
         finally:
             if renderer is not None:
                 renderer.release()
-        measure.fill_floor_positions(self.rows, self.reference, self.floor)
-        self.paper_series()
-        self.cpu_series()
-        self.rows += preset_growth(self.p, self.progress)      # none: ()
-        self.rows += self.gpu_build_series()                   # none: []
-        self.rows += self.c_reference_series()                 # none: []
-        return self.rows
-
-    def c_reference_series(self) -> list[dict]:
-        """The CPU stage of hybrid and clustered against the plain C reference at each of
-        the preset's c_reference_lights (app.bench.c_reference.compare.study_rows: study
-        "c_reference") in cpu_scene at cpu_size; a scene it cannot take: none, with a line."""
-        from .c_reference.compare import study_rows
-        p = self.p
-        if not p.c_reference_lights:
-            return []
-        return study_rows(p.cpu_scene, p.c_reference_lights, p.cpu_size, p.c_reference_repeat,
-                          p.c_reference_threads, progress=self.progress, log=self.log)
-
-    def gpu_build_series(self) -> list[dict]:
-        """The CPU and GPU builds of every technique that takes --build at each of the
-        preset's gpu_build_lights (app.bench.gpu_build.ratio_rows: study "gpu_build"), in
-        gpu_build_scene at the rendered size; a scene file has no light count to set: none."""
-        from scenes import BUILTIN_SCENES
-        from .gpu_build import gpu_techniques, ratio_rows
-        p = self.p
-        if not p.gpu_build_lights or not gpu_techniques():
-            return []
-        if p.gpu_build_scene not in BUILTIN_SCENES:
-            self.log.write(f"bench: gpu_build: {p.gpu_build_scene} is a scene file (its own "
-                           f"lights, no counts to sweep): skipped\n")
-            return []
-        return ratio_rows(p.gpu_build_scene, p.gpu_build_lights, p.size, p.gpu_build_repeat,
-                          progress=self.progress)
+        rows = self.rows[first:]
+        measure.fill_floor_positions(rows, self.reference, self.floor)
+        return rows
 
     # ---- the papers' settings, modelled only ------------------------------------------------
 
-    def paper_series(self) -> None:
+    def paper_series(self) -> list[dict]:
         """app.bench.validation's configurations at the papers' resolution: one read-back
-        render each, its wave figures and modelled GPU ms; no timing samples."""
+        render each, its wave figures and modelled GPU ms; no timing samples.  Its rows
+        (also kept in self.rows)."""
         from ..pipeline.renderer import Renderer
+        from ..model import predict
         from .validation import job_lights, paper_jobs
         jobs = paper_jobs(self.p)
+        first = len(self.rows)
         renderer, current = None, None
         try:
             for i, pj in enumerate(jobs, 1):
@@ -335,6 +311,7 @@ class Sweep:
         finally:
             if renderer is not None:
                 renderer.release()
+        return self.rows[first:]
 
     def _forget(self, job: Job) -> None:
         """Drop references no later job needs (full-resolution frames are ~50 MB each)."""
@@ -366,11 +343,12 @@ class Sweep:
                         for v in spec.study for t in techs]
         return out
 
-    def cpu_series(self) -> None:
+    def cpu_series(self) -> list[dict]:
         """Figure 4: technique.build alone at cpu_size; upload timed into GL buffers of the
-        process's context, as the renderer does."""
+        process's context, as the renderer does.  Its rows (also kept in self.rows)."""
         from ..pipeline import gl
         p = self.p
+        first = len(self.rows)
         ctx = gl.context()
         scratch: dict[str, object] = {}
 
@@ -410,6 +388,53 @@ class Sweep:
         finally:
             for b in scratch.values():
                 b.release()
+        return self.rows[first:]
+
+
+# ---------------------------------------------------------------------------- the studies
+
+class RenderedStudy(Study):
+    """Every rendered configuration: the path, the option studies, the cutoff and the caps
+    (results.csv; the report's GPU, cutoff, trade-off and heat-map sections).  Its config
+    is the preset itself: the plan reads most of it."""
+    name = "rendered"
+    section = "gpu"
+    Config = Preset
+
+    @classmethod
+    def of(cls, preset):
+        return preset
+
+    def run(self, out, sweep) -> list[dict]:
+        return sweep.render_jobs()
+
+
+class PapersStudy(RenderedStudy):
+    """The papers' settings, modelled only (app.bench.validation; the report's validation
+    section)."""
+    name = "papers"
+    section = "validation"
+
+    def run(self, out, sweep) -> list[dict]:
+        return sweep.paper_series()
+
+
+class CpuStudy(RenderedStudy):
+    """The CPU-only light-count series and the options at the CPU series' size (the report's
+    CPU page)."""
+    name = "cpu"
+    section = "cpu"
+
+    def run(self, out, sweep) -> list[dict]:
+        return sweep.cpu_series()
+
+
+def preset_studies(preset: Preset) -> list[Study]:
+    """The preset as its studies, in the order they run (and their rows stand in
+    results.csv), each with its config read from the preset."""
+    from .c_reference.compare import CReferenceStudy    # noqa: F401  (registers it)
+    from . import cpu, gpu_build, temporal                # noqa: F401  (register theirs)
+    return [STUDIES[name](STUDIES[name].of(preset)) for name in STUDY_ORDER]
 
 
 # ---------------------------------------------------------------------------- the command
@@ -422,37 +447,42 @@ def compared_groups(jobs: list[Job]) -> list[list[Job]]:
 
 def run_sweep(preset: Preset, out: Path, command: str, log=sys.stderr,
               motion: str | None = None) -> list[dict]:
-    """Measure the preset, write out/results.csv, maps.npz, run.json and the report
-    (`motion`: --motion, the lights' motion; None: each scene's own)."""
+    """Run the preset's studies, write out/results.csv, maps.npz, run.json and the report
+    (`motion`: --motion, the lights' motion; None: each scene's own); end with where the
+    time went, a line a study (also run.json's study_s)."""
     from .. import report
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     threads = set_cpu_threads(preset.cpu_threads)
     sweep = Sweep(preset, log, motion)
-    rows = sweep.run()
+    rows, seconds = timed(preset_studies(preset), out, sweep)
     write_csv(rows, out / "results.csv", columns())
     np.savez_compressed(out / "maps.npz", **sweep.maps)
     elapsed = time.perf_counter() - t0
     info = dict(machine_info(), command=command, preset=preset.name, elapsed_s=elapsed,
                 cpu_threads=threads, motion=motion or "the scenes' own",
-                config={f.name: getattr(preset, f.name) for f in fields(preset)})
+                config={f.name: getattr(preset, f.name) for f in fields(preset)},
+                study_s={k: round(v, 3) for k, v in seconds.items()})
     (out / "run.json").write_text(json.dumps(info, indent=1, default=list) + "\n")
+    t1 = time.perf_counter()
     report.write_report(out, read_csv(out / "results.csv"), dict(np.load(out / "maps.npz")), info)
+    seconds["report"] = time.perf_counter() - t1
     log.write(f"bench: wrote {out / 'results.csv'} ({len(rows)} rows) and {out / 'report.md'} "
               f"in {time.perf_counter() - t0:.0f} s\n")
+    log.write("".join(line + "\n" for line in time_lines(seconds)))
     return rows
 
 
-def sweep_main(argv) -> None:
-    p = cli.Parser(prog="python -m app.bench", description="the benchmark sweep and its report")
+def add_args(p) -> None:
+    """The sweep's flags (on the command's own parser: the sweep is its default)."""
     g = p.add_mutually_exclusive_group()
     g.add_argument("--quick", action="store_true", help="reduced resolution and counts (default)")
     g.add_argument("--full", action="store_true", help="1920x1080, 8192..65536 lights, whole path")
     g.add_argument("--gpu-check", action="store_true",
                    help="for a real GPU (scripts/gpu_check.sh): 1920x1080, every technique, arena "
                         "and city at 8192, 32768 and 65536 lights, measured against modelled")
-    p.add_argument("--out", required=True, help="output folder (results.csv, report.md, PNGs)")
+    p.add_argument("--out", help="output folder (results.csv, report.md, PNGs; required)")
     p.add_argument("--size", type=cli.parse_size, help="override the preset's WxH")
     p.add_argument("--scenes", help="override: comma-separated builtin names or scene files")
     p.add_argument("--lights", help="override: comma-separated light counts")
@@ -470,6 +500,9 @@ def sweep_main(argv) -> None:
     p.add_argument("--c-reference-lights", help="override: light counts of the CPU stage "
                                                 "against the plain C reference (quick: 65536; "
                                                 "full: 16384,65536; 0: none)")
+    p.add_argument("--temporal-frames", type=int,
+                   help="override: frames of the temporal stability series (quick: 6; full: 16; "
+                        "0: none)")
     p.add_argument("--threads", type=int, help="numba threads of the CPU stage (default 1, "
                                                "as the paper's figure 4; 0: numba's default)")
     p.add_argument("--papers", action=argparse.BooleanOptionalAction, default=None,
@@ -477,7 +510,16 @@ def sweep_main(argv) -> None:
                         "--scenes)")
     from ..window.launch import add_motion_arg
     add_motion_arg(p)
-    args = p.parse_args(argv)
+
+
+def run(args, argv) -> None:
+    """The sweep of the parsed command line `args` (`argv`: its words, for run.json)."""
     preset = preset_from_args(args)
     command = "python -m app.bench " + " ".join(argv)
     run_sweep(preset, Path(args.out), command, motion=args.motion)
+
+
+def sweep_main(argv) -> None:
+    """`python -m app.bench [--quick|--full] --out DIR ...`: the sweep."""
+    from . import main
+    main(list(argv))

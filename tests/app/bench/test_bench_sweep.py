@@ -19,7 +19,8 @@ from tests.helpers import registered
 
 TINY = ["--quick", "--size", "64x36", "--scenes", "arena", "--frames", "1", "--lights", "256",
         "--repeat", "1", "--cpu-lights", "256", "--cpu-size", "96x54", "--growth-lights", "256,512",
-        "--gpu-build-lights", "256", "--c-reference-lights", "256"]
+        "--gpu-build-lights", "256", "--c-reference-lights", "256", "--temporal-frames", "0"]
+# (the temporal series has its own tests: tests/app/bench/test_temporal.py)
 # the CPU series at another resolution than the rendered one: the cpu_<option> rows run too
 FIXED_PLOTS = ("accuracy_cost.png", "gpu_path.png", "cpu_stages.png", "heatmaps.png", "cutoff.png",
                "tradeoff.png")
@@ -42,6 +43,18 @@ def test_a_new_technique_module_takes_part(sweep):
     assert {r["study"] for r in mine} >= {"path", "cutoff", "cpu"}
     assert all(r["mismatch_count"] == 0 and r["mismatch_hash"] == 0 for r in mine if r["study"] == "path")
     assert "throwaway" in (out / "report.md").read_text()
+
+
+def test_the_run_says_where_its_time_went(sweep):
+    """run.json's study_s: each study of the preset's, in order, its wall seconds; and the
+    sweep wrote no other command's file (temporal.csv: --temporal-frames 0, none)."""
+    import json
+    from app.bench.presets import STUDY_ORDER
+    out, _ = sweep
+    spent = json.loads((out / "run.json").read_text())["study_s"]
+    assert list(spent) == list(STUDY_ORDER) and all(v >= 0 for v in spent.values())
+    names = {p.name for p in out.iterdir()}
+    assert not names & {"temporal.csv", "gpu_build.csv", "growth.csv", "path.csv"}
 
 
 def test_results_columns_and_rows(sweep):

@@ -1,0 +1,64 @@
+"""A study of the sweep: one series of measurements, registered as a technique is
+(app.techniques.base): defining a subclass adds it, and a preset names its studies in order.
+
+    name      results.csv's study of its rows (or its own file's), and its line in the timing
+    Config    a frozen dataclass: what the study takes; Config.of(preset) reads it from the
+              preset and the sweep's overrides of it
+    files     the files it writes itself, beside results.csv (temporal.csv, ...)
+    section   the report section that reads its rows (app.report)
+    run       run(out, sweep) -> rows: its rows for results.csv ([] for a study with its own
+              file); `sweep` (app.bench.sweep.Sweep) holds what studies share: the log,
+              the progress line, the scenes loaded
+
+A run times each study (`timed`) and ends with one line a study: where its time went.
+"""
+from __future__ import annotations
+
+import time
+from typing import ClassVar
+
+STUDIES: dict[str, type["Study"]] = {}
+
+
+class Study:
+    name: ClassVar[str] = ""
+    files: ClassVar[tuple[str, ...]] = ()
+    section: ClassVar[str] = ""
+
+    def __init_subclass__(cls, **kw):
+        super().__init_subclass__(**kw)
+        if cls.name:
+            assert cls.name not in STUDIES, f"study {cls.name} registered twice"
+            STUDIES[cls.name] = cls
+
+    def __init__(self, config):
+        self.config = config
+
+    @classmethod
+    def of(cls, preset):
+        """The study's Config from a preset (presets.Preset)."""
+        return cls.Config.of(preset)
+
+    def run(self, out, sweep) -> list[dict]:
+        raise NotImplementedError
+
+
+def timed(studies, out, sweep) -> tuple[list[dict], dict[str, float]]:
+    """Run each study in order: (their rows in that order, {study: wall seconds})."""
+    rows, seconds = [], {}
+    for study in studies:
+        t0 = time.perf_counter()
+        rows += study.run(out, sweep)
+        seconds[study.name] = seconds.get(study.name, 0.0) + time.perf_counter() - t0
+    return rows, seconds
+
+
+def time_lines(seconds: dict[str, float]) -> list[str]:
+    """One line a study: its wall time and its share of the studies' total."""
+    total = sum(seconds.values()) or 1.0
+    width = max((len(k) for k in seconds), default=0)
+    return [f"bench: time: {k:{width}} {s:8.1f} s {100 * s / total:5.1f}%"
+            for k, s in seconds.items()]
+
+
+__all__ = ["Study", "STUDIES", "timed", "time_lines"]
