@@ -28,9 +28,18 @@
         Writes DIR/results.csv (columns and studies: app.results), DIR/maps.npz (per-block
         maps of the figures), DIR/run.json and DIR/report.md with its PNG plots (app.report).
 
-Modules: presets (the --quick/--full configurations), plan (the jobs), measure (one row from
-a frame), sweep (running it all), cpu (the `cpu` subcommand), path (--path), cutoff (the
-light cutoff rule), machine (run.json's machine figures).  Nothing here names a technique: the exactness
+        The sweep is its preset's studies (app.bench.study: each registers itself, with its
+        own config, rows and report sections; presets.STUDY_ORDER), run in order and timed:
+        the run ends with a line a study, its wall time and share (run.json's study_s).
+
+One parser (`parser`): the sweep's flags, and a subcommand each for cpu, gpu-build and the
+path run; a subcommand runs its own study and writes its own files, nothing else.
+
+Modules: study (the registry of studies), presets (the --quick/--full configurations and the
+sweep's overrides), plan (the jobs), measure (one row from a frame), sweep (the rendered, papers
+and CPU studies, and running a preset), temporal, cpu (the `cpu` subcommand, the growth study),
+gpu_build, c_reference, path (--path), cutoff (the light cutoff rule), machine (run.json's
+machine figures).  Nothing here names a technique: the exactness
 reference and the floor are found by role (app.techniques.with_role).
 
 CPU threads: the CPU stage runs on `--threads` numba threads, 1 by default as in the tree

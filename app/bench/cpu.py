@@ -43,7 +43,7 @@ from ..pipeline.passes import FrameInput
 from ..results import CPU_STAGES, UPLOAD, stats
 from ..techniques import REGISTRY, get
 from .presets import GROWTH_LIGHTS, int_list
-from .study import Study
+from .study import CountSeries, Study
 
 
 def cpu_stage_samples(technique, scene, size, opts, repeat: int, frame: int = 0,
@@ -193,28 +193,25 @@ def growth_series(scene_name: str, counts, threads, size, repeat: int, technique
 
 
 @dataclass(frozen=True)
-class GrowthConfig:
-    """The growth series of a sweep (presets.Preset.growth_*, in cpu_scene at cpu_size);
-    lights (): none.  cap_ms: a technique whose build passes it runs no larger count."""
-    scene: str
-    lights: tuple[int, ...]
+class GrowthConfig(CountSeries):
+    """The growth series of a sweep (presets.Preset.growth_*, in cpu_scene at cpu_size) on
+    each of `threads`; cap_ms: a technique whose build passes it runs no larger count."""
     threads: tuple[int, ...]
-    size: tuple[int, int]
-    repeat: int
     cap_ms: float
     seed: int
     frames: int
 
     @classmethod
     def of(cls, p) -> "GrowthConfig":
-        return cls(p.cpu_scene, tuple(p.growth_lights), tuple(p.growth_threads),
-                   tuple(p.cpu_size), p.growth_repeat, p.growth_cap_ms, p.seed, p.frames)
+        return cls(p.cpu_scene, tuple(p.growth_lights), tuple(p.cpu_size), p.growth_repeat,
+                   threads=tuple(p.growth_threads), cap_ms=p.growth_cap_ms, seed=p.seed,
+                   frames=p.frames)
 
 
 class GrowthStudy(Study):
     """The sweep's growth series: results.csv rows of study "growth" (the report's CPU page)."""
     name = GROWTH
-    section = "cpu"
+    sections = ("cpu",)
     Config = GrowthConfig
 
     def run(self, out, sweep) -> list[dict]:

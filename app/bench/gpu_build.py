@@ -26,7 +26,7 @@ from ..errors import UserError
 from ..results import CPU_STAGES, stats
 from ..techniques import REGISTRY, get
 from .presets import int_list
-from .study import Study
+from .study import CountSeries, Study
 
 STUDY = "gpu_build"
 CSV = "gpu_build.csv"
@@ -104,13 +104,8 @@ def ratio_rows(scene_name: str, counts, size, repeat: int, techniques=None, prog
 
 
 @dataclass(frozen=True)
-class GpuBuildConfig:
-    """The sweep's build comparison (presets.Preset.gpu_build_*, at the rendered size);
-    lights (): none."""
-    scene: str
-    lights: tuple[int, ...]
-    size: tuple[int, int]
-    repeat: int
+class GpuBuildConfig(CountSeries):
+    """The sweep's build comparison (presets.Preset.gpu_build_*, at the rendered size)."""
 
     @classmethod
     def of(cls, p) -> "GpuBuildConfig":
@@ -122,7 +117,7 @@ class GpuBuildStudy(Study):
     results.csv study "gpu_build", the report's CPU page); a scene file has no light count
     to set: none."""
     name = STUDY
-    section = "cpu"
+    sections = ("cpu",)
     Config = GpuBuildConfig
 
     def run(self, out, sweep) -> list[dict]:

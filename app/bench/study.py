@@ -5,7 +5,7 @@
     Config    a frozen dataclass: what the study takes; Config.of(preset) reads it from the
               preset and the sweep's overrides of it
     files     the files it writes itself, beside results.csv (temporal.csv, ...)
-    section   the report section that reads its rows (app.report)
+    sections  the report modules (app.report.<name>) that read its rows or its file
     run       run(out, sweep) -> rows: its rows for results.csv ([] for a study with its own
               file); `sweep` (app.bench.sweep.Sweep) holds what studies share: the log,
               the progress line, the scenes loaded
@@ -14,6 +14,7 @@ A run times each study (`timed`) and ends with one line a study: where its time 
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 import time
 from typing import ClassVar
 
@@ -23,7 +24,7 @@ STUDIES: dict[str, type["Study"]] = {}
 class Study:
     name: ClassVar[str] = ""
     files: ClassVar[tuple[str, ...]] = ()
-    section: ClassVar[str] = ""
+    sections: ClassVar[tuple[str, ...]] = ()
 
     def __init_subclass__(cls, **kw):
         super().__init_subclass__(**kw)
@@ -41,6 +42,16 @@ class Study:
 
     def run(self, out, sweep) -> list[dict]:
         raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class CountSeries:
+    """The config of a series over light counts in one scene at one size (lights (): none),
+    `repeat` samples of each; a study's Config adds its own fields."""
+    scene: str
+    lights: tuple[int, ...]
+    size: tuple[int, int]
+    repeat: int
 
 
 def timed(studies, out, sweep) -> tuple[list[dict], dict[str, float]]:

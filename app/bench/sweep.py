@@ -398,7 +398,7 @@ class RenderedStudy(Study):
     (results.csv; the report's GPU, cutoff, trade-off and heat-map sections).  Its config
     is the preset itself: the plan reads most of it."""
     name = "rendered"
-    section = "gpu"
+    sections = ("tradeoff", "accuracy", "gpu", "path", "tables", "options", "maps", "cutoff")
     Config = Preset
 
     @classmethod
@@ -413,7 +413,7 @@ class PapersStudy(RenderedStudy):
     """The papers' settings, modelled only (app.bench.validation; the report's validation
     section)."""
     name = "papers"
-    section = "validation"
+    sections = ("validation", "model")
 
     def run(self, out, sweep) -> list[dict]:
         return sweep.paper_series()
@@ -423,7 +423,7 @@ class CpuStudy(RenderedStudy):
     """The CPU-only light-count series and the options at the CPU series' size (the report's
     CPU page)."""
     name = "cpu"
-    section = "cpu"
+    sections = ("cpu",)
 
     def run(self, out, sweep) -> list[dict]:
         return sweep.cpu_series()

@@ -204,7 +204,7 @@ class TemporalStudy(Study):
     before the sweep set the CPU stage's thread count."""
     name = "temporal"
     files = (CSV,)
-    section = "temporal"
+    sections = ("temporal", "tradeoff", "path")
     Config = TemporalConfig
 
     def run(self, out, sweep) -> list[dict]:

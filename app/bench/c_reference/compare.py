@@ -36,7 +36,7 @@ from cpu_prep import threads as cpu_threads, using_threads
 
 from ...errors import UserError
 from ...results import stats
-from ..study import Study
+from ..study import CountSeries, Study
 from . import STEPS, CReference
 
 TECHNIQUES = ("hybrid", "clustered")
@@ -237,26 +237,22 @@ def study_rows(scene_name: str, counts, size, repeat: int, threads=(1, 2), progr
 
 
 @dataclass(frozen=True)
-class CReferenceConfig:
-    """The sweep's comparison (presets.Preset.c_reference_*, in cpu_scene at cpu_size);
-    lights (): none."""
-    scene: str
-    lights: tuple[int, ...]
-    size: tuple[int, int]
-    repeat: int
+class CReferenceConfig(CountSeries):
+    """The sweep's comparison (presets.Preset.c_reference_*, in cpu_scene at cpu_size),
+    numba on each of `threads`."""
     threads: tuple[int, ...]
 
     @classmethod
     def of(cls, p) -> "CReferenceConfig":
         return cls(p.cpu_scene, tuple(p.c_reference_lights), tuple(p.cpu_size),
-                   p.c_reference_repeat, tuple(p.c_reference_threads))
+                   p.c_reference_repeat, threads=tuple(p.c_reference_threads))
 
 
 class CReferenceStudy(Study):
     """The CPU stage of TECHNIQUES against the plain C reference (study_rows: results.csv
     study "c_reference", the report's CPU page); a scene it cannot take: none, with a line."""
     name = STUDY
-    section = "cpu"
+    sections = ("cpu",)
     Config = CReferenceConfig
 
     def run(self, out, sweep) -> list[dict]:

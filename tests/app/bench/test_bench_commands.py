@@ -68,3 +68,12 @@ def test_the_time_lines_say_where_the_time_went():
     lines = study.time_lines({"rendered": 3.0, "cpu": 1.0})
     assert len(lines) == 2 and "rendered" in lines[0] and "75.0%" in lines[0]
     assert "cpu" in lines[1] and "25.0%" in lines[1]
+
+
+def test_each_study_names_the_report_modules_that_read_it():
+    import importlib
+    preset_studies(presets.QUICK)                           # every study module imported
+    for name, cls in study.STUDIES.items():
+        assert cls.sections, name
+        for module in cls.sections:
+            importlib.import_module(f"app.report.{module}")
