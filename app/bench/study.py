@@ -3,7 +3,8 @@
 
     name      results.csv's study of its rows (or its own file's), and its line in the timing
     Config    a frozen dataclass: what the study takes; Config.of(preset) reads it from the
-              preset and the sweep's overrides of it
+              preset and the sweep's overrides of it (None: the preset itself, for a study
+              that reads most of it)
     files     the files it writes itself, beside results.csv (temporal.csv, ...)
     sections  the report modules (app.report.<name>) that read its rows or its file
     run       run(out, sweep) -> rows: its rows for results.csv ([] for a study with its own
@@ -25,6 +26,7 @@ class Study:
     name: ClassVar[str] = ""
     files: ClassVar[tuple[str, ...]] = ()
     sections: ClassVar[tuple[str, ...]] = ()
+    Config: ClassVar[type | None] = None
 
     def __init_subclass__(cls, **kw):
         super().__init_subclass__(**kw)
@@ -38,7 +40,7 @@ class Study:
     @classmethod
     def of(cls, preset):
         """The study's Config from a preset (presets.Preset)."""
-        return cls.Config.of(preset)
+        return preset if cls.Config is None else cls.Config.of(preset)
 
     def run(self, out, sweep) -> list[dict]:
         raise NotImplementedError

@@ -1,7 +1,8 @@
 """`python -m app.bench [--quick|--full] --out DIR`: the sweep.  Renders every job of the
 plan (app.bench.plan) through Renderer.render like any frame, takes the timing samples with
-render(samples=N), checks every frame against the reference's, runs the CPU-only series, and
-writes DIR/results.csv (app.results), DIR/maps.npz, DIR/run.json and the report.
+render(samples=N), checks every frame against the reference's (the rendered study), runs
+the preset's other studies (app.bench.study; presets.STUDY_ORDER), and writes
+DIR/results.csv (app.results), DIR/maps.npz, DIR/run.json and the report.
 
 Timing: every configuration is rendered once with read-back (counters, image, and, while
 its buffers are there, the wave replay and the GPU cost model: app.model); then its timing
@@ -36,12 +37,12 @@ import time
 import numpy as np
 
 from .. import cli
-from ..results import CPU_PREFIX, STAGES, columns, option_studies, read_csv, stats, write_csv
+from ..results import columns, option_studies, read_csv, write_csv
 from ..techniques import REGISTRY, with_role
 from ..techniques.options import STOCHASTIC_NAMES
 from . import measure
 from .caps import CAPS, loss_cells, with_caps_jobs
-from .cpu import cpu_stage_samples, set_cpu_threads
+from .cpu import set_cpu_threads
 from .cutoff import cutoff_lights, stochastic_draw, unbounded_lights
 from .machine import machine_info
 from .plan import Job, plan, study_scene
@@ -267,52 +268,6 @@ class Sweep:
         measure.fill_floor_positions(rows, self.reference, self.floor)
         return rows
 
-    # ---- the papers' settings, modelled only ------------------------------------------------
-
-    def paper_series(self) -> list[dict]:
-        """app.bench.validation's configurations at the papers' resolution: one read-back
-        render each, its wave figures and modelled GPU ms; no timing samples.  Its rows
-        (also kept in self.rows)."""
-        from ..pipeline.renderer import Renderer
-        from ..model import predict
-        from .validation import job_lights, paper_jobs
-        jobs = paper_jobs(self.p)
-        first = len(self.rows)
-        renderer, current = None, None
-        try:
-            for i, pj in enumerate(jobs, 1):
-                job = pj.job
-                if job.scene != current:
-                    if renderer is not None:
-                        renderer.release()
-                    renderer = Renderer(self.scene(job.scene, job.lights), self.p.paper_size)
-                    current = job.scene
-                renderer.scene = self.scene(job.scene, job.lights)
-                w, h = self.p.paper_size
-                self.progress(i, len(jobs), f"{job.describe()} at {w}x{h} (modelled)")
-                tech = REGISTRY[job.technique]
-                lights = job_lights(pj, self.lights_for(job), lambda L: renderer.frame_input(
-                    job.frame, pj.frames, lights=L))
-                res = renderer.render(tech, job.frame, job.opts, frames=pj.frames, lights=lights,
-                                      defines={"CELLS_ONLY": 1})
-                figures, implied = predict.modelled_frame(renderer, tech, res, job.opts,
-                                                          sample=pj.sample or self.p.paper_sample)
-                r = {"study": job.study, "scene": job.scene, "lights": len(lights),
-                     "visible": int(res.meta["stats"].get("visible_lights", 0)), "width": w,
-                     "height": h, "frame": job.frame, "frames": pj.frames,
-                     "technique": tech.name, "role": tech.role, "cutoff": 0}
-                r.update(measure.option_cells(job.opts))
-                r.update(measure.figure_cells(res))
-                r.update(implied)                  # the shading loops did not run on llvmpipe
-                r.update(measure.model_cells(figures))
-                r["cpu_total_ms"] = float(sum(res.meta["cpu_ms"].values()))
-                r.update(measure.model_frame_cells(r))
-                self.rows.append(r)
-        finally:
-            if renderer is not None:
-                renderer.release()
-        return self.rows[first:]
-
     def _forget(self, job: Job) -> None:
         """Drop references no later job needs (full-resolution frames are ~50 MB each)."""
         p = self.p
@@ -325,115 +280,25 @@ class Sweep:
             if not keep:
                 del self.refs[key]
 
-    # ---- the CPU-only series ---------------------------------------------------------------
-
-    def cpu_jobs(self) -> list[tuple[str, str, int, str, object]]:
-        """(study, scene, lights, technique, options) of the CPU series: every technique over
-        the CPU light counts; and, where the CPU series' resolution is not the rendered one,
-        every option study's values at that resolution (cpu_<option>, never summed with GPU
-        times of the rendered resolution)."""
-        p = self.p
-        out = [("cpu", p.cpu_scene, n, t, REGISTRY[t].Options())
-               for n in self.light_counts(p.cpu_scene, p.cpu_lights) for t in REGISTRY]
-        if tuple(p.cpu_size) != tuple(p.size) and p.study_scene in p.scenes and p.option_studies:
-            for study, (spec, techs) in option_studies().items():
-                scene = study_scene(p, spec)
-                n = self.light_counts(scene, (p.study_lights,))[0]
-                out += [(CPU_PREFIX + study, scene, n, t, REGISTRY[t].Options().with_(**{study: v}))
-                        for v in spec.study for t in techs]
-        return out
-
-    def cpu_series(self) -> list[dict]:
-        """Figure 4: technique.build alone at cpu_size; upload timed into GL buffers of the
-        process's context, as the renderer does.  Its rows (also kept in self.rows)."""
-        from ..pipeline import gl
-        p = self.p
-        first = len(self.rows)
-        ctx = gl.context()
-        scratch: dict[str, object] = {}
-
-        def upload(b) -> float:
-            t0 = time.perf_counter()
-            for k, a in b.buffers.items():
-                buf = scratch.get(k)
-                if buf is None or buf.size < a.nbytes:
-                    if buf is not None:
-                        buf.release()
-                    buf = scratch[k] = ctx.buffer(reserve=max(a.nbytes, 16))
-                if a.nbytes:
-                    buf.write(np.ascontiguousarray(a).tobytes())
-            ctx.finish()
-            return (time.perf_counter() - t0) * 1e3
-
-        series = self.cpu_jobs()
-        try:
-            for i, (study, scene, n, name, opts) in enumerate(series, 1):
-                tech = REGISTRY[name]
-                sc = self.scene(scene, n)
-                what = "" if study == "cpu" else f" {study[len(CPU_PREFIX):]}=" \
-                                                 f"{getattr(opts, study[len(CPU_PREFIX):])}"
-                self.progress(i, len(series), f"{study} {scene} {n} lights {name}{what} "
-                                              f"at {p.cpu_size[0]}x{p.cpu_size[1]}")
-                s = cpu_stage_samples(tech, sc, p.cpu_size, opts, p.cpu_repeat, 0, p.frames,
-                                      upload=upload)
-                r = {"study": study, "scene": scene, "lights": n, "visible": s["visible"],
-                     "width": p.cpu_size[0], "height": p.cpu_size[1], "frame": 0,
-                     "frames": p.frames, "technique": name, "role": tech.role, "cutoff": 0,
-                     "samples": p.cpu_repeat}
-                r.update(measure.option_cells(opts))
-                for k in STAGES:
-                    r[f"cpu_{k}_ms"] = stats(s[k])[0]
-                r["cpu_total_ms"], r["cpu_total_min_ms"], r["cpu_total_max_ms"] = stats(s["total"])
-                self.rows.append(r)
-        finally:
-            for b in scratch.values():
-                b.release()
-        return self.rows[first:]
-
 
 # ---------------------------------------------------------------------------- the studies
 
 class RenderedStudy(Study):
     """Every rendered configuration: the path, the option studies, the cutoff and the caps
     (results.csv; the report's GPU, cutoff, trade-off and heat-map sections).  Its config
-    is the preset itself: the plan reads most of it."""
+    is the preset itself (Config None): the plan reads most of it."""
     name = "rendered"
     sections = ("tradeoff", "accuracy", "gpu", "path", "tables", "options", "maps", "cutoff")
-    Config = Preset
-
-    @classmethod
-    def of(cls, preset):
-        return preset
 
     def run(self, out, sweep) -> list[dict]:
         return sweep.render_jobs()
-
-
-class PapersStudy(RenderedStudy):
-    """The papers' settings, modelled only (app.bench.validation; the report's validation
-    section)."""
-    name = "papers"
-    sections = ("validation", "model")
-
-    def run(self, out, sweep) -> list[dict]:
-        return sweep.paper_series()
-
-
-class CpuStudy(RenderedStudy):
-    """The CPU-only light-count series and the options at the CPU series' size (the report's
-    CPU page)."""
-    name = "cpu"
-    sections = ("cpu",)
-
-    def run(self, out, sweep) -> list[dict]:
-        return sweep.cpu_series()
 
 
 def preset_studies(preset: Preset) -> list[Study]:
     """The preset as its studies, in the order they run (and their rows stand in
     results.csv), each with its config read from the preset."""
     from .c_reference.compare import CReferenceStudy    # noqa: F401  (registers it)
-    from . import cpu, gpu_build, temporal                # noqa: F401  (register theirs)
+    from . import cpu, cpu_series, gpu_build, temporal, validation  # noqa: F401  (theirs)
     return [STUDIES[name](STUDIES[name].of(preset)) for name in STUDY_ORDER]
 
 
