@@ -314,7 +314,7 @@ def run_sweep(preset: Preset, out: Path, command: str, log=sys.stderr,
               motion: str | None = None) -> list[dict]:
     """Run the preset's studies, write out/results.csv, maps.npz, run.json and the report
     (`motion`: --motion, the lights' motion; None: each scene's own); end with where the
-    time went, a line a study (also run.json's study_s)."""
+    time went, a line a study and the report's (also run.json's study_s and report_s)."""
     from .. import report
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -333,6 +333,8 @@ def run_sweep(preset: Preset, out: Path, command: str, log=sys.stderr,
     t1 = time.perf_counter()
     report.write_report(out, read_csv(out / "results.csv"), dict(np.load(out / "maps.npz")), info)
     seconds["report"] = time.perf_counter() - t1
+    info["report_s"] = round(seconds["report"], 3)       # known once the report is written
+    (out / "run.json").write_text(json.dumps(info, indent=1, default=list) + "\n")
     log.write(f"bench: wrote {out / 'results.csv'} ({len(rows)} rows) and {out / 'report.md'} "
               f"in {time.perf_counter() - t0:.0f} s\n")
     log.write("".join(line + "\n" for line in time_lines(seconds)))

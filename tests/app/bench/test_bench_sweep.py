@@ -51,8 +51,10 @@ def test_the_run_says_where_its_time_went(sweep):
     import json
     from app.bench.presets import STUDY_ORDER
     out, _ = sweep
-    spent = json.loads((out / "run.json").read_text())["study_s"]
+    info = json.loads((out / "run.json").read_text())
+    spent = info["study_s"]
     assert list(spent) == list(STUDY_ORDER) and all(v >= 0 for v in spent.values())
+    assert info["report_s"] > 0
     names = {p.name for p in out.iterdir()}
     assert not names & {"temporal.csv", "gpu_build.csv", "growth.csv", "path.csv"}
 
