@@ -137,7 +137,7 @@ def growth_row(technique, scene_name: str, n: int, size, frames: int, opts, s: d
 def growth_series(scene_name: str, counts, threads, size, repeat: int, techniques=None,
                   opts: dict | None = None, seed: int = 0, frames: int = 64,
                   cap_ms: float = 0.0, progress: Callable | None = None) -> list[dict]:
-    """Issue 23 item 4: the CPU stage of each technique (`techniques`, default: every one
+    """The growth series: the CPU stage of each technique (`techniques`, default: every one
     with a CPU build, a bin or build step, found in the warm-up) at each light count of the
     builtin scene on each thread count of `threads`, one growth_row each.  A warm-up round
     builds every configuration once; then `repeat` rounds build each once more, counts,

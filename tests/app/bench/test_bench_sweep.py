@@ -131,7 +131,7 @@ def test_plots_and_report(sweep):
 
 
 def test_gpu_build_comparison(sweep):
-    """Issue 23 item 1: the sweep builds every --build technique on the CPU and on the GPU at
+    """The sweep builds every --build technique on the CPU and on the GPU at
     each gpu_build count (study "gpu_build" of results.csv), and the CPU page compares them."""
     import json
     out, rows = sweep
@@ -153,7 +153,7 @@ def test_gpu_build_comparison(sweep):
 
 
 def test_c_reference_comparison(sweep):
-    """Issue 23 item 5: the sweep runs hybrid's and clustered's CPU stage against the plain C
+    """The sweep runs hybrid's and clustered's CPU stage against the plain C
     reference on one and two numba threads (study "c_reference"), the outputs identical, and
     the CPU page sets them side by side."""
     import json
