@@ -30,7 +30,9 @@ class Study:
 
     def __init_subclass__(cls, **kw):
         super().__init_subclass__(**kw)
-        if cls.name:
+        # a module run as a script (`python -m app.bench.gpu_build`) registers nothing: the
+        # same module imported under its own name does
+        if cls.name and cls.__module__ != "__main__":
             assert cls.name not in STUDIES, f"study {cls.name} registered twice"
             STUDIES[cls.name] = cls
 
