@@ -1,7 +1,8 @@
 """A study of the sweep: one series of measurements, registered as a technique is
 (app.techniques.base): defining a subclass adds it, and a preset names its studies in order.
 
-    name      results.csv's study of its rows (or its own file's), and its line in the timing
+    name      its key in STUDIES and its line in the timing (for a series of one results.csv
+              study, that study: "growth", "gpu_build", "c_reference")
     Config    a frozen dataclass: what the study takes; Config.of(preset) reads it from the
               preset and the sweep's overrides of it (None: the preset itself, for a study
               that reads most of it)
