@@ -28,9 +28,18 @@
         Writes DIR/results.csv (columns and studies: app.results), DIR/maps.npz (per-block
         maps of the figures), DIR/run.json and DIR/report.md with its PNG plots (app.report).
 
-Modules: presets (the --quick/--full configurations), plan (the jobs), measure (one row from
-a frame), sweep (running it all), cpu (the `cpu` subcommand), path (--path), cutoff (the
-light cutoff rule), machine (run.json's machine figures).  Nothing here names a technique: the exactness
+        The sweep is its preset's studies (app.bench.study: each registers itself, with its
+        own config, rows and report sections; presets.STUDY_ORDER), run in order and timed:
+        the run ends with a line a study, its wall time and share (run.json's study_s).
+
+One parser (`parser`): the sweep's flags, and a subcommand each for cpu, gpu-build and the
+path run; a subcommand runs its own study and writes its own files, nothing else.
+
+Modules: study (the registry of studies), presets (the --quick/--full configurations and the
+sweep's overrides), plan (the jobs), measure (one row from a frame), sweep (the rendered, papers
+and CPU studies, and running a preset), temporal, cpu (the `cpu` subcommand, the growth study),
+gpu_build, c_reference, path (--path), cutoff (the light cutoff rule), machine (run.json's
+machine figures).  Nothing here names a technique: the exactness
 reference and the floor are found by role (app.techniques.with_role).
 
 CPU threads: the CPU stage runs on `--threads` numba threads, 1 by default as in the tree
@@ -39,6 +48,7 @@ the work (a thread wake-up waits for the scheduler tick), so compare thread coun
 """
 from __future__ import annotations
 
+import argparse
 import sys
 
 
@@ -51,28 +61,47 @@ USAGE = """usage: python -m app.bench [--quick|--full] --out DIR [...]     the s
                                                                   camera path, per-frame CSV
                                                                   (python -m app.bench --path --help)
 """
+PATH = "path"                  # the subcommand a `--path PATH.json` command line is
+
+
+def parser():
+    """The command's one parser: the sweep's flags (the default), and a subcommand each for
+    cpu, gpu-build and the path run (written `--path PATH.json`, as it always was)."""
+    from .. import cli
+    from . import cpu, gpu_build, path, sweep
+    p = cli.Parser(prog="python -m app.bench", description=USAGE + "\nthe benchmark sweep and "
+                   "its report:", formatter_class=argparse.RawDescriptionHelpFormatter)
+    sweep.add_args(p)
+    sub = p.add_subparsers(dest="command", parser_class=cli.Parser, metavar="{cpu,gpu-build}")
+    cpu.add_args(sub.add_parser("cpu", description=cpu.DESCRIPTION, help=cpu.DESCRIPTION))
+    gpu_build.add_args(sub.add_parser("gpu-build", description=gpu_build.DESCRIPTION,
+                                      help=gpu_build.DESCRIPTION))
+    path.add_args(sub.add_parser(PATH, prog="python -m app.bench --path",
+                                 description=path.DESCRIPTION))
+    return p
 
 
 def main(argv=None) -> None:
-    """`python -m app.bench ...`: the `cpu` subcommand, a camera-path run or the sweep."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if argv[:1] == ["cpu"]:
-        from .cpu import cpu_main          # imports no OpenGL
-        cpu_main(argv[1:])
-        return
-    if argv[:1] == ["gpu-build"]:
-        from .gpu_build import main as gpu_build_main
-        gpu_build_main(argv[1:])
-        return
+    """`python -m app.bench ...`: parse once, run the subcommand's study (the sweep: its
+    preset's studies) and nothing else."""
     from .path import wants_path
-    if wants_path(argv):
-        from .path import path_main
-        path_main(argv)
-        return
-    if any(a in ("-h", "--help") for a in argv):
-        print(USAGE)                       # the subcommands, then the sweep's own flags
-    from .sweep import sweep_main
-    sweep_main(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    p = parser()
+    args = p.parse_args([PATH, *argv] if wants_path(argv) else argv)
+    if args.command == "cpu":
+        from .cpu import run                # imports no OpenGL
+        run(args)
+    elif args.command == "gpu-build":
+        from .gpu_build import run
+        run(args)
+    elif args.command == PATH:
+        from .path import run
+        run(args, argv)
+    else:
+        if not args.out:
+            p.error("the following arguments are required: --out")
+        from .sweep import run
+        run(args, argv)
 
 
 __all__ = ["main"]

@@ -30,6 +30,7 @@ many builds (--repeat 31 or more), never single runs.  docs/cpu_stage.md has the
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 import json
 import sys
 from typing import Callable
@@ -42,6 +43,7 @@ from ..pipeline.passes import FrameInput
 from ..results import CPU_STAGES, UPLOAD, stats
 from ..techniques import REGISTRY, get
 from .presets import GROWTH_LIGHTS, int_list
+from .study import CountSeries, Study
 
 
 def cpu_stage_samples(technique, scene, size, opts, repeat: int, frame: int = 0,
@@ -135,7 +137,7 @@ def growth_row(technique, scene_name: str, n: int, size, frames: int, opts, s: d
 def growth_series(scene_name: str, counts, threads, size, repeat: int, techniques=None,
                   opts: dict | None = None, seed: int = 0, frames: int = 64,
                   cap_ms: float = 0.0, progress: Callable | None = None) -> list[dict]:
-    """Issue 23 item 4: the CPU stage of each technique (`techniques`, default: every one
+    """The growth series: the CPU stage of each technique (`techniques`, default: every one
     with a CPU build, a bin or build step, found in the warm-up) at each light count of the
     builtin scene on each thread count of `threads`, one growth_row each.  A warm-up round
     builds every configuration once; then `repeat` rounds build each once more, counts,
@@ -190,12 +192,32 @@ def growth_series(scene_name: str, counts, threads, size, repeat: int, technique
             for (name, n, t), s in samples.items() if name not in dropped]
 
 
-def preset_growth(preset, progress: Callable | None = None) -> list[dict]:
-    """The preset's growth series (its growth_* fields, in cpu_scene at cpu_size): the rows
-    the sweep adds to results.csv (study "growth")."""
-    return growth_series(preset.cpu_scene, preset.growth_lights, preset.growth_threads,
-                         preset.cpu_size, preset.growth_repeat, seed=preset.seed,
-                         frames=preset.frames, cap_ms=preset.growth_cap_ms, progress=progress)
+@dataclass(frozen=True)
+class GrowthConfig(CountSeries):
+    """The growth series of a sweep (presets.Preset.growth_*, in cpu_scene at cpu_size) on
+    each of `threads`; cap_ms: a technique whose build passes it runs no larger count."""
+    threads: tuple[int, ...]
+    cap_ms: float
+    seed: int
+    frames: int
+
+    @classmethod
+    def of(cls, p) -> "GrowthConfig":
+        return cls(p.cpu_scene, tuple(p.growth_lights), tuple(p.cpu_size), p.growth_repeat,
+                   threads=tuple(p.growth_threads), cap_ms=p.growth_cap_ms, seed=p.seed,
+                   frames=p.frames)
+
+
+class GrowthStudy(Study):
+    """The sweep's growth series: results.csv rows of study "growth" (the report's CPU page)."""
+    name = GROWTH
+    sections = ("cpu",)
+    Config = GrowthConfig
+
+    def run(self, out, sweep) -> list[dict]:
+        c = self.config
+        return growth_series(c.scene, c.lights, c.threads, c.size, c.repeat, seed=c.seed,
+                             frames=c.frames, cap_ms=c.cap_ms, progress=sweep.progress)
 
 
 def set_cpu_threads(n: int) -> int:
@@ -207,19 +229,27 @@ def set_cpu_threads(n: int) -> int:
     return int(numba.get_num_threads())
 
 
+DESCRIPTION = "CPU stage of one technique, no GL context"
+
+
 def cpu_main(argv) -> None:
+    """`bench cpu ARGV` (the command's one parser: app.bench.main)."""
+    from . import main
+    main(["cpu", *argv])
+
+
+def run(args) -> None:
     """`bench cpu`; a build past a buffer limit (cpu_prep.limits.LimitError, e.g. a light
     index list over the storage-block limit) is one line, as the other user errors."""
     from cpu_prep.limits import LimitError
     try:
-        _cpu_main(argv)
+        _run(args)
     except LimitError as exc:
         raise UserError(str(exc)) from None
 
 
-def _cpu_main(argv) -> None:
-    p = cli.Parser(prog="python -m app.bench cpu",
-                   description="CPU stage of one technique, no GL context")
+def add_args(p) -> None:
+    """The `cpu` subcommand's flags."""
     cli.add_scene_args(p)
     p.add_argument("--technique", default=None,
                    help="technique id (default hybrid; with --growth a list a,b, default every "
@@ -243,7 +273,9 @@ def _cpu_main(argv) -> None:
                         "(lean_ref.c, point lights) interleaved as a third, ratio numba / lean")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     cli.add_option_args(p)
-    args = p.parse_args(argv)
+
+
+def _run(args) -> None:
     if args.repeat < 1 or args.frames < 1 or args.frame < 0:
         raise UserError("--repeat and --frames must be >= 1, --frame >= 0")
     threads = int_list(args.threads, "--threads") if args.threads else ((1, 2) if args.growth else (1,))

@@ -16,6 +16,7 @@ page reads gpu_build.csv beside results.csv (app/report/cpu.py gpu_build_report)
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 import json
 import sys
 from pathlib import Path
@@ -25,6 +26,7 @@ from ..errors import UserError
 from ..results import CPU_STAGES, stats
 from ..techniques import REGISTRY, get
 from .presets import int_list
+from .study import CountSeries, Study
 
 STUDY = "gpu_build"
 CSV = "gpu_build.csv"
@@ -101,9 +103,46 @@ def ratio_rows(scene_name: str, counts, size, repeat: int, techniques=None, prog
     return rows
 
 
+@dataclass(frozen=True)
+class GpuBuildConfig(CountSeries):
+    """The sweep's build comparison (presets.Preset.gpu_build_*, at the rendered size)."""
+
+    @classmethod
+    def of(cls, p) -> "GpuBuildConfig":
+        return cls(p.gpu_build_scene, tuple(p.gpu_build_lights), tuple(p.size), p.gpu_build_repeat)
+
+
+class GpuBuildStudy(Study):
+    """The CPU and GPU builds of every technique that takes --build at each count (ratio_rows:
+    results.csv study "gpu_build", the report's CPU page); a scene file has no light count
+    to set: none."""
+    name = STUDY
+    sections = ("cpu",)
+    Config = GpuBuildConfig
+
+    def run(self, out, sweep) -> list[dict]:
+        from scenes import BUILTIN_SCENES
+        c = self.config
+        if not c.lights or not gpu_techniques():
+            return []
+        if c.scene not in BUILTIN_SCENES:
+            sweep.log.write(f"bench: gpu_build: {c.scene} is a scene file (its own "
+                            f"lights, no counts to sweep): skipped\n")
+            return []
+        return ratio_rows(c.scene, c.lights, c.size, c.repeat, progress=sweep.progress)
+
+
+DESCRIPTION = "each --build technique's CPU and GPU builds, as a ratio per light count"
+
+
 def main(argv=None) -> None:
-    p = cli.Parser(prog="python -m app.bench gpu-build",
-                   description="each --build technique's CPU and GPU builds, as a ratio per light count")
+    """`bench gpu-build ARGV` (the command's one parser: app.bench.main)."""
+    from . import main as bench_main
+    bench_main(["gpu-build", *(sys.argv[1:] if argv is None else argv)])
+
+
+def add_args(p) -> None:
+    """The `gpu-build` subcommand's flags."""
     p.add_argument("--scene", default="city")
     p.add_argument("--sweep", default="8192,32768,131072", help="light counts")
     p.add_argument("--size", type=cli.parse_size, default=(320, 180), help="WxH")
@@ -111,7 +150,10 @@ def main(argv=None) -> None:
     p.add_argument("--technique", help="techniques a,b (default: every one that takes --build)")
     p.add_argument("--out", help="folder for gpu_build.csv and gpu_build.md")
     p.add_argument("--json", action="store_true")
-    args = p.parse_args(argv)
+
+
+def run(args) -> None:
+    """`bench gpu-build`: the table (or JSON), and --out's gpu_build.csv and gpu_build.md."""
     if args.repeat < 1:
         raise UserError("--repeat must be >= 1")
     names = [n.strip() for n in args.technique.split(",") if n.strip()] if args.technique else None

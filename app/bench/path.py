@@ -52,11 +52,14 @@ def wants_path(argv) -> bool:
     return any(a == "--path" or a.startswith("--path=") for a in argv)
 
 
-def build_parser():
-    p = cli.Parser(prog="python -m app.bench --path",
-                   description="every technique along a recorded camera path, per-frame CSV")
-    p.add_argument("--path", required=True, metavar="PATH.json", help="camera path file "
-                   "(python -m app.window --record PATH.json)")
+DESCRIPTION = "every technique along a recorded camera path, per-frame CSV"
+
+
+def add_args(p) -> None:
+    """The path run's flags (`--path PATH.json` names the run: app.bench.main)."""
+    # nargs "?": `--path --help` is the run's help, not a missing value
+    p.add_argument("--path", nargs="?", metavar="PATH.json", help="camera path file "
+                   "(python -m app.window --record PATH.json; required)")
     p.add_argument("--out", required=True, help="output folder (path.csv, path.json, path.png)")
     p.add_argument("--scenes", help="the scene (one builtin name or scene file; default: the "
                    "path file's scene)")
@@ -74,20 +77,24 @@ def build_parser():
     from ..window.launch import add_motion_arg
     add_motion_arg(p)
     cli.add_option_args(p)
-    return p
 
 
 def path_main(argv) -> None:
+    """`bench --path ...` (the command's one parser: app.bench.main)."""
+    from . import main
+    main(list(argv))
+
+
+def run(args, argv) -> None:
+    """The path run of the parsed command line `args` (`argv`: its words, for path.json)."""
     from scenes import BUILTIN_SCENES, load_scene
     from scenes.motion import with_motion
     from ..techniques import REGISTRY, with_role
     from ..window.campath import load
     from ..window.options import WindowOptions
     from .cpu import set_cpu_threads
-    if any(a in ("-h", "--help") for a in argv):
-        build_parser().print_help()
-        return
-    args = build_parser().parse_args(argv)
+    if not args.path:
+        raise UserError("--path: give the camera path file (PATH.json)")
     if args.repeat < 1:
         raise UserError("--repeat must be >= 1")
     path = load(args.path)

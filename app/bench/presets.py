@@ -11,6 +11,12 @@ from ..errors import UserError
 
 GROWTH_LIGHTS = tuple(8192 << k for k in range(8))  # 8,192 .. 1,048,576, doubling
 
+# A preset's studies (app.bench.study), in the order they run and their rows stand in
+# results.csv; each reads its config from the preset (Study.of), and one with nothing to
+# measure (no counts, no frames) writes nothing.  The temporal series comes first: the
+# report that reads its file is written last.
+STUDY_ORDER = ("temporal", "rendered", "papers", "cpu", "growth", "gpu_build", "c_reference")
+
 
 @dataclass(frozen=True)
 class Preset:
@@ -185,6 +191,10 @@ def preset_from_args(args) -> Preset:
     if getattr(args, "c_reference_lights", None) is not None:   # "" or "0": none
         ch["c_reference_lights"] = tuple(n for n in int_list(args.c_reference_lights or "0",
                                                              "--c-reference-lights") if n)
+    if getattr(args, "temporal_frames", None) is not None:
+        if args.temporal_frames < 0:
+            raise UserError("--temporal-frames must be >= 0")
+        ch["temporal_frames"] = args.temporal_frames
     if getattr(args, "papers", None) is not None:
         ch["paper_size"] = preset.paper_size if args.papers else None
     if args.threads is not None:

@@ -1,7 +1,8 @@
 """`python -m app.bench [--quick|--full] --out DIR`: the sweep.  Renders every job of the
 plan (app.bench.plan) through Renderer.render like any frame, takes the timing samples with
-render(samples=N), checks every frame against the reference's, runs the CPU-only series, and
-writes DIR/results.csv (app.results), DIR/maps.npz, DIR/run.json and the report.
+render(samples=N), checks every frame against the reference's (the rendered study), runs
+the preset's other studies (app.bench.study; presets.STUDY_ORDER), and writes
+DIR/results.csv (app.results), DIR/maps.npz, DIR/run.json and the report.
 
 Timing: every configuration is rendered once with read-back (counters, image, and, while
 its buffers are there, the wave replay and the GPU cost model: app.model); then its timing
@@ -36,17 +37,17 @@ import time
 import numpy as np
 
 from .. import cli
-from ..model import predict
-from ..results import CPU_PREFIX, STAGES, columns, option_studies, read_csv, stats, write_csv
+from ..results import columns, option_studies, read_csv, write_csv
 from ..techniques import REGISTRY, with_role
 from ..techniques.options import STOCHASTIC_NAMES
 from . import measure
 from .caps import CAPS, loss_cells, with_caps_jobs
-from .cpu import cpu_stage_samples, preset_growth, set_cpu_threads
+from .cpu import set_cpu_threads
 from .cutoff import cutoff_lights, stochastic_draw, unbounded_lights
 from .machine import machine_info
 from .plan import Job, plan, study_scene
-from .presets import Preset, preset_from_args
+from .presets import STUDY_ORDER, Preset, preset_from_args
+from .study import STUDIES, Study, time_lines, timed
 
 # The wave replay of a rendered row walks about this many lane iterations a width: every
 # k-th 8x8 group of a heavier frame (app.model.predict.frame_figures), scaled
@@ -152,6 +153,7 @@ class Sweep:
 
     def model_cells(self, renderer, job: Job, res) -> dict:
         """The modelled GPU columns of a frame the renderer still holds (app.model)."""
+        from ..model import predict        # GL: not at import (the command's parser has it)
         return measure.model_cells(predict.modelled_or_none(
             renderer, REGISTRY[job.technique], res, job.opts, unbounded=job.cutoff < 0,
             budget=REPLAY_BUDGET))
@@ -232,8 +234,11 @@ class Sweep:
                 self.maps[f"own/{job.technique}/{name}"] = np.asarray(values)
                 self.maps[f"ownlabel/{job.technique}/{name}"] = np.array(label)
 
-    def run(self) -> list[dict]:
+    def render_jobs(self) -> list[dict]:
+        """The rendered study: every job of the plan and the caps series, scene by scene,
+        with the floor positions filled; its rows (also kept in self.rows)."""
         from ..pipeline.renderer import Renderer
+        first = len(self.rows)
         jobs = with_caps_jobs(plan(self.p, self.light_counts), self.p, self.light_counts,
                               self.scene, self.log)
         total = len(jobs)
@@ -259,82 +264,9 @@ class Sweep:
         finally:
             if renderer is not None:
                 renderer.release()
-        measure.fill_floor_positions(self.rows, self.reference, self.floor)
-        self.paper_series()
-        self.cpu_series()
-        self.rows += preset_growth(self.p, self.progress)      # none: ()
-        self.rows += self.gpu_build_series()                   # none: []
-        self.rows += self.c_reference_series()                 # none: []
-        return self.rows
-
-    def c_reference_series(self) -> list[dict]:
-        """The CPU stage of hybrid and clustered against the plain C reference at each of
-        the preset's c_reference_lights (app.bench.c_reference.compare.study_rows: study
-        "c_reference") in cpu_scene at cpu_size; a scene it cannot take: none, with a line."""
-        from .c_reference.compare import study_rows
-        p = self.p
-        if not p.c_reference_lights:
-            return []
-        return study_rows(p.cpu_scene, p.c_reference_lights, p.cpu_size, p.c_reference_repeat,
-                          p.c_reference_threads, progress=self.progress, log=self.log)
-
-    def gpu_build_series(self) -> list[dict]:
-        """The CPU and GPU builds of every technique that takes --build at each of the
-        preset's gpu_build_lights (app.bench.gpu_build.ratio_rows: study "gpu_build"), in
-        gpu_build_scene at the rendered size; a scene file has no light count to set: none."""
-        from scenes import BUILTIN_SCENES
-        from .gpu_build import gpu_techniques, ratio_rows
-        p = self.p
-        if not p.gpu_build_lights or not gpu_techniques():
-            return []
-        if p.gpu_build_scene not in BUILTIN_SCENES:
-            self.log.write(f"bench: gpu_build: {p.gpu_build_scene} is a scene file (its own "
-                           f"lights, no counts to sweep): skipped\n")
-            return []
-        return ratio_rows(p.gpu_build_scene, p.gpu_build_lights, p.size, p.gpu_build_repeat,
-                          progress=self.progress)
-
-    # ---- the papers' settings, modelled only ------------------------------------------------
-
-    def paper_series(self) -> None:
-        """app.bench.validation's configurations at the papers' resolution: one read-back
-        render each, its wave figures and modelled GPU ms; no timing samples."""
-        from ..pipeline.renderer import Renderer
-        from .validation import job_lights, paper_jobs
-        jobs = paper_jobs(self.p)
-        renderer, current = None, None
-        try:
-            for i, pj in enumerate(jobs, 1):
-                job = pj.job
-                if job.scene != current:
-                    if renderer is not None:
-                        renderer.release()
-                    renderer = Renderer(self.scene(job.scene, job.lights), self.p.paper_size)
-                    current = job.scene
-                renderer.scene = self.scene(job.scene, job.lights)
-                w, h = self.p.paper_size
-                self.progress(i, len(jobs), f"{job.describe()} at {w}x{h} (modelled)")
-                tech = REGISTRY[job.technique]
-                lights = job_lights(pj, self.lights_for(job), lambda L: renderer.frame_input(
-                    job.frame, pj.frames, lights=L))
-                res = renderer.render(tech, job.frame, job.opts, frames=pj.frames, lights=lights,
-                                      defines={"CELLS_ONLY": 1})
-                figures, implied = predict.modelled_frame(renderer, tech, res, job.opts,
-                                                          sample=pj.sample or self.p.paper_sample)
-                r = {"study": job.study, "scene": job.scene, "lights": len(lights),
-                     "visible": int(res.meta["stats"].get("visible_lights", 0)), "width": w,
-                     "height": h, "frame": job.frame, "frames": pj.frames,
-                     "technique": tech.name, "role": tech.role, "cutoff": 0}
-                r.update(measure.option_cells(job.opts))
-                r.update(measure.figure_cells(res))
-                r.update(implied)                  # the shading loops did not run on llvmpipe
-                r.update(measure.model_cells(figures))
-                r["cpu_total_ms"] = float(sum(res.meta["cpu_ms"].values()))
-                r.update(measure.model_frame_cells(r))
-                self.rows.append(r)
-        finally:
-            if renderer is not None:
-                renderer.release()
+        rows = self.rows[first:]
+        measure.fill_floor_positions(rows, self.reference, self.floor)
+        return rows
 
     def _forget(self, job: Job) -> None:
         """Drop references no later job needs (full-resolution frames are ~50 MB each)."""
@@ -348,68 +280,26 @@ class Sweep:
             if not keep:
                 del self.refs[key]
 
-    # ---- the CPU-only series ---------------------------------------------------------------
 
-    def cpu_jobs(self) -> list[tuple[str, str, int, str, object]]:
-        """(study, scene, lights, technique, options) of the CPU series: every technique over
-        the CPU light counts; and, where the CPU series' resolution is not the rendered one,
-        every option study's values at that resolution (cpu_<option>, never summed with GPU
-        times of the rendered resolution)."""
-        p = self.p
-        out = [("cpu", p.cpu_scene, n, t, REGISTRY[t].Options())
-               for n in self.light_counts(p.cpu_scene, p.cpu_lights) for t in REGISTRY]
-        if tuple(p.cpu_size) != tuple(p.size) and p.study_scene in p.scenes and p.option_studies:
-            for study, (spec, techs) in option_studies().items():
-                scene = study_scene(p, spec)
-                n = self.light_counts(scene, (p.study_lights,))[0]
-                out += [(CPU_PREFIX + study, scene, n, t, REGISTRY[t].Options().with_(**{study: v}))
-                        for v in spec.study for t in techs]
-        return out
+# ---------------------------------------------------------------------------- the studies
 
-    def cpu_series(self) -> None:
-        """Figure 4: technique.build alone at cpu_size; upload timed into GL buffers of the
-        process's context, as the renderer does."""
-        from ..pipeline import gl
-        p = self.p
-        ctx = gl.context()
-        scratch: dict[str, object] = {}
+class RenderedStudy(Study):
+    """Every rendered configuration: the path, the option studies, the cutoff and the caps
+    (results.csv; the report's GPU, cutoff, trade-off and heat-map sections).  Its config
+    is the preset itself (Config None): the plan reads most of it."""
+    name = "rendered"
+    sections = ("tradeoff", "accuracy", "gpu", "path", "tables", "options", "maps", "cutoff")
 
-        def upload(b) -> float:
-            t0 = time.perf_counter()
-            for k, a in b.buffers.items():
-                buf = scratch.get(k)
-                if buf is None or buf.size < a.nbytes:
-                    if buf is not None:
-                        buf.release()
-                    buf = scratch[k] = ctx.buffer(reserve=max(a.nbytes, 16))
-                if a.nbytes:
-                    buf.write(np.ascontiguousarray(a).tobytes())
-            ctx.finish()
-            return (time.perf_counter() - t0) * 1e3
+    def run(self, out, sweep) -> list[dict]:
+        return sweep.render_jobs()
 
-        series = self.cpu_jobs()
-        try:
-            for i, (study, scene, n, name, opts) in enumerate(series, 1):
-                tech = REGISTRY[name]
-                sc = self.scene(scene, n)
-                what = "" if study == "cpu" else f" {study[len(CPU_PREFIX):]}=" \
-                                                 f"{getattr(opts, study[len(CPU_PREFIX):])}"
-                self.progress(i, len(series), f"{study} {scene} {n} lights {name}{what} "
-                                              f"at {p.cpu_size[0]}x{p.cpu_size[1]}")
-                s = cpu_stage_samples(tech, sc, p.cpu_size, opts, p.cpu_repeat, 0, p.frames,
-                                      upload=upload)
-                r = {"study": study, "scene": scene, "lights": n, "visible": s["visible"],
-                     "width": p.cpu_size[0], "height": p.cpu_size[1], "frame": 0,
-                     "frames": p.frames, "technique": name, "role": tech.role, "cutoff": 0,
-                     "samples": p.cpu_repeat}
-                r.update(measure.option_cells(opts))
-                for k in STAGES:
-                    r[f"cpu_{k}_ms"] = stats(s[k])[0]
-                r["cpu_total_ms"], r["cpu_total_min_ms"], r["cpu_total_max_ms"] = stats(s["total"])
-                self.rows.append(r)
-        finally:
-            for b in scratch.values():
-                b.release()
+
+def preset_studies(preset: Preset) -> list[Study]:
+    """The preset as its studies, in the order they run (and their rows stand in
+    results.csv), each with its config read from the preset."""
+    from .c_reference.compare import CReferenceStudy    # noqa: F401  (registers it)
+    from . import cpu, cpu_series, gpu_build, temporal, validation  # noqa: F401  (theirs)
+    return [STUDIES[name](STUDIES[name].of(preset)) for name in STUDY_ORDER]
 
 
 # ---------------------------------------------------------------------------- the command
@@ -422,37 +312,44 @@ def compared_groups(jobs: list[Job]) -> list[list[Job]]:
 
 def run_sweep(preset: Preset, out: Path, command: str, log=sys.stderr,
               motion: str | None = None) -> list[dict]:
-    """Measure the preset, write out/results.csv, maps.npz, run.json and the report
-    (`motion`: --motion, the lights' motion; None: each scene's own)."""
+    """Run the preset's studies, write out/results.csv, maps.npz, run.json and the report
+    (`motion`: --motion, the lights' motion; None: each scene's own); end with where the
+    time went, a line a study and the report's (also run.json's study_s and report_s)."""
     from .. import report
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     threads = set_cpu_threads(preset.cpu_threads)
     sweep = Sweep(preset, log, motion)
-    rows = sweep.run()
+    rows, seconds = timed(preset_studies(preset), out, sweep)
     write_csv(rows, out / "results.csv", columns())
     np.savez_compressed(out / "maps.npz", **sweep.maps)
     elapsed = time.perf_counter() - t0
     info = dict(machine_info(), command=command, preset=preset.name, elapsed_s=elapsed,
                 cpu_threads=threads, motion=motion or "the scenes' own",
-                config={f.name: getattr(preset, f.name) for f in fields(preset)})
+                config={f.name: getattr(preset, f.name) for f in fields(preset)},
+                study_s={k: round(v, 3) for k, v in seconds.items()})
     (out / "run.json").write_text(json.dumps(info, indent=1, default=list) + "\n")
+    t1 = time.perf_counter()
     report.write_report(out, read_csv(out / "results.csv"), dict(np.load(out / "maps.npz")), info)
+    seconds["report"] = time.perf_counter() - t1
+    info["report_s"] = round(seconds["report"], 3)       # known once the report is written
+    (out / "run.json").write_text(json.dumps(info, indent=1, default=list) + "\n")
     log.write(f"bench: wrote {out / 'results.csv'} ({len(rows)} rows) and {out / 'report.md'} "
               f"in {time.perf_counter() - t0:.0f} s\n")
+    log.write("".join(line + "\n" for line in time_lines(seconds)))
     return rows
 
 
-def sweep_main(argv) -> None:
-    p = cli.Parser(prog="python -m app.bench", description="the benchmark sweep and its report")
+def add_args(p) -> None:
+    """The sweep's flags (on the command's own parser: the sweep is its default)."""
     g = p.add_mutually_exclusive_group()
     g.add_argument("--quick", action="store_true", help="reduced resolution and counts (default)")
     g.add_argument("--full", action="store_true", help="1920x1080, 8192..65536 lights, whole path")
     g.add_argument("--gpu-check", action="store_true",
                    help="for a real GPU (scripts/gpu_check.sh): 1920x1080, every technique, arena "
                         "and city at 8192, 32768 and 65536 lights, measured against modelled")
-    p.add_argument("--out", required=True, help="output folder (results.csv, report.md, PNGs)")
+    p.add_argument("--out", help="output folder (results.csv, report.md, PNGs; required)")
     p.add_argument("--size", type=cli.parse_size, help="override the preset's WxH")
     p.add_argument("--scenes", help="override: comma-separated builtin names or scene files")
     p.add_argument("--lights", help="override: comma-separated light counts")
@@ -470,6 +367,9 @@ def sweep_main(argv) -> None:
     p.add_argument("--c-reference-lights", help="override: light counts of the CPU stage "
                                                 "against the plain C reference (quick: 65536; "
                                                 "full: 16384,65536; 0: none)")
+    p.add_argument("--temporal-frames", type=int,
+                   help="override: frames of the temporal stability series (quick: 6; full: 16; "
+                        "0: none)")
     p.add_argument("--threads", type=int, help="numba threads of the CPU stage (default 1, "
                                                "as the paper's figure 4; 0: numba's default)")
     p.add_argument("--papers", action=argparse.BooleanOptionalAction, default=None,
@@ -477,7 +377,16 @@ def sweep_main(argv) -> None:
                         "--scenes)")
     from ..window.launch import add_motion_arg
     add_motion_arg(p)
-    args = p.parse_args(argv)
+
+
+def run(args, argv) -> None:
+    """The sweep of the parsed command line `args` (`argv`: its words, for run.json)."""
     preset = preset_from_args(args)
     command = "python -m app.bench " + " ".join(argv)
     run_sweep(preset, Path(args.out), command, motion=args.motion)
+
+
+def sweep_main(argv) -> None:
+    """`python -m app.bench [--quick|--full] --out DIR ...`: the sweep."""
+    from . import main
+    main(list(argv))

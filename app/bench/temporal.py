@@ -35,6 +35,7 @@ one did not: its noise, frame after frame (the estimate is unbiased, not steady)
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 import sys
 import time
@@ -45,6 +46,7 @@ from ..report.temporal import CSV
 from ..results import write_csv
 from . import measure
 from .cutoff import STOCHASTIC_BUDGETS, cutoff_lights, unbounded_lights
+from .study import Study
 
 COLUMNS = ["study", "scene", "lights", "width", "height", "frame", "frames", "motion_speed",
            "config", "kind", "technique", "role", "policy", "cutoff", "stochastic", "visible",
@@ -161,46 +163,60 @@ def temporal_figures(f, f_prev, ref, ref_prev, exact, exact_prev, covered) -> di
             "popping_pixels": int((changed & steady & covered).sum())}
 
 
-def temporal_series(preset, out: Path, log=sys.stderr) -> list[dict]:
-    """The preset's series (presets.Preset.temporal_*) into out/temporal.csv; none when the
-    preset has no temporal frames (a stale file is removed, so no report shows it)."""
+def temporal_series(c: "TemporalConfig", out: Path, log=sys.stderr) -> list[dict]:
+    """The series of `c` into out/temporal.csv; none when it has fewer than two frames (a
+    stale file is removed, so no report shows it)."""
     from scenes import load_scene
     from scenes.motion import with_motion
     out = Path(out)
     path = out / CSV
-    if preset.temporal_frames < 2:
+    if c.frames < 2:
         path.unlink(missing_ok=True)
         return []
     out.mkdir(parents=True, exist_ok=True)
-    scene = with_motion(load_scene(preset.temporal_scene, lights=preset.temporal_lights,
-                                   seed=preset.seed), "bounce")
-    rows = run_temporal(scene, preset.temporal_scene, preset.temporal_size, preset.temporal_frames,
-                        preset.temporal_loop, preset.temporal_cutoffs, log)
+    scene = with_motion(load_scene(c.scene, lights=c.lights, seed=c.seed), "bounce")
+    rows = run_temporal(scene, c.scene, c.size, c.frames, c.loop, c.cutoffs, log)
     write_csv(rows, path, COLUMNS)
     log.write(f"bench: wrote {path} ({len(rows)} rows)\n")
     return rows
 
 
-def before_sweep(argv) -> None:
-    """`python -m app.bench [--quick|--full|--gpu-check] --out DIR ...`: the temporal series
-    of that preset into DIR, before the sweep writes the report that reads it (the sweep's
-    other flags do not change it).  Subcommands (cpu, --path) and --help run none."""
-    import argparse
-    from .path import wants_path
-    from .presets import PRESETS
-    if argv[:1] == ["cpu"] or wants_path(argv) or any(a in ("-h", "--help") for a in argv):
-        return
-    p = argparse.ArgumentParser(add_help=False)
-    p.add_argument("--out")
-    g = p.add_mutually_exclusive_group()
-    g.add_argument("--full", action="store_true")
-    g.add_argument("--gpu-check", action="store_true")
-    args, _ = p.parse_known_args(argv)
-    if not args.out:
-        return                                   # the sweep's own parser says what is missing
-    name = "full" if args.full else "gpu-check" if args.gpu_check else "quick"
-    temporal_series(PRESETS[name], Path(args.out))
+@dataclass(frozen=True)
+class TemporalConfig:
+    """The series' settings (presets.Preset.temporal_*); frames < 2: none."""
+    frames: int
+    loop: int
+    scene: str
+    lights: int
+    size: tuple[int, int]
+    cutoffs: tuple[int, ...]
+    seed: int = 0
+
+    @classmethod
+    def of(cls, p) -> "TemporalConfig":
+        return cls(p.temporal_frames, p.temporal_loop, p.temporal_scene, p.temporal_lights,
+                   tuple(p.temporal_size), tuple(p.temporal_cutoffs), p.seed)
+
+
+class TemporalStudy(Study):
+    """The sweep's first study: out/temporal.csv (the report's temporal section reads it),
+    none of results.csv's rows.  It runs on numba's default threads, as it did when it ran
+    before the sweep set the CPU stage's thread count."""
+    name = "temporal"
+    files = (CSV,)
+    sections = ("temporal", "tradeoff", "path")
+    Config = TemporalConfig
+
+    def run(self, out, sweep) -> list[dict]:
+        import numba
+        before = numba.get_num_threads()
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        try:
+            temporal_series(self.config, Path(out), sweep.log)
+        finally:
+            numba.set_num_threads(before)
+        return []
 
 
 __all__ = ["run_temporal", "temporal_series", "temporal_figures", "configurations",
-           "before_sweep", "COLUMNS", "CSV"]
+           "TemporalConfig", "TemporalStudy", "COLUMNS", "CSV"]

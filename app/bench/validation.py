@@ -49,6 +49,7 @@ from ..results import PAPER_PREFIX
 from ..techniques import REGISTRY
 from .plan import Job
 from .presets import Preset
+from .study import Study
 
 FIG7_SCENES = ("arena", "city")
 FIG7_TECHNIQUES = ("clustered", "tree", "hybrid")
@@ -139,3 +140,54 @@ def paper_jobs(p: Preset) -> list[PaperJob]:
             if t.role != "floor":
                 add("scenes", scene, p.study_lights, 0, name)
     return out
+
+
+class PapersStudy(Study):
+    """The papers' configurations at the papers' resolution (paper_jobs), modelled only: one
+    read-back render each, its wave figures and modelled GPU ms, no timing samples.  Rows of
+    results.csv (studies "paper_*"; the report's validation and model sections).  Its config
+    is the preset (Config None): the scenes study runs in the rendered scenes."""
+    name = "papers"
+    sections = ("validation", "model")
+
+    def run(self, out, sweep) -> list[dict]:
+        from ..model import predict
+        from ..pipeline.renderer import Renderer
+        from . import measure
+        p = self.config
+        jobs = paper_jobs(p)
+        rows = []
+        renderer, current = None, None
+        try:
+            for i, pj in enumerate(jobs, 1):
+                job = pj.job
+                if job.scene != current:
+                    if renderer is not None:
+                        renderer.release()
+                    renderer = Renderer(sweep.scene(job.scene, job.lights), p.paper_size)
+                    current = job.scene
+                renderer.scene = sweep.scene(job.scene, job.lights)
+                w, h = p.paper_size
+                sweep.progress(i, len(jobs), f"{job.describe()} at {w}x{h} (modelled)")
+                tech = REGISTRY[job.technique]
+                lights = job_lights(pj, sweep.lights_for(job), lambda L: renderer.frame_input(
+                    job.frame, pj.frames, lights=L))
+                res = renderer.render(tech, job.frame, job.opts, frames=pj.frames, lights=lights,
+                                      defines={"CELLS_ONLY": 1})
+                figures, implied = predict.modelled_frame(renderer, tech, res, job.opts,
+                                                          sample=pj.sample or p.paper_sample)
+                r = {"study": job.study, "scene": job.scene, "lights": len(lights),
+                     "visible": int(res.meta["stats"].get("visible_lights", 0)), "width": w,
+                     "height": h, "frame": job.frame, "frames": pj.frames,
+                     "technique": tech.name, "role": tech.role, "cutoff": 0}
+                r.update(measure.option_cells(job.opts))
+                r.update(measure.figure_cells(res))
+                r.update(implied)                  # the shading loops did not run on llvmpipe
+                r.update(measure.model_cells(figures))
+                r["cpu_total_ms"] = float(sum(res.meta["cpu_ms"].values()))
+                r.update(measure.model_frame_cells(r))
+                rows.append(r)
+        finally:
+            if renderer is not None:
+                renderer.release()
+        return rows

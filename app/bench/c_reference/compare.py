@@ -25,6 +25,7 @@ result).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 import json
 import os
 import sys
@@ -35,6 +36,7 @@ from cpu_prep import threads as cpu_threads, using_threads
 
 from ...errors import UserError
 from ...results import stats
+from ..study import CountSeries, Study
 from . import STEPS, CReference
 
 TECHNIQUES = ("hybrid", "clustered")
@@ -202,7 +204,7 @@ def _row(cv, nv) -> dict:
             "ratio_min": ratio(nmin, cmin), "ratio_median": ratio(nmed, cmed)}
 
 
-# ---- the benchmark's study (--quick / --full: app.bench.sweep c_reference_series) ----------
+# ---- the benchmark's study (--quick / --full: CReferenceStudy) ------------------------------
 
 STUDY = "c_reference"
 
@@ -232,6 +234,33 @@ def study_rows(scene_name: str, counts, size, repeat: int, threads=(1, 2), progr
             return []
         rows.append(_results_row(technique, scene_name, n, size, repeat, opts, r))
     return rows
+
+
+@dataclass(frozen=True)
+class CReferenceConfig(CountSeries):
+    """The sweep's comparison (presets.Preset.c_reference_*, in cpu_scene at cpu_size),
+    numba on each of `threads`."""
+    threads: tuple[int, ...]
+
+    @classmethod
+    def of(cls, p) -> "CReferenceConfig":
+        return cls(p.cpu_scene, tuple(p.c_reference_lights), tuple(p.cpu_size),
+                   p.c_reference_repeat, threads=tuple(p.c_reference_threads))
+
+
+class CReferenceStudy(Study):
+    """The CPU stage of TECHNIQUES against the plain C reference (study_rows: results.csv
+    study "c_reference", the report's CPU page); a scene it cannot take: none, with a line."""
+    name = STUDY
+    sections = ("cpu",)
+    Config = CReferenceConfig
+
+    def run(self, out, sweep) -> list[dict]:
+        c = self.config
+        if not c.lights:
+            return []
+        return study_rows(c.scene, c.lights, c.size, c.repeat, c.threads,
+                          progress=sweep.progress, log=sweep.log)
 
 
 def _results_row(technique, scene_name, n, size, repeat, opts, r) -> dict:

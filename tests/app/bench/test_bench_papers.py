@@ -14,9 +14,10 @@ from app import report
 from app.report.validation import claims
 from app.bench.plan import plan
 from app.bench.presets import FULL, GPU_CHECK, QUICK
+from app.bench.cpu_series import CpuStudy
 from app.bench.sweep import Sweep
-from app.bench.validation import (FIG7_BASE, FIG7_TECHNIQUES, FPTL_VISIBLE, paper_jobs,
-                                  scaled_lights)
+from app.bench.validation import (FIG7_BASE, FIG7_TECHNIQUES, FPTL_VISIBLE, PapersStudy,
+                                  paper_jobs, scaled_lights)
 from app.model import cost
 from app.results import PAPER_PREFIX
 from app.techniques import REGISTRY
@@ -73,14 +74,12 @@ def test_gpu_check_preset_plans_every_technique_on_two_scenes():
     assert {j.technique for j in jobs} == set(REGISTRY)
     assert len(jobs) == len(REGISTRY) * 2 * 3 * GPU_CHECK.frames
     assert GPU_CHECK.size == (1920, 1080) and not paper_jobs(GPU_CHECK)
-    assert not Sweep(GPU_CHECK).cpu_jobs()
+    assert not CpuStudy(GPU_CHECK).jobs(Sweep(GPU_CHECK))
 
 
 @pytest.fixture(scope="module")
 def paper_rows(gl):
-    s = Sweep(SMALL)
-    s.paper_series()
-    return s.rows
+    return PapersStudy(SMALL).run(None, Sweep(SMALL))
 
 
 def test_paper_rows_are_modelled_not_shaded(paper_rows):

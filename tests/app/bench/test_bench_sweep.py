@@ -19,7 +19,8 @@ from tests.helpers import registered
 
 TINY = ["--quick", "--size", "64x36", "--scenes", "arena", "--frames", "1", "--lights", "256",
         "--repeat", "1", "--cpu-lights", "256", "--cpu-size", "96x54", "--growth-lights", "256,512",
-        "--gpu-build-lights", "256", "--c-reference-lights", "256"]
+        "--gpu-build-lights", "256", "--c-reference-lights", "256", "--temporal-frames", "0"]
+# (the temporal series has its own tests: tests/app/bench/test_temporal.py)
 # the CPU series at another resolution than the rendered one: the cpu_<option> rows run too
 FIXED_PLOTS = ("accuracy_cost.png", "gpu_path.png", "cpu_stages.png", "heatmaps.png", "cutoff.png",
                "tradeoff.png")
@@ -42,6 +43,20 @@ def test_a_new_technique_module_takes_part(sweep):
     assert {r["study"] for r in mine} >= {"path", "cutoff", "cpu"}
     assert all(r["mismatch_count"] == 0 and r["mismatch_hash"] == 0 for r in mine if r["study"] == "path")
     assert "throwaway" in (out / "report.md").read_text()
+
+
+def test_the_run_says_where_its_time_went(sweep):
+    """run.json's study_s: each study of the preset's, in order, its wall seconds; and the
+    sweep wrote no other command's file (temporal.csv: --temporal-frames 0, none)."""
+    import json
+    from app.bench.presets import STUDY_ORDER
+    out, _ = sweep
+    info = json.loads((out / "run.json").read_text())
+    spent = info["study_s"]
+    assert list(spent) == list(STUDY_ORDER) and all(v >= 0 for v in spent.values())
+    assert info["report_s"] > 0
+    names = {p.name for p in out.iterdir()}
+    assert not names & {"temporal.csv", "gpu_build.csv", "growth.csv", "path.csv"}
 
 
 def test_results_columns_and_rows(sweep):
@@ -116,7 +131,7 @@ def test_plots_and_report(sweep):
 
 
 def test_gpu_build_comparison(sweep):
-    """Issue 23 item 1: the sweep builds every --build technique on the CPU and on the GPU at
+    """The sweep builds every --build technique on the CPU and on the GPU at
     each gpu_build count (study "gpu_build" of results.csv), and the CPU page compares them."""
     import json
     out, rows = sweep
@@ -138,7 +153,7 @@ def test_gpu_build_comparison(sweep):
 
 
 def test_c_reference_comparison(sweep):
-    """Issue 23 item 5: the sweep runs hybrid's and clustered's CPU stage against the plain C
+    """The sweep runs hybrid's and clustered's CPU stage against the plain C
     reference on one and two numba threads (study "c_reference"), the outputs identical, and
     the CPU page sets them side by side."""
     import json

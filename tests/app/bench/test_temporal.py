@@ -38,13 +38,6 @@ def test_the_quick_preset_runs_a_small_series_and_the_full_a_larger():
     assert FULL.temporal_frames > QUICK.temporal_frames and GPU_CHECK.temporal_frames == 0
 
 
-def test_subcommands_and_help_run_no_series(tmp_path):
-    for argv in (["cpu", "--out", str(tmp_path)], ["--path", "p.json", "--out", str(tmp_path)],
-                 ["--help", "--out", str(tmp_path)], ["--quick"]):
-        temporal.before_sweep(argv)
-    assert not list(tmp_path.iterdir())
-
-
 def test_exact_techniques_never_pop_and_a_binding_cap_does(gl, tmp_path):
     rng = np.random.default_rng(21)
     lo, hi = (-10.0, 0.0, -30.0), (10.0, 6.0, 5.0)

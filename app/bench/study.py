@@ -1,0 +1,80 @@
+"""A study of the sweep: one series of measurements, registered as a technique is
+(app.techniques.base): defining a subclass adds it, and a preset names its studies in order.
+
+    name      its key in STUDIES and its line in the timing (for a series of one results.csv
+              study, that study: "growth", "gpu_build", "c_reference")
+    Config    a frozen dataclass: what the study takes; Config.of(preset) reads it from the
+              preset and the sweep's overrides of it (None: the preset itself, for a study
+              that reads most of it)
+    files     the files it writes itself, beside results.csv (temporal.csv, ...)
+    sections  the report modules (app.report.<name>) that read its rows or its file
+    run       run(out, sweep) -> rows: its rows for results.csv ([] for a study with its own
+              file); `sweep` (app.bench.sweep.Sweep) holds what studies share: the log,
+              the progress line, the scenes loaded
+
+A run times each study (`timed`) and ends with one line a study: where its time went.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+import time
+from typing import ClassVar
+
+STUDIES: dict[str, type["Study"]] = {}
+
+
+class Study:
+    name: ClassVar[str] = ""
+    files: ClassVar[tuple[str, ...]] = ()
+    sections: ClassVar[tuple[str, ...]] = ()
+    Config: ClassVar[type | None] = None
+
+    def __init_subclass__(cls, **kw):
+        super().__init_subclass__(**kw)
+        # a module run as a script (`python -m app.bench.gpu_build`) registers nothing: the
+        # same module imported under its own name does
+        if cls.name and cls.__module__ != "__main__":
+            assert cls.name not in STUDIES, f"study {cls.name} registered twice"
+            STUDIES[cls.name] = cls
+
+    def __init__(self, config):
+        self.config = config
+
+    @classmethod
+    def of(cls, preset):
+        """The study's Config from a preset (presets.Preset)."""
+        return preset if cls.Config is None else cls.Config.of(preset)
+
+    def run(self, out, sweep) -> list[dict]:
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class CountSeries:
+    """The config of a series over light counts in one scene at one size (lights (): none),
+    `repeat` samples of each; a study's Config adds its own fields."""
+    scene: str
+    lights: tuple[int, ...]
+    size: tuple[int, int]
+    repeat: int
+
+
+def timed(studies, out, sweep) -> tuple[list[dict], dict[str, float]]:
+    """Run each study in order: (their rows in that order, {study: wall seconds})."""
+    rows, seconds = [], {}
+    for study in studies:
+        t0 = time.perf_counter()
+        rows += study.run(out, sweep)
+        seconds[study.name] = seconds.get(study.name, 0.0) + time.perf_counter() - t0
+    return rows, seconds
+
+
+def time_lines(seconds: dict[str, float]) -> list[str]:
+    """One line a study: its wall time and its share of the studies' total."""
+    total = sum(seconds.values()) or 1.0
+    width = max((len(k) for k in seconds), default=0)
+    return [f"bench: time: {k:{width}} {s:8.1f} s {100 * s / total:5.1f}%"
+            for k, s in seconds.items()]
+
+
+__all__ = ["Study", "STUDIES", "timed", "time_lines"]
