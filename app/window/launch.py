@@ -230,7 +230,7 @@ def main(argv=None) -> None:
     with progress.step(f"scene {args.scene}" + (f", {args.lights:,} lights" if args.lights else "")):
         scene = load_scene_args(args)
     if args.replay:
-        from .campath import load
+        from scenes.camera_path import load
         load(args.replay)                            # a bad file: one line before any window
     size = args.size or tuple(scene.resolution)
 

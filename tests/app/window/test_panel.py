@@ -1,7 +1,7 @@
 """The window's parts that need no GL: the panel's model (controls read from the techniques'
 declarations, the one `apply` path), camera path files, timers, frame-cost predictions, the
 HUD's text and app.images' one definition of what a person sees (camera path files:
-test_campath.py)."""
+tests/scenes/test_camera_path.py)."""
 from __future__ import annotations
 
 import json
