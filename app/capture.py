@@ -91,7 +91,7 @@ def main(argv=None) -> None:
     technique = get(args.technique)
     if args.classify:
         from .techniques import REGISTRY
-        from .window.views import views_of, with_view
+        from .views import views_of, with_view
         if "classes" not in views_of(technique):
             raise cli.UserError(f"--classify: {technique.name} has no classes view (it takes one "
                                 f"path per wave); techniques with it: "

@@ -49,7 +49,7 @@ to an EGL framebuffer with no display (backend egl by default).
     figures.py  figures, the UI's model (UIModel)     recorder.py camera path played / recorded
     hud.py      HUD and panel text                    ui.py       imgui HUD, panel, colour bar
     panel.py    the panel's state and controls        options.py  options per technique, display
-    views.py    the views, which a technique has      passes.py   the window's passes, stashes
+    views.py    the views' overlays, HUD notes        passes.py   the window's passes, stashes
     camera.py   the fly camera                        (camera path files: scenes.camera_path)
     inspect.py  what is under the cursor              lightsets.py the light draws
     probe.py    start-up probe, frame costs           timers.py   timer history

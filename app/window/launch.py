@@ -10,11 +10,11 @@ import time
 
 from .. import cli, images
 from ..errors import UserError
+from ..views import ALL_VIEWS, views_of, with_view
 from . import progress
 from .keys import parse_keys
 from .options import DISPLAY, DISPLAY_FLAGS
 from .scale import MIN_SCALE
-from .views import ALL_VIEWS, views_of, with_view
 
 DESCRIPTION = ("Live window: the capture pipeline, every frame, with a panel of every option "
                "(Dear ImGui). Starts on the fastest exact technique for the scene.")

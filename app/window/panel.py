@@ -21,7 +21,7 @@ from typing import Callable
 from .. import images
 from ..errors import UserError
 from .options import DISPLAY, DISPLAY_FLAGS, WindowOptions, flag
-from .views import HEAT_OF, SPLIT_VIEWS, views_of
+from ..views import HEAT_OF, SPLIT_VIEWS, views_of
 
 DISTRIBUTIONS = ("uniform", "geometry")
 # the exposure slider is in EV: log2 of the exposure factor's declared range

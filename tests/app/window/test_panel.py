@@ -21,7 +21,8 @@ from app.window.options import WindowOptions
 from app.window.panel import LabState, Panel, panel_keys
 from app.window.probe import FrameCosts
 from app.window.timers import Timers
-from app.window.views import Overlay, view_note, views_of
+from app.views import views_of
+from app.window.views import Overlay, view_note
 
 
 def state(technique="hybrid", given=None, **kw):
