@@ -48,7 +48,7 @@ to an EGL framebuffer with no display (backend egl by default).
     keys.py     the key table, --keys steps           compose.py  the frame composer
     figures.py  figures, the UI's model (UIModel)     recorder.py camera path played / recorded
     hud.py      HUD and panel text                    ui.py       imgui HUD, panel, colour bar
-    panel.py    the panel's state and controls        options.py  options per technique, display
+    panel.py    the panel's state and controls        (options: app.given_options, app.display)
     views.py    the views' overlays, HUD notes        passes.py   the window's passes, stashes
     camera.py   the fly camera                        (camera path files: scenes.camera_path)
     inspect.py  what is under the cursor              lightsets.py the light draws
