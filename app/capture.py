@@ -65,9 +65,8 @@ def build_parser():
     p.add_argument("--repeat", type=int, default=0, metavar="N",
                    help="time N more samples of the frame's passes after the first (whose "
                         "dispatches include the driver's compiles): gpu_ms is their median")
-    from .window.launch import add_display_args, add_motion_arg
-    add_display_args(p)
-    add_motion_arg(p)
+    cli.add_display_args(p)
+    cli.add_motion_arg(p)
     cli.add_option_args(p)
     return p
 
@@ -91,14 +90,13 @@ def main(argv=None) -> None:
     technique = get(args.technique)
     if args.classify:
         from .techniques import REGISTRY
-        from .window.views import views_of, with_view
+        from .views import views_of, with_view
         if "classes" not in views_of(technique):
             raise cli.UserError(f"--classify: {technique.name} has no classes view (it takes one "
                                 f"path per wave); techniques with it: "
                                 f"{', '.join(with_view(REGISTRY, 'classes'))}")
     opts = cli.options_for(technique, args)
-    from .window.launch import load_scene_args
-    scene = load_scene_args(args)
+    scene = cli.load_scene_args(args)
     from .pipeline.renderer import Renderer
     from . import images, dump
     t0 = time.perf_counter()

@@ -1,5 +1,6 @@
-"""Shared command-line pieces: one-line argument errors, WxH sizes, scene arguments, and the
-technique options, whose flags come from the techniques' own declarations."""
+"""Shared command-line pieces: one-line argument errors, WxH sizes, scene arguments (and
+the scene they load), the display's flags, --motion, and the technique options, whose
+flags come from the techniques' own declarations."""
 from __future__ import annotations
 
 import argparse
@@ -90,9 +91,39 @@ def options_for(technique, args):
     return technique.Options.make(given_options(args), technique.name)
 
 
+def add_display_args(p) -> None:
+    """--exposure, --ambient, --heat-max: the display's options (app.display.DISPLAY, which
+    the window's panel reads too), shared by capture and the window."""
+    from . import images
+    from .display import DISPLAY as d, DISPLAY_FLAGS
+    lo_hi = lambda s: f"{s.lo:g}..{s.hi:g}"
+    exposure = _option_type(d["exposure"])
+    p.add_argument("--exposure", type=lambda t: t if t == "auto" else exposure(t), default="auto",
+                   help=f"'auto' (the {images.EXPOSURE_PERCENTILE * 100:.0f}%% luminance of the lit "
+                        f"pixels maps to {images.EXPOSURE_TARGET:g}) or a factor on the radiance, "
+                        f"{lo_hi(d['exposure'])}")
+    for name in (n for n in DISPLAY_FLAGS if n != "exposure"):
+        s = d[name]
+        p.add_argument(s.flag, type=_option_type(s), default=s.default,
+                       help=f"{s.help}; {lo_hi(s)}, default {s.default:g}".replace("%", "%%"))
+
+
+def add_motion_arg(p) -> None:
+    """--motion: the lights' motion (scenes.motion), shared by capture, the window and the bench."""
+    from scenes.motion import MOTION_CHOICES
+    p.add_argument("--motion", choices=MOTION_CHOICES, default=None,
+                   help="the lights' motion along the camera path: 'bounce' (each light at its "
+                        "own horizontal velocity, bouncing off the scene's box: scenes.motion), "
+                        "'off'; default: the scene's own (a scene file's `motion`; builtins none)")
+
+
 def load_scene_args(args):
+    """The scene of the command line (add_scene_args) with its --motion applied; a command
+    line without --motion (no `motion` attribute) keeps the scene's own."""
     from scenes import load_scene
-    return load_scene(args.scene, lights=args.lights, seed=args.seed, distribution=args.distribution)
+    from scenes.motion import with_motion
+    scene = load_scene(args.scene, lights=args.lights, seed=args.seed, distribution=args.distribution)
+    return with_motion(scene, getattr(args, "motion", None))
 
 
 def run_main(main) -> None:

@@ -108,7 +108,7 @@ CAMERA_DEFAULTS = {"up": [0.0, 1.0, 0.0], "fov_y_deg": 60.0, "near": 0.1, "far":
 def check_camera(ctx: FieldChecker, c: dict, field: str = "camera",
                  defaults: dict = CAMERA_DEFAULTS) -> Camera:
     """The one camera check: a scene file's camera, and each key of a camera path
-    (app.window.campath, which gives no defaults: every field is required there).  The
+    (scenes.camera_path, which gives no defaults: every field is required there).  The
     camera is stored as float64 (scenes.model.Camera): checked as float64."""
     ctx.keys(c, field, CAMERA_KEYS)
     get = lambda k: c.get(k, defaults[k]) if k in defaults else ctx.req(c, k, f"{field}.{k}")

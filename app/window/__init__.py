@@ -48,9 +48,9 @@ to an EGL framebuffer with no display (backend egl by default).
     keys.py     the key table, --keys steps           compose.py  the frame composer
     figures.py  figures, the UI's model (UIModel)     recorder.py camera path played / recorded
     hud.py      HUD and panel text                    ui.py       imgui HUD, panel, colour bar
-    panel.py    the panel's state and controls        options.py  options per technique, display
-    views.py    the views, which a technique has      passes.py   the window's passes, stashes
-    camera.py   the fly camera                        campath.py  camera path files
+    panel.py    the panel's state and controls        (options: app.given_options, app.display)
+    views.py    the views' overlays, HUD notes        passes.py   the window's passes, stashes
+    camera.py   the fly camera                        (camera path files: scenes.camera_path)
     inspect.py  what is under the cursor              lightsets.py the light draws
     probe.py    start-up probe, frame costs           timers.py   timer history
     progress.py console lines for slow work           variant_view.py the variants view, legend

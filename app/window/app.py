@@ -46,7 +46,7 @@ from .hud import inspect_lines, technique_lines, title, window_hud
 from .keys import CHAR_KEYS, MOVE_KEYS
 from .lightsets import LightSets
 from .model import FrameModel
-from .options import WindowOptions
+from ..given_options import GivenOptions
 from .panel import LabState, Panel
 from .recorder import PathRecorder
 from .scale import DynamicScale, scaled_size
@@ -128,7 +128,7 @@ class LabWindow(mglw.WindowConfig):
         a = self.args
         n = len(self.scene.lights)
         s = LabState(REGISTRY, technique=setup["technique"] or setup["candidates"][0],
-                     options=WindowOptions(setup["given"]), lights=n, view=a.view, seed=a.seed,
+                     options=GivenOptions(setup["given"]), lights=n, view=a.view, seed=a.seed,
                      distribution=a.distribution, builtin=setup["builtin"], file_lights=n,
                      heat_max=a.heat_max, ambient=a.ambient, hud=not a.no_hud,
                      inspect=a.cursor is not None)

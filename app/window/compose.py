@@ -31,7 +31,8 @@ from . import passes
 from .figures import frame_sums, split_figures
 from .inspect import Inspection, inspect
 from . import variant_view
-from .views import HEAT_OF, PASS_VIEWS, VIEWS, Overlay
+from ..views import HEAT_OF, PASS_VIEWS, VIEWS
+from .views import Overlay
 
 REF_SETTLE_S = 0.3            # interactive: the reference renders once the view is this still
 

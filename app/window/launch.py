@@ -8,13 +8,13 @@ import json
 import os
 import time
 
-from .. import cli, images
+from .. import cli
+from ..display import DISPLAY
 from ..errors import UserError
+from ..views import ALL_VIEWS, views_of, with_view
 from . import progress
 from .keys import parse_keys
-from .options import DISPLAY, DISPLAY_FLAGS
 from .scale import MIN_SCALE
-from .views import ALL_VIEWS, views_of, with_view
 
 DESCRIPTION = ("Live window: the capture pipeline, every frame, with a panel of every option "
                "(Dear ImGui). Starts on the fastest exact technique for the scene.")
@@ -50,22 +50,6 @@ def _point(text: str) -> str:
     return f"{x}x{y}"
 
 
-def add_display_args(p) -> None:
-    """--exposure, --ambient, --heat-max: the display's options (options.DISPLAY, which the
-    panel reads too), shared with capture."""
-    d = DISPLAY
-    lo_hi = lambda s: f"{s.lo:g}..{s.hi:g}"
-    exposure = cli._option_type(d["exposure"])
-    p.add_argument("--exposure", type=lambda t: t if t == "auto" else exposure(t), default="auto",
-                   help=f"'auto' (the {images.EXPOSURE_PERCENTILE * 100:.0f}%% luminance of the lit "
-                        f"pixels maps to {images.EXPOSURE_TARGET:g}) or a factor on the radiance, "
-                        f"{lo_hi(d['exposure'])}")
-    for name in (n for n in DISPLAY_FLAGS if n != "exposure"):
-        s = d[name]
-        p.add_argument(s.flag, type=cli._option_type(s), default=s.default,
-                       help=f"{s.help}; {lo_hi(s)}, default {s.default:g}".replace("%", "%%"))
-
-
 def _move_scale(text: str):
     """--move-scale: 'auto' (None: held by --target-fps) or a scale in MIN_SCALE..1."""
     if text == "auto":
@@ -90,21 +74,6 @@ def add_scale_args(p) -> None:
                         f"moving frame takes, {MIN_SCALE:g}..1 (1: always full size)")
 
 
-def add_motion_arg(p) -> None:
-    """--motion: the lights' motion (scenes.motion), shared with capture and the bench."""
-    from scenes.motion import MOTION_CHOICES
-    p.add_argument("--motion", choices=MOTION_CHOICES, default=None,
-                   help="the lights' motion along the camera path: 'bounce' (each light at its "
-                        "own horizontal velocity, bouncing off the scene's box: scenes.motion), "
-                        "'off'; default: the scene's own (a scene file's `motion`; builtins none)")
-
-
-def load_scene_args(args):
-    """The scene of the command line (app.cli.load_scene_args) with its --motion applied."""
-    from scenes.motion import with_motion
-    return with_motion(cli.load_scene_args(args), getattr(args, "motion", None))
-
-
 def build_parser():
     from ..techniques import REGISTRY
     from .panel import panel_keys
@@ -117,7 +86,7 @@ def build_parser():
                    help="measure the techniques again at start-up (without --technique the window "
                         "starts on the one the last probe found fastest for this scene and size)")
     p.add_argument("--view", choices=ALL_VIEWS, default="shaded", help="starting view (one the technique has)")
-    add_display_args(p)
+    cli.add_display_args(p)
     add_scale_args(p)
     p.add_argument("--frames", type=_positive, help="exit after N frames (scripted run)")
     p.add_argument("--screenshot", help="PNG of the last frame")
@@ -129,7 +98,7 @@ def build_parser():
     p.add_argument("--replay", metavar="PATH.json", help="play a recorded camera path, one key a "
                    "frame (P stops / resumes)")
     p.add_argument("--path", action="store_true", help="start playing the scene's camera path")
-    add_motion_arg(p)
+    cli.add_motion_arg(p)
     p.add_argument("--path-frames", type=_positive, default=600,
                    help="frames of one scene camera-path loop (capture --frame K --frames F = path frame K of F)")
     p.add_argument("--inspect", metavar="XxY", type=_point, dest="cursor",
@@ -228,9 +197,9 @@ def main(argv=None) -> None:
     given = cli.given_options(args)
     technique, candidates = start_candidates(args, given)
     with progress.step(f"scene {args.scene}" + (f", {args.lights:,} lights" if args.lights else "")):
-        scene = load_scene_args(args)
+        scene = cli.load_scene_args(args)
     if args.replay:
-        from .campath import load
+        from scenes.camera_path import load
         load(args.replay)                            # a bad file: one line before any window
     size = args.size or tuple(scene.resolution)
 

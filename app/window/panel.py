@@ -20,8 +20,9 @@ from typing import Callable
 
 from .. import images
 from ..errors import UserError
-from .options import DISPLAY, DISPLAY_FLAGS, WindowOptions, flag
-from .views import HEAT_OF, SPLIT_VIEWS, views_of
+from ..display import DISPLAY, DISPLAY_FLAGS
+from ..given_options import GivenOptions, flag
+from ..views import HEAT_OF, SPLIT_VIEWS, views_of
 
 DISTRIBUTIONS = ("uniform", "geometry")
 # the exposure slider is in EV: log2 of the exposure factor's declared range
@@ -32,7 +33,7 @@ EV_RANGE = tuple(math.log2(v) for v in (DISPLAY["exposure"].lo, DISPLAY["exposur
 class LabState:
     registry: dict                          # name -> technique (app.techniques.REGISTRY)
     technique: str
-    options: WindowOptions
+    options: GivenOptions
     lights: int
     view: str = "shaded"
     seed: int = 0

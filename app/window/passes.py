@@ -25,7 +25,8 @@ from cpu_prep import layouts
 
 from .. import images
 from ..pipeline.passes import OUT_COLOR, OUT_STATS, WAVE_STATS, Buffer, Draw, Pass
-from .views import VIEWS, view_defines
+from ..views import VIEWS
+from .views import view_defines
 
 VIEW_STATS = "view_stats"
 VIEW_EXTRA = "view_extra"

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 import time
 
-from . import campath
+from scenes import camera_path
 
 
 class PathRecorder:
@@ -14,11 +14,11 @@ class PathRecorder:
         self.scene = scene
         self.args = args
         self.say = say
-        self.path = campath.load(args.replay) if args.replay else None
+        self.path = camera_path.load(args.replay) if args.replay else None
         self.playing = bool(args.path or self.path)
         self.frame = 0                       # the path frame the next render shows
         self.record_to = Path(args.record) if args.record else None
-        self.recording: campath.CameraPath | None = None
+        self.recording: camera_path.CameraPath | None = None
         self._t0 = 0.0
         self.saved: list[str] = []
 
@@ -57,7 +57,7 @@ class PathRecorder:
     # ---- recording -----------------------------------------------------------------------
     def toggle_record(self, size) -> None:
         if self.recording is None:
-            self.recording = campath.CameraPath(scene=self.scene.name, size=size)
+            self.recording = camera_path.CameraPath(scene=self.scene.name, size=size)
             self._t0 = time.perf_counter()
             self.say("recording the camera path (C stops and saves"
                      + (f" to {self.record_to})" if self.record_to else ")"))

@@ -22,11 +22,12 @@ from __future__ import annotations
 import math
 import time
 
+from ..display import DEFAULT_FPS     # the panel's and --target-fps's default
+
 MIN_SCALE = 0.25
 STEP = 1.0 / 16.0
 EMA_WEIGHT = 0.5              # the newest frame's share of the full-size estimate
 RISE = 1.5                    # the scale rises once the estimate clears this many steps
-DEFAULT_FPS = 10.0
 
 
 def snap_down(scale: float) -> float:

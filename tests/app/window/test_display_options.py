@@ -1,4 +1,4 @@
-"""The display's options are declared once (app.window.options.DISPLAY): the window's and
+"""The display's options are declared once (app.display.DISPLAY): the window's and
 capture's command lines and the panel take the same ranges.  No GL."""
 from __future__ import annotations
 
@@ -8,7 +8,8 @@ import pytest
 
 from app.errors import UserError
 from app.techniques import REGISTRY
-from app.window.options import DISPLAY, DISPLAY_FLAGS, WindowOptions
+from app.display import DISPLAY, DISPLAY_FLAGS
+from app.given_options import GivenOptions
 from app.window.panel import LabState, Panel
 
 
@@ -19,7 +20,7 @@ def parsers():
 
 
 def panel():
-    state = LabState(REGISTRY, technique="clustered", options=WindowOptions({}), lights=64)
+    state = LabState(REGISTRY, technique="clustered", options=GivenOptions({}), lights=64)
     return state, Panel(state)
 
 

@@ -1,7 +1,7 @@
 """The window's parts that need no GL: the panel's model (controls read from the techniques'
 declarations, the one `apply` path), camera path files, timers, frame-cost predictions, the
 HUD's text and app.images' one definition of what a person sees (camera path files:
-test_campath.py)."""
+tests/scenes/test_camera_path.py)."""
 from __future__ import annotations
 
 import json
@@ -17,16 +17,17 @@ from app.techniques import REGISTRY
 from app.techniques.base import Technique
 from app.techniques.options import TechniqueOptions, choice, option
 from app.window.hud import exposure_text, hud_lines
-from app.window.options import WindowOptions
+from app.given_options import GivenOptions
 from app.window.panel import LabState, Panel, panel_keys
 from app.window.probe import FrameCosts
 from app.window.timers import Timers
-from app.window.views import Overlay, view_note, views_of
+from app.views import views_of
+from app.window.views import Overlay, view_note
 
 
 def state(technique="hybrid", given=None, **kw):
     kw.setdefault("lights", 4096)
-    return LabState(REGISTRY, technique=technique, options=WindowOptions(given or {}), **kw)
+    return LabState(REGISTRY, technique=technique, options=GivenOptions(given or {}), **kw)
 
 
 def test_controls_are_the_techniques_declared_options():
@@ -109,7 +110,7 @@ class PairedOptions(TechniqueOptions):
 def test_a_choice_taken_only_with_another_option_is_offered_once_chosen():
     class Paired(Technique):             # not registered: a test's own
         name, Options = "paired", PairedOptions
-    s = LabState({"paired": Paired()}, technique="paired", options=WindowOptions({}), lights=16)
+    s = LabState({"paired": Paired()}, technique="paired", options=GivenOptions({}), lights=16)
     p = Panel(s)
     assert p.control("mode").choices == ("plain",)
     p.apply("pair", True)
@@ -198,7 +199,7 @@ def test_hud_text_and_view_notes():
     assert "pending" in view_note("diff", "tree", tiles, 1, differ=None) or \
         "not rendered" in view_note("diff", "tree", tiles, 1, differ=None)
 
-    opts = WindowOptions({"tile": 32, "lights_per_leaf": 2})
+    opts = GivenOptions({"tile": 32, "lights_per_leaf": 2})
     tree, ignored = opts.for_technique(REGISTRY["tree"])
     assert type(tree) is REGISTRY["tree"].Options and tree.tile == 32 and ignored == ()
     brute, ignored = opts.for_technique(REGISTRY["brute"])
@@ -255,9 +256,9 @@ def test_one_heat_definition_and_exposure():
 
 def test_a_panel_change_the_mode_refuses_is_rolled_back():
     """raster: stencil on, then cluster mode (which ignores the stencil) is refused in one
-    line and the panel keeps the last accepted options (options.py's rule)."""
+    line and the panel keeps the last accepted options (app.given_options' rule)."""
     raster = REGISTRY["raster"]
-    w = WindowOptions({})
+    w = GivenOptions({})
     w.set(raster, "stencil", True)
     with pytest.raises(UserError, match="ignored in cluster mode"):
         w.set(raster, "cluster", 1)
@@ -272,7 +273,7 @@ def test_technique_chooser_reaches_past_the_ninth():
     while len(registry) < 11:
         registry[f"extra{len(registry)}"] = REGISTRY["brute"]
     names = list(registry)
-    s = LabState(registry, technique=names[8], options=WindowOptions({}), lights=64)
+    s = LabState(registry, technique=names[8], options=GivenOptions({}), lights=64)
     s.next_technique()
     assert s.technique == names[9]
     s.next_technique()

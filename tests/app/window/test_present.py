@@ -11,7 +11,7 @@ from app import images
 from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY
 from app.window import passes
-from app.window.views import HEAT_OF, VIEWS
+from app.views import HEAT_OF, VIEWS
 
 SIZE = (96, 54)
 

@@ -10,7 +10,7 @@ from app.pipeline.passes import FrameInput
 from app.techniques import REGISTRY
 from app.techniques.base import Technique, visible_lights
 from app.window import probe
-from app.window.options import WindowOptions
+from app.given_options import GivenOptions
 from cpu_prep.camera import frame_camera
 from scenes import load_scene
 from tests.helpers import registered
@@ -111,7 +111,7 @@ def test_the_probe_skips_a_refusing_technique_without_building_it():
 def test_the_start_names_each_skipped_technique_and_its_limit_also_when_remembered():
     scene, r = probe_setup()
     args = SimpleNamespace(scene="city", seed=0, distribution=None, reprobe=False)
-    start = lambda: probe.choose_start(args, r, ["tiled", "clustered", "zbin"], WindowOptions({}),
+    start = lambda: probe.choose_start(args, r, ["tiled", "clustered", "zbin"], GivenOptions({}),
                                        lambda: scene.lights, scene.camera, probe.FrameCosts())
     name, lines = start()
     assert name == "clustered" and lines[0].startswith("started on clustered, the fastest exact")
@@ -123,7 +123,7 @@ def test_the_start_names_each_skipped_technique_and_its_limit_also_when_remember
     assert not r.rendered and "at the last probe" in again[0] and again[1:] == skipped
     with pytest.raises(UserError, match="^no technique can render 600 lights of this scene here: tiled: .*; zbin: "):
         probe.choose_start(SimpleNamespace(**dict(vars(args), reprobe=True)), r, ["tiled", "zbin"],
-                           WindowOptions({}), lambda: scene.lights, scene.camera, probe.FrameCosts())
+                           GivenOptions({}), lambda: scene.lights, scene.camera, probe.FrameCosts())
 
 
 def test_progress_lines_before_an_expected_slow_step_and_after_a_slow_one(monkeypatch, capsys):
@@ -319,7 +319,7 @@ def test_a_new_slow_technique_registered_first_is_the_one_the_start_skips(timed,
     with registered(Slowpoke(), at=0), pytest.MonkeyPatch.context() as m:
         args = SimpleNamespace(scene="city", seed=0, distribution=None, reprobe=True)
         m.setattr(probe, "PROBE_BUDGET_S", 0.08)
-        name, lines = probe.choose_start(args, r, ["slowpoke", "clustered", "tree"], WindowOptions({}),
+        name, lines = probe.choose_start(args, r, ["slowpoke", "clustered", "tree"], GivenOptions({}),
                                          lambda: scene.lights, scene.camera, probe.FrameCosts())
     assert name == "clustered" and len(lines) == 1
     assert lines[0].startswith("started on clustered, the fastest of those probed (clustered 23 ms, tree 69 ms; ")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
-from app.window import campath
+from scenes import camera_path
 from app.window.camera import FlyCamera
 from app.window.recorder import PathRecorder
 from scenes.model import Camera
@@ -47,7 +47,7 @@ def test_record_and_save(tmp_path):
     assert r.status() == ["REC 3 keys"]
     r.toggle_record((160, 90))                       # stop: saved
     assert r.recording is None and r.saved == [str(out)] and "3 keys" in said[-1]
-    back = campath.load(out)
+    back = camera_path.load(out)
     assert len(back) == 3 and back.size == (160, 90) and back.keys[2].position[0] == 2.0
     replay = PathRecorder(scene(), args(tmp_path, replay=str(out)), said.append)
     assert replay.playing and replay.status() == ["replay 1/3"]

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from app.techniques import REGISTRY
-from app.window.views import views_of
+from app.views import views_of
 
 from tests.app.window.window_run import LIT, ROOT, SMALL, load_rgb, run, run_window
 

@@ -1,4 +1,4 @@
-"""Camera path files (app.window.campath): round trip, bad files in one line, and the one
+"""Camera path files (scenes.camera_path): round trip, bad files in one line, and the one
 camera check they share with the scene loader (scenes.loader.check_camera).  No GL."""
 from __future__ import annotations
 
@@ -6,18 +6,16 @@ import json
 
 import pytest
 
-from app.errors import UserError
-from app.window import campath
-from scenes import SceneError, scene_from_dict
+from scenes import SceneError, camera_path, scene_from_dict
 
 
 def test_camera_path_round_trip_and_bad_files(tmp_path):
     from scenes.model import Camera
-    path = campath.CameraPath(scene="city", size=(320, 180))
+    path = camera_path.CameraPath(scene="city", size=(320, 180))
     for k in range(3):
         path.add(Camera((0.0, 5.0, 30.0 - k), (0.0, 5.0, -1.0), (0.0, 1.0, 0.0), 60.0, 0.5, 3000.0), k / 30)
     f = path.save(tmp_path / "p.json")
-    back = campath.load(f)
+    back = camera_path.load(f)
     assert len(back) == 3 and back.keys == path.keys and back.scene == "city" and back.size == (320, 180)
     assert back.camera(4) == path.keys[1]                          # loops
     good = json.loads(f.read_text())
@@ -31,12 +29,12 @@ def test_camera_path_round_trip_and_bad_files(tmp_path):
              ({**good, "keys": good["keys"][::-1]}, "time order")]
     for data, words in cases:
         (tmp_path / "bad.json").write_text(json.dumps(data))
-        with pytest.raises(UserError, match=words) as e:
-            campath.load(tmp_path / "bad.json")
+        with pytest.raises(SceneError, match=words) as e:
+            camera_path.load(tmp_path / "bad.json")
         assert "\n" not in str(e.value)
     (tmp_path / "bad.json").write_text("{nope")
-    with pytest.raises(UserError, match="not JSON"):
-        campath.load(tmp_path / "bad.json")
+    with pytest.raises(SceneError, match="not JSON"):
+        camera_path.load(tmp_path / "bad.json")
 
 
 def camera_key(**kw) -> dict:
@@ -47,8 +45,8 @@ def camera_key(**kw) -> dict:
 
 def path_takes(key: dict) -> bool:
     try:
-        campath.from_dict({"keys": [key]})
-    except UserError:
+        camera_path.from_dict({"keys": [key]})
+    except SceneError:
         return False
     return True
 
@@ -75,6 +73,6 @@ def test_a_path_key_and_a_scene_camera_pass_the_same_check(fields):
 
 
 def test_a_path_key_names_its_index_and_field():
-    with pytest.raises(UserError, match=r"^camera path: keys\[0\]\.fov_y_deg: must be a finite number in \(0, 180\)"):
-        campath.from_dict({"keys": [camera_key(fov_y_deg=180.0)]})
-    assert campath.from_dict({"keys": [camera_key(fov_y_deg=179.5)]}).keys[0].fov_y_deg == 179.5
+    with pytest.raises(SceneError, match=r"^camera path: keys\[0\]\.fov_y_deg: must be a finite number in \(0, 180\)"):
+        camera_path.from_dict({"keys": [camera_key(fov_y_deg=180.0)]})
+    assert camera_path.from_dict({"keys": [camera_key(fov_y_deg=179.5)]}).keys[0].fov_y_deg == 179.5

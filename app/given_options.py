@@ -1,9 +1,10 @@
-"""Technique options in the window.  The option flags given on the command line apply to
-every technique that declares them: the starting technique takes them strictly (a flag it
-does not take is an error, as in capture: app.cli.options_for); a technique switched to
-takes the ones it declares and ignores the others, which the HUD lists.  The panel then
-changes one technique's options (its own declarations: app.techniques.options OptionSpec),
-checked as on the command line; the next frame renders with them."""
+"""The option flags given on the command line, applied to every technique that declares
+them (the window and the bench's camera-path run): the starting technique takes them
+strictly (a flag it does not take is an error, as in capture: app.cli.options_for); a
+technique switched to takes the ones it declares and ignores the others, which the HUD
+lists.  The window's panel then changes one technique's options (its own declarations:
+app.techniques.options OptionSpec), checked as on the command line; the next frame renders
+with them.  No GL, nothing of the window."""
 from __future__ import annotations
 
 
@@ -20,7 +21,7 @@ def describe(value) -> str:
 _UNSET = object()          # set(): the option had no panel change before
 
 
-class WindowOptions:
+class GivenOptions:
     """{option name: value} of the given flags, and each technique's Options (the given
     flags it declares, then the panel's changes)."""
 
@@ -45,7 +46,7 @@ class WindowOptions:
         range); returns the value as stored."""
         spec = {s.name: s for s in technique.Options.specs()}.get(name)
         if spec is None:
-            from ..errors import UserError
+            from .errors import UserError
             raise UserError(f"{technique.name} has no option {flag(name)}")
         value = spec.check(value, technique.name)
         mine = self.changed.setdefault(technique.name, {})
@@ -84,35 +85,3 @@ class WindowOptions:
         if ignored:
             text += f"   (not taken by {technique.name}: {shown([k for k in self.given if k in ignored], self.given)})"
         return text
-
-
-# ---- the display's own options: one declaration for the panel and the command line --------
-
-def _display_specs():
-    from .. import images
-    from . import scale
-    from ..techniques.options import OptionSpec
-    return {s.name: s for s in (
-        # a factor on the radiance (the panel's slider shows it as EV, log2 of it); the
-        # range is the one automatic exposure keeps to
-        OptionSpec("exposure", float, 1.0, "a factor on the radiance ('auto' on the command "
-                   "line: the lit pixels' luminance percentile maps to a target)",
-                   lo=images.EXPOSURE_RANGE[0], hi=images.EXPOSURE_RANGE[1]),
-        OptionSpec("ambient", float, images.AMBIENT,
-                   "display only: ambient x albedo added after the exposure, so geometry shows "
-                   "with few lights (0: none)", lo=0.0, hi=1.0),
-        OptionSpec("heat_max", float, 0.0, "top of the heat scale; 0: the frame's largest count "
-                   "(fix it so two runs compare)", lo=0.0, hi=1e7),
-        OptionSpec("split_at", float, 0.0, "where the split is, a fraction of the width (0: the "
-                   "middle of what the panel leaves visible)", lo=0.0, hi=0.95),
-        # dynamic resolution (app.window.scale): the window's own, not capture's
-        OptionSpec("target_fps", float, scale.DEFAULT_FPS, "while the camera moves, render at the "
-                   "scale that holds this frame rate (full size at rest; the shaded view only); "
-                   "0: always full size", lo=0.0, hi=240.0),
-    )}
-
-
-# {name: OptionSpec}: the display's options, read by the panel (app.window.panel) and, for
-# exposure, ambient and heat_max, the command lines of the window and capture (launch.py)
-DISPLAY = _display_specs()
-DISPLAY_FLAGS = ("exposure", "ambient", "heat_max")      # the ones the command lines take

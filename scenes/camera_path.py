@@ -18,7 +18,8 @@ The file (JSON, version 1):
 
 A replay and the benchmark take one key per frame (the frame timing `t` says how fast it
 was flown; frame k of a replay is key k, however long a frame takes).  A bad file is
-rejected with one line naming the key and the field (exit status 2).  No GL here.
+rejected with one line naming the key and the field (a SceneError: exit status 2).  No GL
+here, and nothing of app: the window, capture and the bench all read it.
 """
 from __future__ import annotations
 
@@ -27,9 +28,7 @@ import json
 import math
 from pathlib import Path
 
-from scenes.errors import FieldChecker, one_line
-
-from ..errors import UserError
+from .errors import FieldChecker, SceneError
 
 FORMAT = "many-light-lab camera path"
 VERSION = 1
@@ -72,41 +71,34 @@ class CameraPath:
         return path
 
 
-class _PathChecker(FieldChecker):
-    """The scene loader's field checker, failing as the window's errors do (UserError)."""
-
-    def fail(self, field: str, msg: str):
-        raise UserError(f"{self.source}: {field}: {one_line(msg)}")
-
-
 def _check_header(d, source: str) -> None:
     if not isinstance(d, dict):
-        raise UserError(f"{source}: must be a JSON object with 'keys'")
+        raise SceneError(f"{source}: must be a JSON object with 'keys'")
     if d.get("format", FORMAT) != FORMAT:
-        raise UserError(f"{source}: format: expected '{FORMAT}' (got {d.get('format')!r})")
+        raise SceneError(f"{source}: format: expected '{FORMAT}' (got {d.get('format')!r})")
     if d.get("version", VERSION) != VERSION:
-        raise UserError(f"{source}: version: {d.get('version')!r} is not supported (expected {VERSION})")
+        raise SceneError(f"{source}: version: {d.get('version')!r} is not supported (expected {VERSION})")
     known = {"format", "version", "scene", "size", "keys"}
     unknown = sorted(set(d) - known)
     if unknown:
-        raise UserError(f"{source}: unknown field '{unknown[0]}' (known: {', '.join(sorted(known))})")
+        raise SceneError(f"{source}: unknown field '{unknown[0]}' (known: {', '.join(sorted(known))})")
     keys = d.get("keys")
     if not isinstance(keys, list) or not keys:
-        raise UserError(f"{source}: keys: must be a non-empty list of camera keys")
+        raise SceneError(f"{source}: keys: must be a non-empty list of camera keys")
     size = d.get("size")
     if size is not None and not (isinstance(size, list) and len(size) == 2
                                  and all(isinstance(v, int) and v > 0 for v in size)):
-        raise UserError(f"{source}: size: must be [width, height] in pixels (got {size!r})")
+        raise SceneError(f"{source}: size: must be [width, height] in pixels (got {size!r})")
 
 
 def from_dict(d, source: str = "camera path") -> CameraPath:
     """A CameraPath from the file's JSON object, every field checked; each key's camera by
     the scene loader's own camera check (scenes.loader.check_camera), every field required."""
-    from scenes.loader import check_camera
+    from .loader import check_camera
     _check_header(d, source)
     path = CameraPath(scene=str(d.get("scene") or ""),
                       size=tuple(d["size"]) if d.get("size") is not None else None)
-    ctx = _PathChecker(source)
+    ctx = FieldChecker(source)
     last_t = -math.inf
     for i, k in enumerate(d["keys"]):
         where = f"keys[{i}]"
@@ -120,14 +112,14 @@ def from_dict(d, source: str = "camera path") -> CameraPath:
 
 
 def load(path) -> CameraPath:
-    """The camera path file at `path` (one-line UserError when it is not one)."""
+    """The camera path file at `path` (one-line SceneError when it is not one)."""
     p = Path(path)
     try:
         text = p.read_text()
     except OSError as exc:
-        raise UserError(f"camera path {p}: cannot read it ({exc.strerror or exc})") from None
+        raise SceneError(f"camera path {p}: cannot read it ({exc.strerror or exc})") from None
     try:
         d = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise UserError(f"camera path {p}: not JSON ({exc.msg} at line {exc.lineno})") from None
+        raise SceneError(f"camera path {p}: not JSON ({exc.msg} at line {exc.lineno})") from None
     return from_dict(d, f"camera path {p}")
