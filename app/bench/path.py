@@ -1,5 +1,5 @@
 """`python -m app.bench --path PATH.json --out DIR`: every technique along a recorded camera
-path (app.window.campath: `python -m app.window --record PATH.json`), one frame per key.
+path (scenes.camera_path: `python -m app.window --record PATH.json`), one frame per key.
 
     python -m app.bench --path PATH.json --out DIR [--scenes S] [--lights N] [--seed S]
                         [--size WxH | --full] [--repeat R] [--techniques a,b] [--threads 1]
@@ -74,8 +74,7 @@ def add_args(p) -> None:
     p.add_argument("--techniques", help="comma-separated subset (default: every technique; the "
                    "reference always renders, for the exactness check)")
     p.add_argument("--threads", type=int, default=1, help="numba threads of the CPU stage")
-    from ..window.launch import add_motion_arg
-    add_motion_arg(p)
+    cli.add_motion_arg(p)
     cli.add_option_args(p)
 
 
@@ -90,8 +89,8 @@ def run(args, argv) -> None:
     from scenes import BUILTIN_SCENES, load_scene
     from scenes.motion import with_motion
     from ..techniques import REGISTRY, with_role
-    from ..window.campath import load
-    from ..window.options import WindowOptions
+    from scenes.camera_path import load
+    from ..given_options import GivenOptions
     from .cpu import set_cpu_threads
     if not args.path:
         raise UserError("--path: give the camera path file (PATH.json)")
@@ -112,7 +111,7 @@ def run(args, argv) -> None:
                             f"(choose from {', '.join(REGISTRY)})")
     reference = with_role("reference")
     order = [reference.name] + [n for n in names if n != reference.name]
-    options = WindowOptions(cli.given_options(args))
+    options = GivenOptions(cli.given_options(args))
     # each technique takes the option flags it declares and ignores the others (as the window)
     lights_n = args.lights if scene_name in BUILTIN_SCENES else None
     scene = with_motion(load_scene(scene_name, lights=lights_n, seed=args.seed,

@@ -375,8 +375,7 @@ def add_args(p) -> None:
     p.add_argument("--papers", action=argparse.BooleanOptionalAction, default=None,
                    help="the papers' settings at 1920x1080, modelled (default: on, off with "
                         "--scenes)")
-    from ..window.launch import add_motion_arg
-    add_motion_arg(p)
+    cli.add_motion_arg(p)
 
 
 def run(args, argv) -> None:
