@@ -53,14 +53,44 @@ def _issue_lists(n, e_lane, e_list, e_first, e_count, e_scalar, list_start, list
     """The inner light loops of n lanes run together: max(count) issued iterations, each
     the lanes' entry and light fetches and affects tests; returns the set's stamp.  The
     lanes' positions and hit counts live in the work arrays w* while the loops run."""
+    longest, same = _longest(n, e_list, e_first, e_count, e_scalar)
+    if longest == 0:
+        return stamp
+    _gather_lanes(n, e_lane, e_count, P, lo, hi, per_pixel, wx, wy, wz, wacc)
+    if same:            # one list walked alike (brute's loop, a tile's list): per light, not lane
+        stamp = _walk_shared_list(n, longest, e_lane, e_list[0], e_first[0], e_scalar[0],
+                                  list_start, list_lbuf, list_ebuf, list_runs, flat_light,
+                                  flat_slot, flat_eoff, spec, L, types, bound, unbounded, keys,
+                                  stamps, stamp, lo, hi, shaded, line_base, seen, loops,
+                                  types_acc, wx, wy, wz, wacc, wbits)
+    else:
+        stamp = _walk_lane_lists(n, longest, e_lane, e_list, e_first, e_count, e_scalar,
+                                 list_start, list_lbuf, list_ebuf, flat_light, flat_slot,
+                                 flat_eoff, spec, L, types, bound, unbounded, keys, stamps, stamp,
+                                 lo, hi, shapes, shaded, line_base, seen, loops, types_acc,
+                                 wx, wy, wz, wacc)
+    for q in range(n):
+        per_pixel[e_lane[q], 2] += wacc[q]
+    return stamp
+
+
+@numba.njit(inline="always")
+def _longest(n, e_list, e_first, e_count, e_scalar):
+    """The longest of the n lanes' lists, and whether every lane walks the same list (one
+    cell, or wave-uniform)."""
     longest = 0
-    same = n > 0                 # every lane walks the same list (one cell, or wave-uniform)
+    same = n > 0
     for q in range(n):
         longest = max(longest, e_count[q])
         same &= e_scalar[q] == e_scalar[0] and e_list[q] == e_list[0] and \
             e_first[q] == e_first[0] and e_count[q] == e_count[0]
-    if longest == 0:
-        return stamp
+    return longest, same
+
+
+@numba.njit(inline="always")
+def _gather_lanes(n, e_lane, e_count, P, lo, hi, per_pixel, wx, wy, wz, wacc):
+    """The lanes' positions into the work arrays, their hit counts zeroed, the box [lo, hi]
+    of those with a light to walk, and the lights each evaluates added to its pixel."""
     lo[:] = np.inf
     hi[:] = -np.inf
     for q in range(n):
@@ -71,81 +101,96 @@ def _issue_lists(n, e_lane, e_list, e_first, e_count, e_scalar, list_start, list
             for k in range(3):
                 lo[k] = min(lo[k], P[px, k])
                 hi[k] = max(hi[k], P[px, k])
-    if same:            # one list walked alike (brute's loop, a tile's list): per light, not lane
-        lid, f0 = e_list[0], e_first[0]
-        col = 3 if e_scalar[0] else 2                   # its loads: scalar or vector
-        runs = list_runs[lid]
-        row = MASK_LIGHT if runs else LIGHT      # evaluate_all_lights' mask loop, or a list's
-        loops[row, 0] += longest
-        loops[row, 1] += longest * n
-        for t in range(longest):
-            p = list_start[lid] + f0 + t
-            li = flat_light[p]
-            lines = 0
-            if flat_eoff[p] >= 0:
-                loops[row, col] += 1
-                seen[line_base[list_ebuf[lid]] + flat_eoff[p] // 64] = True
-                lines += 1
-            off = flat_slot[p] * 96
-            for line in range(off // 64, (off + 95) // 64 + 1):
-                seen[line_base[list_lbuf[lid]] + line] = True
-                lines += 1
+
+
+@numba.njit(cache=True)   # not inlined: numba inlines no call of over 30 arguments
+def _walk_shared_list(n, longest, e_lane, lid, f0, scalar, list_start, list_lbuf, list_ebuf,
+                      list_runs, flat_light, flat_slot, flat_eoff, spec, L, types, bound,
+                      unbounded, keys, stamps, stamp, lo, hi, shaded, line_base, seen, loops,
+                      types_acc, wx, wy, wz, wacc, wbits) -> int:
+    """Every lane on list `lid` from `f0`: its lights' fetches counted once a light, each
+    light tested against the lanes' box then each lane; a list walked in runs
+    (LightList.runs) issues each run's set-bit loop.  Returns the stamp."""
+    col = 3 if scalar else 2                        # its loads: scalar or vector
+    runs = list_runs[lid]
+    row = MASK_LIGHT if runs else LIGHT      # evaluate_all_lights' mask loop, or a list's
+    loops[row, 0] += longest
+    loops[row, 1] += longest * n
+    for t in range(longest):
+        p = list_start[lid] + f0 + t
+        li = flat_light[p]
+        lines = 0
+        if flat_eoff[p] >= 0:
             loops[row, col] += 1
-            loops[row, col + 2] += lines
-            types_acc[0, types[li]] += 1
-            if runs and t % RUN == 0:
-                wbits[:n] = 0
-            if unbounded or not _misses_box(li, L, bound, lo, hi):
-                hit, sp = False, False
-                for q in range(n):
-                    if affects(wx[q], wy[q], wz[q], li, L, types, unbounded):
-                        if runs:
-                            wbits[q] |= 1 << (t % RUN)
-                        else:
-                            wacc[q] += 1
-                            hit = True
-                            sp |= spec[e_lane[q]]
-                if not runs:
-                    types_acc[1, types[li]] += hit
-                    types_acc[2, 0] += sp
-            if runs and (t % RUN == RUN - 1 or t == longest - 1):
-                stamp = _issue_set_bits(n, e_lane, wbits, list_start[lid] + f0 + t - t % RUN,
-                                        line_base[list_lbuf[lid]], flat_light, flat_slot, spec,
-                                        types, keys, stamps, stamp, seen, shaded, loops,
-                                        types_acc, wacc)
-    else:
-        for t in range(longest):
-            stamp += 1
-            active, lines, entry_loads, scalar = 0, 0, False, False
-            shapes[:] = False
-            shaded[:] = False
-            any_spec = False
-            last, last_p, miss = -1, -1, False
+            seen[line_base[list_ebuf[lid]] + flat_eoff[p] // 64] = True
+            lines += 1
+        off = flat_slot[p] * 96
+        for line in range(off // 64, (off + 95) // 64 + 1):
+            seen[line_base[list_lbuf[lid]] + line] = True
+            lines += 1
+        loops[row, col] += 1
+        loops[row, col + 2] += lines
+        types_acc[0, types[li]] += 1
+        if runs and t % RUN == 0:
+            wbits[:n] = 0
+        if unbounded or not _misses_box(li, L, bound, lo, hi):
+            hit, sp = False, False
             for q in range(n):
-                if e_count[q] <= t:
-                    continue
-                lid = e_list[q]
-                p = list_start[lid] + e_first[q] + t
-                li = flat_light[p]
-                active += 1
-                scalar = e_scalar[q]
-                if p != last_p:                  # lanes of one cell fetch the same entry
-                    last_p = p
-                    if flat_eoff[p] >= 0:
-                        entry_loads = True
-                        lines += _lines(keys, stamps, stamp, seen, line_base[list_ebuf[lid]],
-                                        flat_eoff[p], 4)
-                    lines += _lines(keys, stamps, stamp, seen, line_base[list_lbuf[lid]],
-                                    flat_slot[p] * 96, 96)
-                last, miss, hit = _evaluate(li, last, miss, wx[q], wy[q], wz[q], L, types, bound,
-                                            lo, hi, unbounded, shapes, shaded)
-                if hit:
-                    wacc[q] += 1
-                    any_spec |= spec[e_lane[q]]
-            _issue_lights(active, 2 if entry_loads else 1, lines, scalar, shapes, shaded,
-                          any_spec, loops, types_acc)
-    for q in range(n):
-        per_pixel[e_lane[q], 2] += wacc[q]
+                if affects(wx[q], wy[q], wz[q], li, L, types, unbounded):
+                    if runs:
+                        wbits[q] |= 1 << (t % RUN)
+                    else:
+                        wacc[q] += 1
+                        hit = True
+                        sp |= spec[e_lane[q]]
+            if not runs:
+                types_acc[1, types[li]] += hit
+                types_acc[2, 0] += sp
+        if runs and (t % RUN == RUN - 1 or t == longest - 1):
+            stamp = _issue_set_bits(n, e_lane, wbits, list_start[lid] + f0 + t - t % RUN,
+                                    line_base[list_lbuf[lid]], flat_light, flat_slot, spec,
+                                    types, keys, stamps, stamp, seen, shaded, loops,
+                                    types_acc, wacc)
+    return stamp
+
+
+@numba.njit(cache=True)   # not inlined: numba inlines no call of over 30 arguments
+def _walk_lane_lists(n, longest, e_lane, e_list, e_first, e_count, e_scalar, list_start,
+                     list_lbuf, list_ebuf, flat_light, flat_slot, flat_eoff, spec, L, types,
+                     bound, unbounded, keys, stamps, stamp, lo, hi, shapes, shaded, line_base,
+                     seen, loops, types_acc, wx, wy, wz, wacc) -> int:
+    """Each lane on its own list: per issued iteration the k-th entry of every lane with one
+    left, fetched once per run of lanes at one entry.  Returns the stamp."""
+    for t in range(longest):
+        stamp += 1
+        active, lines, entry_loads, scalar = 0, 0, False, False
+        shapes[:] = False
+        shaded[:] = False
+        any_spec = False
+        last, last_p, miss = -1, -1, False
+        for q in range(n):
+            if e_count[q] <= t:
+                continue
+            lid = e_list[q]
+            p = list_start[lid] + e_first[q] + t
+            li = flat_light[p]
+            active += 1
+            scalar = e_scalar[q]
+            if p != last_p:                  # lanes of one cell fetch the same entry
+                last_p = p
+                if flat_eoff[p] >= 0:
+                    entry_loads = True
+                    lines += _lines(keys, stamps, stamp, seen, line_base[list_ebuf[lid]],
+                                    flat_eoff[p], 4)
+                lines += _lines(keys, stamps, stamp, seen, line_base[list_lbuf[lid]],
+                                flat_slot[p] * 96, 96)
+            last, miss, hit = _evaluate(li, last, miss, wx[q], wy[q], wz[q], L, types, bound,
+                                        lo, hi, unbounded, shapes, shaded)
+            if hit:
+                wacc[q] += 1
+                any_spec |= spec[e_lane[q]]
+        _issue_lights(active, 2 if entry_loads else 1, lines, scalar, shapes, shaded,
+                      any_spec, loops, types_acc)
     return stamp
 
 
@@ -261,10 +306,7 @@ def _replay_segments(wave, lane, step, hoff, first, count, call, calls,
     n = len(wave)
     biggest, i = 0, 0
     while i < n:                                         # the largest group, for buffers
-        j = i
-        while j < n and wave[j] == wave[i] and calls[call[j], 0] == calls[call[i], 0] \
-                and step[j] == step[i]:
-            j += 1
+        j = _group_end(wave, step, call, calls, i, n)
         biggest = max(biggest, j - i)
         i = j
     keys, stamps, lo, hi, shapes, shaded = _wave_scratch()
@@ -276,41 +318,14 @@ def _replay_segments(wave, lane, step, hoff, first, count, call, calls,
         ints[0], ints[1], ints[2], ints[3], ints[4], ints[5], ints[6], ints[7]
     e_scalar = np.zeros(biggest, np.bool_)
     wx, wy, wz = _positions(biggest)
-    cmask = (1 << _COUNT_BITS) - 1
     i = 0
     while i < n:
-        j = i
-        while j < n and wave[j] == wave[i] and calls[call[j], 0] == calls[call[i], 0] \
-                and step[j] == step[i]:
-            j += 1
+        j = _group_end(wave, step, call, calls, i, n)
         # heads of the plain segments: one issued iteration
         stamp += 1
-        kind, heads, lines, scalar, lds = -1, 0, 0, False, False
-        # m is _issue_lists' n: typed, not the literal 0, or numba compiles _issue_lists
-        # twice, once for n = Literal[int](0) (a call's literal argument is its own
-        # specialization: ~6 s more of a cold compile, the same code)
-        m, trees = np.int64(0), 0
-        for s in range(i, j):
-            c = call[s]
-            if calls[c, 7]:                              # a tree: walked below
-                t_seg[trees] = s
-                t_cur[trees] = 0
-                trees += 1
-                continue
-            if calls[c, 1] >= 0:
-                kind = calls[c, 1]
-                heads += 1
-                scalar = calls[c, 4] != 0
-                if kind == 1 or kind == 2:               # a node visit (global or shared)
-                    per_pixel[lane[s], 1] += 1
-                if calls[c, 2] == -2:
-                    lds = True
-                else:
-                    lines += _lines(keys, stamps, stamp, seen, line_base[calls[c, 2]], hoff[s], calls[c, 3])
-            if calls[c, 5] >= 0 and count[s] > 0:
-                e_lane[m], e_list[m], e_first[m] = lane[s], calls[c, 5], first[s]
-                e_count[m], e_scalar[m] = count[s], calls[c, 6] != 0
-                m += 1
+        kind, heads, lines, scalar, lds, m, trees = _plain_heads(
+            i, j, lane, hoff, first, count, call, calls, keys, stamps, stamp, seen, line_base,
+            per_pixel, e_lane, e_list, e_first, e_count, e_scalar, t_seg, t_cur)
         if kind >= 0:
             _issue_head(kind, heads, lines, scalar, lds, loops)
         stamp = _issue_lists(m, e_lane, e_list, e_first, e_count, e_scalar, list_start,
@@ -321,31 +336,10 @@ def _replay_segments(wave, lane, step, hoff, first, count, call, calls,
         # the group's traversals in lockstep
         while trees > 0:
             stamp += 1
-            heads, lines, m = 0, 0, np.int64(0)          # m typed: see above
-            kind, lds = -1, False
-            for q in range(trees):
-                s = t_seg[q]
-                c = call[s]
-                if t_cur[q] >= count[s]:
-                    continue
-                node = first[s] + t_cur[q]
-                heads += 1
-                kind = calls[c, 1]
-                per_pixel[lane[s], 1] += 1
-                if calls[c, 2] == -2:
-                    lds = True
-                else:
-                    lines += _lines(keys, stamps, stamp, seen, line_base[calls[c, 2]], node * 16, 16)
-                d = depth[lane[s]]
-                bits = nbits[node]
-                if d >= nmin[node] and d <= nmax[node]:
-                    if bits & 1:
-                        e_lane[m], e_list[m], e_first[m] = lane[s], calls[c, 5], nfirst[node]
-                        e_count[m], e_scalar[m] = (bits >> 1) & cmask, False
-                        m += 1
-                    t_cur[q] += 1
-                else:
-                    t_cur[q] += bits >> (1 + _COUNT_BITS)
+            kind, heads, lines, lds, m = _tree_visit(
+                trees, t_seg, t_cur, lane, first, count, call, calls, depth, nmin, nmax, nfirst,
+                nbits, keys, stamps, stamp, seen, line_base, per_pixel, e_lane, e_list, e_first,
+                e_count, e_scalar)
             if heads == 0:
                 break
             _issue_head(kind, heads, lines, False, lds, loops)
@@ -355,6 +349,85 @@ def _replay_segments(wave, lane, step, hoff, first, count, call, calls,
                                  stamp, lo, hi, shapes, shaded, line_base, seen, loops,
                                  types_acc, per_pixel, wx, wy, wz, wacc, wbits)
         i = j
+
+
+@numba.njit(inline="always")
+def _group_end(wave, step, call, calls, i, n):
+    """The end of the group of segments from i: those of one (wave, branch, step)."""
+    j = i
+    while j < n and wave[j] == wave[i] and calls[call[j], 0] == calls[call[i], 0] \
+            and step[j] == step[i]:
+        j += 1
+    return j
+
+
+@numba.njit(inline="always")
+def _plain_heads(i, j, lane, hoff, first, count, call, calls, keys, stamps, stamp, seen,
+                 line_base, per_pixel, e_lane, e_list, e_first, e_count, e_scalar, t_seg, t_cur):
+    """A group's plain segments: their heads (kind, lanes, new lines, scalar, from shared
+    memory) and their lists' entries (m of them); its tree segments set aside (trees)."""
+    kind, heads, lines, scalar, lds = -1, 0, 0, False, False
+    # m is _issue_lists' n: typed, not the literal 0, or numba compiles _issue_lists
+    # twice, once for n = Literal[int](0) (a call's literal argument is its own
+    # specialization: ~6 s more of a cold compile, the same code)
+    m, trees = np.int64(0), 0
+    for s in range(i, j):
+        c = call[s]
+        if calls[c, 7]:                              # a tree: walked below
+            t_seg[trees] = s
+            t_cur[trees] = 0
+            trees += 1
+            continue
+        if calls[c, 1] >= 0:
+            kind = calls[c, 1]
+            heads += 1
+            scalar = calls[c, 4] != 0
+            if kind == 1 or kind == 2:               # a node visit (global or shared)
+                per_pixel[lane[s], 1] += 1
+            if calls[c, 2] == -2:
+                lds = True
+            else:
+                lines += _lines(keys, stamps, stamp, seen, line_base[calls[c, 2]], hoff[s], calls[c, 3])
+        if calls[c, 5] >= 0 and count[s] > 0:
+            e_lane[m], e_list[m], e_first[m] = lane[s], calls[c, 5], first[s]
+            e_count[m], e_scalar[m] = count[s], calls[c, 6] != 0
+            m += 1
+    return kind, heads, lines, scalar, lds, m, trees
+
+
+@numba.njit(inline="always")
+def _tree_visit(trees, t_seg, t_cur, lane, first, count, call, calls, depth, nmin, nmax, nfirst,
+                nbits, keys, stamps, stamp, seen, line_base, per_pixel, e_lane, e_list, e_first,
+                e_count, e_scalar):
+    """One lockstep step of a group's traversals: each unfinished lane's next node (kind,
+    lanes, new lines, from shared memory), the hit leaves' lists as m entries."""
+    cmask = (1 << _COUNT_BITS) - 1
+    heads, lines, m = 0, 0, np.int64(0)              # m typed: see _plain_heads
+    kind, lds = -1, False
+    for q in range(trees):
+        s = t_seg[q]
+        c = call[s]
+        if t_cur[q] >= count[s]:
+            continue
+        node = first[s] + t_cur[q]
+        heads += 1
+        kind = calls[c, 1]
+        per_pixel[lane[s], 1] += 1
+        if calls[c, 2] == -2:
+            lds = True
+        else:
+            lines += _lines(keys, stamps, stamp, seen, line_base[calls[c, 2]], node * 16, 16)
+        d = depth[lane[s]]
+        bits = nbits[node]
+        if d >= nmin[node] and d <= nmax[node]:
+            if bits & 1:
+                e_lane[m], e_list[m], e_first[m] = lane[s], calls[c, 5], nfirst[node]
+                e_count[m], e_scalar[m] = (bits >> 1) & cmask, False
+                m += 1
+            t_cur[q] += 1
+        else:
+            t_cur[q] += bits >> (1 + _COUNT_BITS)
+    return kind, heads, lines, lds, m
 
 
 @numba.njit(inline="always")
@@ -377,31 +450,13 @@ def _replay_words(order, wave, shading, live, address, zlo, zhi, bits, words, ma
     wx, wy, wz = _positions(64)
     w_ev = np.zeros(64, np.int64)
     w_hit = np.zeros(64, np.int64)
-    empty_min = 0x7FFFFFFF
     i = 0
     while i < n:
         j = i
         while j < n and wave[j] == wave[i]:
             j += 1
-        w0, w1 = 0, words
-        if masked:
-            mn, mx = empty_min, 0
-            for s in range(i, j):
-                if shading[s]:
-                    mn = min(mn, zlo[s])
-                    mx = max(mx, zhi[s])
-            w0, w1 = max(w0, mn // 32), min(w1, mx // 32 + 1)
-        busy, alive = 0, False
-        for s in range(i, j):
-            q = s - i
-            alive |= live[s]
-            wx[q], wy[q], wz[q] = P[order[s], 0], P[order[s], 1], P[order[s], 2]
-            w_ev[q], w_hit[q] = 0, 0
-            busy += shading[s]
-            if shading[s]:
-                for k in range(3):
-                    lo[k] = P[order[s], k] if busy == 1 else min(lo[k], P[order[s], k])
-                    hi[k] = P[order[s], k] if busy == 1 else max(hi[k], P[order[s], k])
+        w0, w1 = _word_range(i, j, shading, zlo, zhi, masked, words)
+        busy, alive = _gather_wave(i, j, order, shading, live, P, wx, wy, wz, w_ev, w_hit, lo, hi)
         if busy == 0:
             if scalarized and w1 > w0 and alive:  # the native loop runs its words unguarded
                 loops[3, 0] += w1 - w0
@@ -410,69 +465,113 @@ def _replay_words(order, wave, shading, live, address, zlo, zhi, bits, words, ma
         for wd in range(w0, w1):
             # the word: a vector load per shading lane (lane_word)
             stamp += 1
-            lines = 0
-            merged = np.uint32(0)
-            longest = 0
-            for s in range(i, j):
-                m = np.uint32(0)
-                if shading[s]:
-                    a = address[s] + wd
-                    lines += _lines(keys, stamps, stamp, seen, line_base[bits_buf], a * 4, 4)
-                    m = bits[a]
-                    if masked:
-                        m &= _zbin_mask(zlo[s], zhi[s], wd, printed)
-                own[s - i] = m
-                merged |= m
-                c = 0
-                x = m
-                while x:
-                    x &= x - np.uint32(1)
-                    c += 1
-                longest = max(longest, c)
+            lines = _load_word(i, j, wd, shading, address, zlo, zhi, bits, masked, scalarized,
+                               printed, keys, stamps, stamp, seen, line_base[bits_buf], own)
             loops[3, 0] += 1
             loops[3, 1] += busy
             loops[3, 2] += 1
             loops[3, 4] += lines
-            if scalarized:
-                for s in range(i, j):
-                    own[s - i] = merged if shading[s] else np.uint32(0)
-            # the light loop: per lane its own bits in order, or every lane the merged bits
-            t = 0
-            while True:
-                stamp += 1
-                active, lines, scalar = 0, 0, scalarized
-                shapes[:] = False
-                shaded[:] = False
-                any_spec = False
-                last, miss = -1, False
-                for s in range(i, j):
-                    m = own[s - i]
-                    if m == 0:
-                        continue
-                    bit = 0
-                    while not (m >> np.uint32(bit)) & np.uint32(1):
-                        bit += 1
-                    own[s - i] = m & (m - np.uint32(1))
-                    li = wd * 32 + bit
-                    q = s - i
-                    active += 1
-                    w_ev[q] += 1
-                    if li != last:               # lanes of one tile fetch the same light
-                        lines += _lines(keys, stamps, stamp, seen, line_base[0], li * 96, 96)
-                    last, miss, hit = _evaluate(li, last, miss, wx[q], wy[q], wz[q], L, types,
-                                                bound, lo, hi, unbounded, shapes, shaded)
-                    if hit:
-                        w_hit[q] += 1
-                        any_spec |= spec[order[s]]
-                if active == 0:
-                    break
-                t += 1
-                _issue_lights(active, 1, lines, scalar, shapes, shaded, any_spec, loops,
-                              types_acc)
+            stamp = _word_lights(i, j, wd, order, own, spec, L, types, bound, lo, hi, unbounded,
+                                 shapes, shaded, keys, stamps, stamp, seen, line_base[0],
+                                 scalarized, loops, types_acc, wx, wy, wz, w_ev, w_hit)
         for s in range(i, j):               # the wave's lanes' sums, once
             per_pixel[order[s], 0] += w_ev[s - i]
             per_pixel[order[s], 2] += w_hit[s - i]
         i = j
+
+
+@numba.njit(inline="always")
+def _word_range(i, j, shading, zlo, zhi, masked, words):
+    """The words [w0, w1) the wave of lanes i..j walks: all, or (masked) those of its
+    shading lanes' z-bin ids."""
+    w0, w1 = 0, words
+    if masked:
+        mn, mx = 0x7FFFFFFF, 0                       # an empty wave's min
+        for s in range(i, j):
+            if shading[s]:
+                mn = min(mn, zlo[s])
+                mx = max(mx, zhi[s])
+        w0, w1 = max(w0, mn // 32), min(w1, mx // 32 + 1)
+    return w0, w1
+
+
+@numba.njit(inline="always")
+def _gather_wave(i, j, order, shading, live, P, wx, wy, wz, w_ev, w_hit, lo, hi):
+    """The wave's lanes' positions into the work arrays, their sums zeroed, the box [lo, hi]
+    of its shading lanes; returns (shading lanes, whether any lane is live)."""
+    busy, alive = 0, False
+    for s in range(i, j):
+        q = s - i
+        alive |= live[s]
+        wx[q], wy[q], wz[q] = P[order[s], 0], P[order[s], 1], P[order[s], 2]
+        w_ev[q], w_hit[q] = 0, 0
+        busy += shading[s]
+        if shading[s]:
+            for k in range(3):
+                lo[k] = P[order[s], k] if busy == 1 else min(lo[k], P[order[s], k])
+                hi[k] = P[order[s], k] if busy == 1 else max(hi[k], P[order[s], k])
+    return busy, alive
+
+
+@numba.njit(inline="always")
+def _load_word(i, j, wd, shading, address, zlo, zhi, bits, masked, scalarized, printed, keys,
+               stamps, stamp, seen, base, own):
+    """Word wd of each shading lane (masked by its z-bin range) into own, or (scalarized)
+    the wave's OR of them into every shading lane's; returns the loads' new lines."""
+    lines = 0
+    merged = np.uint32(0)
+    for s in range(i, j):
+        m = np.uint32(0)
+        if shading[s]:
+            a = address[s] + wd
+            lines += _lines(keys, stamps, stamp, seen, base, a * 4, 4)
+            m = bits[a]
+            if masked:
+                m &= _zbin_mask(zlo[s], zhi[s], wd, printed)
+        own[s - i] = m
+        merged |= m
+    if scalarized:
+        for s in range(i, j):
+            own[s - i] = merged if shading[s] else np.uint32(0)
+    return lines
+
+
+@numba.njit(inline="always")
+def _word_lights(i, j, wd, order, own, spec, L, types, bound, lo, hi, unbounded, shapes, shaded,
+                 keys, stamps, stamp, seen, lbase, scalarized, loops, types_acc, wx, wy, wz,
+                 w_ev, w_hit) -> int:
+    """The light loop of word wd, per lane its own bits in order (or, scalarized, every lane
+    the merged bits): per issued iteration every lane with bits left evaluates its lowest
+    one.  Returns the stamp."""
+    while True:
+        stamp += 1
+        active, lines, scalar = 0, 0, scalarized
+        shapes[:] = False
+        shaded[:] = False
+        any_spec = False
+        last, miss = -1, False
+        for s in range(i, j):
+            m = own[s - i]
+            if m == 0:
+                continue
+            bit = 0
+            while not (m >> np.uint32(bit)) & np.uint32(1):
+                bit += 1
+            own[s - i] = m & (m - np.uint32(1))
+            li = wd * 32 + bit
+            q = s - i
+            active += 1
+            w_ev[q] += 1
+            if li != last:               # lanes of one tile fetch the same light
+                lines += _lines(keys, stamps, stamp, seen, lbase, li * 96, 96)
+            last, miss, hit = _evaluate(li, last, miss, wx[q], wy[q], wz[q], L, types,
+                                        bound, lo, hi, unbounded, shapes, shaded)
+            if hit:
+                w_hit[q] += 1
+                any_spec |= spec[order[s]]
+        if active == 0:
+            return stamp
+        _issue_lights(active, 1, lines, scalar, shapes, shaded, any_spec, loops, types_acc)
 
 
 @numba.njit(cache=True)
