@@ -2,8 +2,8 @@
 of a bit-array word loop (_replay_words) and of a tree traversal (_tree_visits), counting
 per issued iteration its lanes, loads and distinct lines.
 
-numba's cache (cache=True) keys on this file alone: after an edit of lights.py or kinds.py,
-whose functions and constants are compiled in, touch this file (or clear its __pycache__)."""
+numba's cache (cache=True) re-checks this file alone: after an edit of lights.py or kinds.py,
+whose functions and constants are compiled in, touch this file so that numba recompiles."""
 from __future__ import annotations
 
 import numba
