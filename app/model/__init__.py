@@ -1,6 +1,6 @@
 """What a technique would cost on a GPU, without one.
 
-    waves.py     per-wave execution figures: a lockstep replay of the technique's own built
+    waves/       per-wave execution figures: a lockstep replay of the technique's own built
                  structure (its wave_program), for waves of 32 and 64 lanes
     cost.py      the GPU cost model: figures -> milliseconds for named GPUs, from their
                  public specifications alone (equations in its docstring)

@@ -132,7 +132,6 @@ class Module:
         self.constants: set[str] = set()
         self.strings: dict[str, str] = {}
         self.names: dict[str, str] = {}
-        self.ext_sets: dict[str, str] = {}
         self.functions: dict[str, Function] = {}
         self.by_id: dict[str, Function] = {}
         self._parse(text)
@@ -149,8 +148,6 @@ class Module:
                 self.strings[rid] = rest.strip().strip('"')
             elif op == "Name" and words:
                 self.names[words[0]] = rest.split('"')[1] if '"' in rest else ""
-            elif op == "ExtInstImport":
-                self.ext_sets[rid] = rest.strip().strip('"')
             elif op.startswith("Type"):
                 self._type(rid, op, words)
             elif op.startswith("Constant") or op.startswith("SpecConstant"):
@@ -182,7 +179,7 @@ class Module:
                 elif op == "BranchConditional":
                     block.succ = words[1:3]
                 elif op == "Switch":
-                    block.succ = [w for w in words[2::2]] + [words[1]]
+                    block.succ = words[3::2] + [words[1]]     # Selector Default (Literal Label)*
                 block.ops.append((op, rid, words))
                 if op == "FunctionParameter":
                     self.type_of[rid] = words[0]
@@ -225,9 +222,6 @@ class Module:
 
 # ---- counting ---------------------------------------------------------------------------
 
-COLUMNS = ("alu", "trans", "idiv", "wred")
-
-
 @dataclass(frozen=True)
 class Count:
     alu: float = 0.0
@@ -238,18 +232,11 @@ class Count:
     def __add__(self, o: "Count") -> "Count":
         return Count(*(a + b for a, b in zip(self.row(), o.row())))
 
-    def __sub__(self, o: "Count") -> "Count":
-        return Count(*(a - b for a, b in zip(self.row(), o.row())))
-
     def scaled(self, k: float) -> "Count":
         return Count(*(a * k for a in self.row()))
 
     def row(self) -> list[float]:
         return [self.alu, self.trans, self.idiv, self.wred]
-
-    @property
-    def total(self) -> float:
-        return sum(self.row())
 
 
 ZERO = Count()

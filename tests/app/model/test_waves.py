@@ -1,4 +1,4 @@
-"""The wave replay (app/model/waves.py) against the shaders' own counters: the per-pixel work
+"""The wave replay (app/model/waves/) against the shaders' own counters: the per-pixel work
 it implies (lights evaluated, tree nodes visited) equals PixelStats' at every pixel, on every
 builtin scene and for every technique, the native wave path at llvmpipe's subgroup size (8)
 included; the lights it finds affecting equal contrib_count up to the float32 rounding of its
