@@ -15,11 +15,16 @@ from pathlib import Path
 import numba
 
 
+# The folders of the project's numba kernels: this package's and the cost model's wave replay
+# (whose kernels inline the light tests and constants of their sibling modules).
+_KERNEL_DIRS = (Path(__file__).parent, Path(__file__).parents[1] / "app" / "model" / "waves")
+
+
 def _cache_dir() -> Path:
-    """numba's on-disk cache, keyed by the source of this whole package: numba re-checks
-    only a kernel's own file, not the limits and inline bounds it compiled in."""
+    """numba's on-disk cache, keyed by the source of every kernel folder: numba re-checks
+    only a kernel's own file, not the limits, inline bounds and light tests it compiled in."""
     h = hashlib.sha1()
-    for p in sorted(Path(__file__).parent.glob("*.py")):
+    for p in sorted(q for d in _KERNEL_DIRS for q in d.glob("*.py")):
         h.update(p.name.encode() + p.read_bytes())
     base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache"))
     return base / "many-light-lab" / "numba" / h.hexdigest()[:16]

@@ -2,8 +2,9 @@
 of a bit-array word loop (_replay_words) and of a tree traversal (_tree_visits), counting
 per issued iteration its lanes, loads and distinct lines.
 
-numba's cache (cache=True) re-checks this file alone: after an edit of lights.py or kinds.py,
-whose functions and constants are compiled in, touch this file so that numba recompiles."""
+numba's cache (cache=True) re-checks this file alone; the cache folder is keyed by the source
+of this whole package too (cpu_prep._cache_dir), so an edit of lights.py or kinds.py, whose
+functions and constants are compiled in, recompiles."""
 from __future__ import annotations
 
 import numba
