@@ -42,8 +42,10 @@ from ..errors import UserError
 from ..pipeline.passes import FrameInput
 from ..results import CPU_STAGES, UPLOAD, stats
 from ..techniques import REGISTRY, get
-from .presets import GROWTH_LIGHTS, int_list
+from .args import int_list
 from .study import CountSeries, Study
+
+GROWTH_LIGHTS = tuple(8192 << k for k in range(8))  # 8,192 .. 1,048,576, doubling
 
 
 def cpu_stage_samples(technique, scene, size, opts, repeat: int, frame: int = 0,

@@ -25,7 +25,7 @@ from .. import cli
 from ..errors import UserError
 from ..results import CPU_STAGES, stats
 from ..techniques import REGISTRY, get
-from .presets import int_list
+from .args import int_list
 from .study import CountSeries, Study
 
 STUDY = "gpu_build"

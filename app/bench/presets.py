@@ -8,8 +8,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from ..errors import UserError
-
-GROWTH_LIGHTS = tuple(8192 << k for k in range(8))  # 8,192 .. 1,048,576, doubling
+from .args import int_list
+from .cpu import GROWTH_LIGHTS
 
 # A preset's studies (app.bench.study), in the order they run and their rows stand in
 # results.csv; each reads its config from the preset (Study.of), and one with nothing to
@@ -138,16 +138,6 @@ GPU_CHECK = replace(
     c_reference_lights=())
 
 PRESETS = {"quick": QUICK, "full": FULL, "gpu-check": GPU_CHECK}
-
-
-def int_list(text: str, what: str) -> tuple[int, ...]:
-    try:
-        vals = tuple(int(v) for v in text.split(",") if v.strip())
-    except ValueError:
-        raise UserError(f"{what} must be comma-separated integers (got '{text}')") from None
-    if not vals or min(vals) < 0:
-        raise UserError(f"{what} must be non-negative integers (got '{text}')")
-    return vals
 
 
 def preset_from_args(args) -> Preset:
