@@ -29,16 +29,20 @@
         maps of the figures), DIR/run.json and DIR/report.md with its PNG plots (app.report).
 
         The sweep is its preset's studies (app.bench.study: each registers itself, with its
-        own config, rows and report sections; presets.STUDY_ORDER), run in order and timed:
-        the run ends with a line a study, its wall time and share (run.json's study_s).
+        own config, rows and report sections; a preset is the list of its studies with their
+        configs, app.bench.presets), run in order and timed: the run ends with a line a
+        study, its wall time and share (run.json's study_s; run.json's config: the shared
+        frame settings, then each study's config).
 
 One parser (`parser`): the sweep's flags, and a subcommand each for cpu, gpu-build and the
 path run; a subcommand runs its own study and writes its own files, nothing else.
 
-Modules: study (the registry of studies), presets (the --quick/--full configurations and the
-sweep's overrides), plan (the jobs), measure (one row from a frame), sweep (the rendered, papers
-and CPU studies, and running a preset), temporal, cpu (the `cpu` subcommand, the growth study),
-gpu_build, c_reference, path (--path), cutoff (the light cutoff rule), machine (run.json's
+Modules: study (the registry of studies, the frame settings they share), presets (the
+--quick/--full presets as their studies' configs, and the sweep's overrides of them), args (the
+list arguments), plan (the rendered jobs), measure (one row from a frame), rendered (the
+rendered study), sweep (its measuring, and running a preset), validation (the papers' study),
+cpu_series (the CPU-only series), temporal, cpu (the `cpu` subcommand, the growth study),
+gpu_build, c_reference, caps, path (--path), cutoff (the light cutoff rule), machine (run.json's
 machine figures).  Nothing here names a technique: the exactness
 reference and the floor are found by role (app.techniques.with_role).
 

@@ -7,8 +7,8 @@ light cutoff study's levels (the report's lead figure, app.report.tradeoff).
     fptl (every technique whose list build takes the per-tile caps, Options.tile_caps)
       x  each per-tile policy (HDRP FPTL 24 / 63: whether a tile passes its cap is known
          only from the GPU's lists, so they always run; the row says what they dropped)
-    in Preset.caps_scenes at Preset.caps_lights (the cutoff study's light count, so the
-    figure holds both), frame 0, the scene's own radii
+    in the rendered study's caps_scenes at its caps_lights (app.bench.rendered: the cutoff
+    study's light count, so the figure holds both), frame 0, the scene's own radii
 
 Rows of study "caps" in results.csv's schema (app.results), measured as the sweep measures
 every configuration (app.bench.sweep: a read-back render, then interleaved timing samples,
@@ -66,7 +66,7 @@ def caps_jobs(p, scene_name: str, lights: int, scene, log=None) -> list:
     techniques that take them."""
     from ..techniques import REGISTRY
     from .plan import Job
-    dropped = dropped_lights(scene, p.size, 0, p.frames)
+    dropped = dropped_lights(scene, p.shared.size, 0, p.shared.frames)
     biting = [k for k, name in enumerate(caps.NAMES)
               if name == caps.NONE or dropped[name] or caps.per_tile(name)]
     skipped = [n for n in caps.NAMES if n != caps.NONE and not dropped[n] and not caps.per_tile(n)]
@@ -81,7 +81,7 @@ def with_caps_jobs(jobs: list, p, light_counts, scene_of, log=None) -> list:
     """`jobs` (the plan's) with the series' jobs of each caps scene after that scene's last
     job (its renderer, and the unbounded reference the cutoff study rendered, still held)."""
     out = list(jobs)
-    for name in (s for s in p.caps_scenes if s in p.scenes):
+    for name in (s for s in p.caps_scenes if s in p.shared.scenes):
         n = light_counts(name, (p.caps_lights,))[0]
         last = max((i for i, j in enumerate(out) if j.scene == name), default=len(out) - 1)
         out[last + 1:last + 1] = caps_jobs(p, name, n, scene_of(name, n), log)

@@ -42,8 +42,10 @@ from ..errors import UserError
 from ..pipeline.passes import FrameInput
 from ..results import CPU_STAGES, UPLOAD, stats
 from ..techniques import REGISTRY, get
-from .presets import GROWTH_LIGHTS, int_list
+from .args import int_list
 from .study import CountSeries, Study
+
+GROWTH_LIGHTS = tuple(8192 << k for k in range(8))  # 8,192 .. 1,048,576, doubling
 
 
 def cpu_stage_samples(technique, scene, size, opts, repeat: int, frame: int = 0,
@@ -194,18 +196,13 @@ def growth_series(scene_name: str, counts, threads, size, repeat: int, technique
 
 @dataclass(frozen=True)
 class GrowthConfig(CountSeries):
-    """The growth series of a sweep (presets.Preset.growth_*, in cpu_scene at cpu_size) on
-    each of `threads`; cap_ms: a technique whose build passes it runs no larger count."""
+    """The CPU stage's growth: every technique with a CPU build, each count on each of
+    `threads` in turn (lights (): none); cap_ms: a technique whose median build passes it
+    runs no larger count (0: no cap); seed and frames: the sweep's (Shared)."""
     threads: tuple[int, ...]
     cap_ms: float
     seed: int
     frames: int
-
-    @classmethod
-    def of(cls, p) -> "GrowthConfig":
-        return cls(p.cpu_scene, tuple(p.growth_lights), tuple(p.cpu_size), p.growth_repeat,
-                   threads=tuple(p.growth_threads), cap_ms=p.growth_cap_ms, seed=p.seed,
-                   frames=p.frames)
 
 
 class GrowthStudy(Study):

@@ -5,6 +5,7 @@ resolution); the upload timed into GL buffers of the process's context, as the r
 does.  Rows of results.csv (studies "cpu", "cpu_<option>"; the report's CPU page)."""
 from __future__ import annotations
 
+from dataclasses import dataclass
 import time
 
 import numpy as np
@@ -14,21 +15,31 @@ from ..techniques import REGISTRY
 from . import measure
 from .cpu import cpu_stage_samples
 from .plan import study_scene
-from .study import Study
+from .study import Shared, Study
+
+
+@dataclass(frozen=True)
+class CpuConfig:
+    """The series in `scene` at `size` over `lights`, `repeat` builds each; the option
+    studies' scenes and counts are the rendered ones (shared)."""
+    shared: Shared
+    scene: str
+    lights: tuple[int, ...]
+    size: tuple[int, int]         # the paper's resolution even in --quick
+    repeat: int
 
 
 class CpuStudy(Study):
-    """Its config is the preset (Config None): the option studies' scenes and counts are the
-    rendered ones."""
     name = "cpu"
     sections = ("cpu",)
+    Config = CpuConfig
 
     def jobs(self, sweep) -> list[tuple[str, str, int, str, object]]:
         """(study, scene, lights, technique, options) of the series (module docstring)."""
-        p = self.config
-        out = [("cpu", p.cpu_scene, n, t, REGISTRY[t].Options())
-               for n in sweep.light_counts(p.cpu_scene, p.cpu_lights) for t in REGISTRY]
-        if tuple(p.cpu_size) != tuple(p.size) and p.study_scene in p.scenes and p.option_studies:
+        c, p = self.config, self.config.shared
+        out = [("cpu", c.scene, n, t, REGISTRY[t].Options())
+               for n in sweep.light_counts(c.scene, c.lights) for t in REGISTRY]
+        if tuple(c.size) != tuple(p.size) and p.study_scene in p.scenes and p.option_studies:
             for study, (spec, techs) in option_studies().items():
                 scene = study_scene(p, spec)
                 n = sweep.light_counts(scene, (p.study_lights,))[0]
@@ -38,7 +49,7 @@ class CpuStudy(Study):
 
     def run(self, out, sweep) -> list[dict]:
         from ..pipeline import gl
-        p = self.config
+        c = self.config
         ctx = gl.context()
         scratch: dict[str, object] = {}
 
@@ -64,13 +75,13 @@ class CpuStudy(Study):
                 what = "" if study == "cpu" else f" {study[len(CPU_PREFIX):]}=" \
                                                  f"{getattr(opts, study[len(CPU_PREFIX):])}"
                 sweep.progress(i, len(series), f"{study} {scene} {n} lights {name}{what} "
-                                               f"at {p.cpu_size[0]}x{p.cpu_size[1]}")
-                s = cpu_stage_samples(tech, sc, p.cpu_size, opts, p.cpu_repeat, 0, p.frames,
+                                               f"at {c.size[0]}x{c.size[1]}")
+                s = cpu_stage_samples(tech, sc, c.size, opts, c.repeat, 0, c.shared.frames,
                                       upload=upload)
                 r = {"study": study, "scene": scene, "lights": n, "visible": s["visible"],
-                     "width": p.cpu_size[0], "height": p.cpu_size[1], "frame": 0,
-                     "frames": p.frames, "technique": name, "role": tech.role, "cutoff": 0,
-                     "samples": p.cpu_repeat}
+                     "width": c.size[0], "height": c.size[1], "frame": 0,
+                     "frames": c.shared.frames, "technique": name, "role": tech.role,
+                     "cutoff": 0, "samples": c.repeat}
                 r.update(measure.option_cells(opts))
                 for k in STAGES:
                     r[f"cpu_{k}_ms"] = stats(s[k])[0]
@@ -82,4 +93,4 @@ class CpuStudy(Study):
         return rows
 
 
-__all__ = ["CpuStudy"]
+__all__ = ["CpuConfig", "CpuStudy"]

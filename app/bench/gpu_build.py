@@ -25,7 +25,7 @@ from .. import cli
 from ..errors import UserError
 from ..results import CPU_STAGES, stats
 from ..techniques import REGISTRY, get
-from .presets import int_list
+from .args import int_list
 from .study import CountSeries, Study
 
 STUDY = "gpu_build"
@@ -105,11 +105,7 @@ def ratio_rows(scene_name: str, counts, size, repeat: int, techniques=None, prog
 
 @dataclass(frozen=True)
 class GpuBuildConfig(CountSeries):
-    """The sweep's build comparison (presets.Preset.gpu_build_*, at the rendered size)."""
-
-    @classmethod
-    def of(cls, p) -> "GpuBuildConfig":
-        return cls(p.gpu_build_scene, tuple(p.gpu_build_lights), tuple(p.size), p.gpu_build_repeat)
+    """The sweep's build comparison (at the rendered size), fastest of `repeat` samples."""
 
 
 class GpuBuildStudy(Study):

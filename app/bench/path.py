@@ -67,8 +67,9 @@ def add_args(p) -> None:
     p.add_argument("--seed", type=cli.bounded(int, 0, 2**31 - 1), default=0, help="light draw seed")
     p.add_argument("--distribution", choices=("uniform", "geometry"), help="builtin scenes' light draw")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--quick", action="store_true", help=f"{QUICK.size[0]}x{QUICK.size[1]} (default)")
-    g.add_argument("--full", action="store_true", help=f"{FULL.size[0]}x{FULL.size[1]}")
+    (qw, qh), (fw, fh) = QUICK.shared.size, FULL.shared.size
+    g.add_argument("--quick", action="store_true", help=f"{qw}x{qh} (default)")
+    g.add_argument("--full", action="store_true", help=f"{fw}x{fh}")
     p.add_argument("--size", type=cli.parse_size, help="WxH (overrides the preset's)")
     p.add_argument("--repeat", type=int, default=1, help="timing samples per frame (median)")
     p.add_argument("--techniques", help="comma-separated subset (default: every technique; the "
@@ -116,7 +117,7 @@ def run(args, argv) -> None:
     lights_n = args.lights if scene_name in BUILTIN_SCENES else None
     scene = with_motion(load_scene(scene_name, lights=lights_n, seed=args.seed,
                                    distribution=args.distribution), args.motion)
-    size = tuple(args.size or (FULL.size if args.full else QUICK.size))
+    size = tuple(args.size or (FULL.shared.size if args.full else QUICK.shared.size))
     threads = set_cpu_threads(args.threads)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

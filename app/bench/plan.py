@@ -13,7 +13,6 @@ from ..results import option_studies
 from ..techniques import REGISTRY, with_role
 from ..techniques.options import TechniqueOptions
 from .cutoff import STOCHASTIC_BUDGETS, STOCHASTIC_TECHNIQUES
-from .presets import Preset
 
 
 @dataclass(frozen=True)
@@ -48,15 +47,17 @@ def technique_order() -> list[str]:
     return [ref] + [t for t in REGISTRY if t != ref]
 
 
-def study_scene(p: Preset, spec) -> str:
+def study_scene(p, spec) -> str:
     """Where an option's study runs: its own study scene when the run has it, else the
-    preset's study scene."""
+    run's study scene (p: the studies' Shared config)."""
     return spec.study_scene if spec.study_scene in p.scenes else p.study_scene
 
 
-def plan(p: Preset, light_counts: Callable[[str, tuple], tuple[int, ...]]) -> list[Job]:
-    """The preset's rendered jobs; `light_counts(scene, counts)` gives the light counts a
-    scene is run with (a scene file has its own)."""
+def plan(c, light_counts: Callable[[str, tuple], tuple[int, ...]]) -> list[Job]:
+    """The rendered study's jobs (c: its RenderedConfig, app.bench.rendered);
+    `light_counts(scene, counts)` gives the light counts a scene is run with (a scene file
+    has its own)."""
+    p = c.shared
     names = technique_order()
     ref = names[0]
     default = {t: REGISTRY[t].Options() for t in names}
@@ -71,15 +72,15 @@ def plan(p: Preset, light_counts: Callable[[str, tuple], tuple[int, ...]]) -> li
                 for v in spec.study:
                     jobs += [Job(study, scene, n, 0, t, default[t].with_(**{study: v}))
                              for t in techs]
-        if scene in p.cutoff_scenes:
-            n = light_counts(scene, (p.cutoff_lights,))[0]
+        if scene in c.cutoff_scenes:
+            n = light_counts(scene, (c.cutoff_lights,))[0]
             jobs.append(Job("cutoff", scene, n, 0, ref, default[ref], cutoff=-1))
-            for c in p.cutoffs:
-                jobs += [Job("cutoff", scene, n, 0, t, default[t], cutoff=c) for t in names]
-            jobs += [Job("cutoff", scene, n, 0, t, default[t].with_(stochastic=c))
-                     for c in STOCHASTIC_BUDGETS for t in STOCHASTIC_TECHNIQUES if t in default]
+            for k in c.cutoffs:
+                jobs += [Job("cutoff", scene, n, 0, t, default[t], cutoff=k) for t in names]
+            jobs += [Job("cutoff", scene, n, 0, t, default[t].with_(stochastic=k))
+                     for k in STOCHASTIC_BUDGETS for t in STOCHASTIC_TECHNIQUES if t in default]
     # studies that also run in a scene of their own (OptionSpec.also_study), rendered last
-    for study, (spec, techs) in (option_studies().items() if p.option_studies and p.also_studies
+    for study, (spec, techs) in (option_studies().items() if p.option_studies and c.also_studies
                                  else ()):
         for scene in spec.also_study:
             n = light_counts(scene, (p.study_lights,))[0]

@@ -3,9 +3,9 @@
 
     name      its key in STUDIES and its line in the timing (for a series of one results.csv
               study, that study: "growth", "gpu_build", "c_reference")
-    Config    a frozen dataclass: what the study takes; Config.of(preset) reads it from the
-              preset and the sweep's overrides of it (None: the preset itself, for a study
-              that reads most of it)
+    Config    a frozen dataclass: what the study takes (a preset holds one a study, the
+              sweep's overrides replace its fields: app.bench.presets); a study that renders
+              the sweep's frames takes the frame settings they share (Shared) as its `shared`
     files     the files it writes itself, beside results.csv (temporal.csv, ...)
     sections  the report modules (app.report.<name>) that read its rows or its file
     run       run(out, sweep) -> rows: its rows for results.csv ([] for a study with its own
@@ -27,7 +27,7 @@ class Study:
     name: ClassVar[str] = ""
     files: ClassVar[tuple[str, ...]] = ()
     sections: ClassVar[tuple[str, ...]] = ()
-    Config: ClassVar[type | None] = None
+    Config: ClassVar[type]
 
     def __init_subclass__(cls, **kw):
         super().__init_subclass__(**kw)
@@ -40,13 +40,26 @@ class Study:
     def __init__(self, config):
         self.config = config
 
-    @classmethod
-    def of(cls, preset):
-        """The study's Config from a preset (presets.Preset)."""
-        return preset if cls.Config is None else cls.Config.of(preset)
-
     def run(self, out, sweep) -> list[dict]:
         raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class Shared:
+    """The frame settings the studies that render the sweep's frames share: the rendered
+    size, scenes, light counts, camera-path frames and timing samples, the option studies'
+    scene and light count (frame 0; option_studies False: none), the scenes' seed and the
+    CPU stage's numba threads (0: numba's default)."""
+    size: tuple[int, int]
+    scenes: tuple[str, ...]
+    lights: tuple[int, ...]
+    frames: int                   # frames sampled evenly along the camera-path loop
+    repeat: int                   # timing samples of a configuration
+    study_scene: str
+    study_lights: int
+    option_studies: bool = True   # the options' declared studies (app.results.option_studies)
+    seed: int = 0
+    threads: int = 1
 
 
 @dataclass(frozen=True)
@@ -77,4 +90,4 @@ def time_lines(seconds: dict[str, float]) -> list[str]:
             for k, s in seconds.items()]
 
 
-__all__ = ["Study", "STUDIES", "timed", "time_lines"]
+__all__ = ["Study", "STUDIES", "Shared", "CountSeries", "timed", "time_lines"]

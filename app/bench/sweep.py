@@ -27,7 +27,7 @@ configuration as its read-back render starts, then the group's rounds of samples
 from __future__ import annotations
 
 import argparse
-from dataclasses import fields, replace
+from dataclasses import replace
 from itertools import groupby
 import json
 from pathlib import Path
@@ -46,7 +46,7 @@ from .cpu import set_cpu_threads
 from .cutoff import cutoff_lights, stochastic_draw, unbounded_lights
 from .machine import machine_info
 from .plan import Job, plan, study_scene
-from .presets import STUDY_ORDER, Preset, preset_from_args
+from .presets import Preset, preset_from_args
 from .study import STUDIES, Study, time_lines, timed
 
 # The wave replay of a rendered row walks about this many lane iterations a width: every
@@ -55,8 +55,13 @@ REPLAY_BUDGET = 4_000_000
 
 
 class Sweep:
+    """What the studies share (the preset's Shared config, the log, the progress line, the
+    scenes loaded) and the rendered study's measuring; `rendered`: that study's config
+    (render_jobs sets it; the preset's until then)."""
     def __init__(self, preset: Preset, log=sys.stderr, motion: str | None = None):
-        self.p = preset
+        self.name = preset.name
+        self.shared = preset.shared
+        self.rendered = preset.config("rendered")
         self.log = log
         self.motion = motion          # --motion (scenes.motion.with_motion; None: the scene's own)
         self.rows: list[dict] = []
@@ -81,8 +86,8 @@ class Sweep:
             n = lights if name in BUILTIN_SCENES else None
             # a scene file takes no seed (its lights are its own); its motion moves them, as
             # in capture, unless --motion says otherwise
-            self.scenes[key] = with_motion(load_scene(name, lights=n, seed=self.p.seed if name in
-                                                      BUILTIN_SCENES else 0), self.motion)
+            seed = self.shared.seed if name in BUILTIN_SCENES else 0
+            self.scenes[key] = with_motion(load_scene(name, lights=n, seed=seed), self.motion)
         return self.scenes[key]
 
     def light_counts(self, name: str, counts) -> tuple[int, ...]:
@@ -96,7 +101,7 @@ class Sweep:
         motion, Scene.lights_at, as capture's frame K of --frames F), with the job's cutoff."""
         sc = self.scene(job.scene, job.lights)
         moving = sc.motion is not None and sc.motion.speed != 0
-        lights = sc.lights_at(job.frame, self.p.frames)
+        lights = sc.lights_at(job.frame, self.shared.frames)
         if job.cutoff == 0:
             return lights
         key = (job.scene, job.lights, job.cutoff, job.frame if moving else 0)
@@ -113,9 +118,9 @@ class Sweep:
 
     def render(self, renderer, job: Job, readback: bool, samples: int = 1):
         defines = {"UNBOUNDED_FALLOFF": 1} if job.cutoff < 0 else None
-        return renderer.render(REGISTRY[job.technique], job.frame, job.opts, frames=self.p.frames,
-                               lights=self.lights_for(job), readback=readback, defines=defines,
-                               samples=samples)
+        return renderer.render(REGISTRY[job.technique], job.frame, job.opts,
+                               frames=self.shared.frames, lights=self.lights_for(job),
+                               readback=readback, defines=defines, samples=samples)
 
     def reference_frame(self, renderer, job: Job, cutoff: int):
         """The reference's frame for the job's scene, lights, frame and `cutoff` (and the
@@ -141,12 +146,12 @@ class Sweep:
         key = (self.serial, job.technique, job.opts, job.cutoff < 0, types)
         samples = measure.samples_of(res.meta) if key in self.warm else []
         self.warm.add(key)
-        heavy = measure.evaluated_per_pixel(res) > self.p.heavy_eval_pp
+        heavy = measure.evaluated_per_pixel(res) > self.rendered.heavy_eval_pp
         if job.technique == self.reference:
             ref_key = (job.scene, job.lights, job.frame, job.cutoff, stochastic_draw(job.opts))
             self.refs[ref_key] = res
-        want = self.p.heavy_repeat if heavy else \
-            self.p.repeat if job.study in ("path", "cutoff") else self.p.study_repeat
+        want = self.rendered.heavy_repeat if heavy else \
+            self.shared.repeat if job.study in ("path", "cutoff") else self.rendered.study_repeat
         row = self.row(job, res, renderer)
         row.update(model)
         return row, samples, want
@@ -186,7 +191,7 @@ class Sweep:
         tech = REGISTRY[job.technique]
         r = {"study": job.study, "scene": job.scene, "lights": job.lights,
              "visible": int(res.meta["stats"].get("visible_lights", 0)), "width": w, "height": h,
-             "frame": job.frame, "frames": self.p.frames, "technique": tech.name,
+             "frame": job.frame, "frames": self.shared.frames, "technique": tech.name,
              "role": tech.role, "cutoff": job.cutoff}
         r.update(measure.option_cells(job.opts))
         r.update(measure.figure_cells(res))
@@ -206,7 +211,8 @@ class Sweep:
             r["mismatch_count"], r["mismatch_hash"] = measure.mismatches(res, ref)
             if job.study == CAPS:
                 r.update(loss_cells(renderer, res, ref, r["stats"], dict(
-                    frame=job.frame, frames=self.p.frames, lights=self.lights_for(job), opts=job.opts)))
+                    frame=job.frame, frames=self.shared.frames, lights=self.lights_for(job),
+                    opts=job.opts)))
         r["floor_position_pct"] = float("nan")
         return r
 
@@ -214,8 +220,8 @@ class Sweep:
         """Block maps of the heat-map frame (figures 1 and 3), and the maps of each
         technique's own structure (Technique.maps: own/<technique>/<name>, its label beside)."""
         from ..images import block_mean
-        p = self.p
-        if not (job.study == "path" and job.scene == p.heat_scene and job.frame == 0
+        p = self.shared
+        if not (job.study == "path" and job.scene == self.rendered.heat_scene and job.frame == 0
                 and job.lights == max(self.light_counts(job.scene, p.lights))):
             return
         block = 8 if res.evaluated.shape[1] < 960 else 16
@@ -234,16 +240,18 @@ class Sweep:
                 self.maps[f"own/{job.technique}/{name}"] = np.asarray(values)
                 self.maps[f"ownlabel/{job.technique}/{name}"] = np.array(label)
 
-    def render_jobs(self) -> list[dict]:
-        """The rendered study: every job of the plan and the caps series, scene by scene,
-        with the floor positions filled; its rows (also kept in self.rows)."""
+    def render_jobs(self, c) -> list[dict]:
+        """The rendered study of config `c` (app.bench.rendered): every job of the plan and
+        the caps series, scene by scene, with the floor positions filled; its rows (also
+        kept in self.rows)."""
         from ..pipeline.renderer import Renderer
+        self.rendered = c
         first = len(self.rows)
-        jobs = with_caps_jobs(plan(self.p, self.light_counts), self.p, self.light_counts,
+        jobs = with_caps_jobs(plan(c, self.light_counts), c, self.light_counts,
                               self.scene, self.log)
         total = len(jobs)
         studies = option_studies()
-        self.log.write(f"bench: {self.p.name} preset, {total} configurations + CPU series; "
+        self.log.write(f"bench: {self.name} preset, {total} configurations + CPU series; "
                        f"option studies: " + "; ".join(f"{k} ({', '.join(v[1])})"
                                                      for k, v in studies.items()) + "\n")
         renderer, current, i = None, None, 1
@@ -255,7 +263,7 @@ class Sweep:
                         renderer.release()
                     self.refs.clear()
                     self.light_sets.clear()
-                    renderer = Renderer(self.scene(job.scene, job.lights), self.p.size)
+                    renderer = Renderer(self.scene(job.scene, job.lights), self.shared.size)
                     self.serial += 1
                     current = job.scene
                 self.measure_group(renderer, group, i, total)
@@ -270,7 +278,7 @@ class Sweep:
 
     def _forget(self, job: Job) -> None:
         """Drop references no later job needs (full-resolution frames are ~50 MB each)."""
-        p = self.p
+        p = self.shared
         studies = {study_scene(p, spec) for spec, _ in option_studies().values()}
         for key in list(self.refs):
             scene, n, frame, cut, draw = key
@@ -281,25 +289,10 @@ class Sweep:
                 del self.refs[key]
 
 
-# ---------------------------------------------------------------------------- the studies
-
-class RenderedStudy(Study):
-    """Every rendered configuration: the path, the option studies, the cutoff and the caps
-    (results.csv; the report's GPU, cutoff, trade-off and heat-map sections).  Its config
-    is the preset itself (Config None): the plan reads most of it."""
-    name = "rendered"
-    sections = ("tradeoff", "accuracy", "gpu", "path", "tables", "options", "maps", "cutoff")
-
-    def run(self, out, sweep) -> list[dict]:
-        return sweep.render_jobs()
-
-
 def preset_studies(preset: Preset) -> list[Study]:
-    """The preset as its studies, in the order they run (and their rows stand in
-    results.csv), each with its config read from the preset."""
-    from .c_reference.compare import CReferenceStudy    # noqa: F401  (registers it)
-    from . import cpu, cpu_series, gpu_build, temporal, validation  # noqa: F401  (theirs)
-    return [STUDIES[name](STUDIES[name].of(preset)) for name in STUDY_ORDER]
+    """The preset as its studies, each with its config, in the order they run (and their
+    rows stand in results.csv); the presets module imported every study's module."""
+    return [STUDIES[name](config) for name, config in preset.studies]
 
 
 # ---------------------------------------------------------------------------- the command
@@ -319,7 +312,7 @@ def run_sweep(preset: Preset, out: Path, command: str, log=sys.stderr,
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    threads = set_cpu_threads(preset.cpu_threads)
+    threads = set_cpu_threads(preset.shared.threads)
     sweep = Sweep(preset, log, motion)
     rows, seconds = timed(preset_studies(preset), out, sweep)
     write_csv(rows, out / "results.csv", columns())
@@ -327,7 +320,7 @@ def run_sweep(preset: Preset, out: Path, command: str, log=sys.stderr,
     elapsed = time.perf_counter() - t0
     info = dict(machine_info(), command=command, preset=preset.name, elapsed_s=elapsed,
                 cpu_threads=threads, motion=motion or "the scenes' own",
-                config={f.name: getattr(preset, f.name) for f in fields(preset)},
+                config=preset.as_dict(),
                 study_s={k: round(v, 3) for k, v in seconds.items()})
     (out / "run.json").write_text(json.dumps(info, indent=1, default=list) + "\n")
     t1 = time.perf_counter()

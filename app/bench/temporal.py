@@ -42,11 +42,14 @@ import time
 
 import numpy as np
 
-from ..report.temporal import CSV
 from ..results import write_csv
 from . import measure
 from .cutoff import STOCHASTIC_BUDGETS, cutoff_lights, unbounded_lights
 from .study import Study
+
+# the series' file in the run's folder, as app.report.temporal.CSV reads it (not imported from
+# there: the report's package imports GL, and the presets import this module for its config)
+CSV = "temporal.csv"
 
 COLUMNS = ["study", "scene", "lights", "width", "height", "frame", "frames", "motion_speed",
            "config", "kind", "technique", "role", "policy", "cutoff", "stochastic", "visible",
@@ -183,19 +186,16 @@ def temporal_series(c: "TemporalConfig", out: Path, log=sys.stderr) -> list[dict
 
 @dataclass(frozen=True)
 class TemporalConfig:
-    """The series' settings (presets.Preset.temporal_*); frames < 2: none."""
+    """The series' settings: frames 0..frames-1 of a loop-frame loop of the scene's path
+    with its lights bouncing, every technique, cap policy and cutoff level against the
+    unbounded reference; frames < 2: none."""
     frames: int
-    loop: int
-    scene: str
-    lights: int
-    size: tuple[int, int]
-    cutoffs: tuple[int, ...]
+    loop: int = 600
+    scene: str = "arena"
+    lights: int = 2048
+    size: tuple[int, int] = (128, 72)
+    cutoffs: tuple[int, ...] = (256, 4096, 65536)
     seed: int = 0
-
-    @classmethod
-    def of(cls, p) -> "TemporalConfig":
-        return cls(p.temporal_frames, p.temporal_loop, p.temporal_scene, p.temporal_lights,
-                   tuple(p.temporal_size), tuple(p.temporal_cutoffs), p.seed)
 
 
 class TemporalStudy(Study):

@@ -12,15 +12,15 @@ The report's validation section sets each beside the published figure (app.repor
                        (8192 / n)^(1/3), which keeps each pixel's overdraw at its 8k value
     paper_zbin_table   Drobot's optimization table: the four zbin_variant rows, a 256-light
                        bit array (Zombies opening scene: the lab's hangar, ZBIN_SCENE), on
-                       zbin's CPU tiles and (preset paper_raster) on raster's rasterized
+                       zbin's CPU tiles and (config raster) on raster's rasterized
                        tiles (the slides' own pipeline).  The slides' hangar (tiled vs
                        + z-bin) is read from the same rows: a second render would be the
                        same frame
-    paper_cluster_raster  (preset paper_raster) Drobot's cluster rasterizer table: raster
+    paper_cluster_raster  (config raster) Drobot's cluster rasterizer table: raster
                        --cluster 1 at each raster_variant, 256 lights in ZBIN_SCENE, the
                        slides' 60x40x32 grid (CLUSTER_TILE-px clusters: 60 x 34 at 1080p,
                        CLUSTER_SLICES slices)
-    paper_cluster_tile (preset paper_raster) the same, atomic, at each of CLUSTER_TILES px
+    paper_cluster_tile (config raster) the same, atomic, at each of CLUSTER_TILES px
                        (the table's row at CLUSTER_TILE): what the clusters' size wastes
     paper_fptl         Mikkelsen's interior at 1080p: fine-pruned vs coarse lists (the lab's
                        corridor, 1,024 lights: the chapter's 10-bit index limit)
@@ -48,8 +48,7 @@ import numpy as np
 from ..results import PAPER_PREFIX
 from ..techniques import REGISTRY
 from .plan import Job
-from .presets import Preset
-from .study import Study
+from .study import Shared, Study
 
 FIG7_SCENES = ("arena", "city")
 FIG7_TECHNIQUES = ("clustered", "tree", "hybrid")
@@ -74,7 +73,7 @@ class PaperJob:
     frames: int                   # the camera path's frames for job.frame
     radius_scale: float = 1.0     # the scene's light radii times this
     visible: int = 0              # the scene's lights up to its visible-th visible one (0: all)
-    sample: int = 0               # the shading replay's sample (0: the preset's paper_sample)
+    sample: int = 0               # the shading replay's sample (0: the config's sample)
 
 
 def scaled_lights(lights, scale: float):
@@ -103,9 +102,22 @@ def job_lights(pj: PaperJob, lights, frame_input):
     return visible_prefix(lights, frame_input(lights), pj.visible) if pj.visible else lights
 
 
-def paper_jobs(p: Preset) -> list[PaperJob]:
-    """The papers' configurations of a preset (skipped when the preset has no paper size)."""
-    if not p.paper_size:
+@dataclass(frozen=True)
+class PapersConfig:
+    """The papers' settings, modelled only, at `size` (None: none); the scenes study runs in
+    the rendered scenes at the option studies' count (shared)."""
+    shared: Shared
+    size: tuple[int, int] | None = (1920, 1080)
+    lights: tuple[int, ...] = (8192, 16384, 32768, 65536)
+    frames: int = 16              # camera-path frames of figure 7, spread over each path
+    sample: int = 8               # the shading replay over every k-th 8x8 group (scaled)
+    path_sample: int = 0          # ... figure 7's rows (0: sample)
+    raster: bool = True           # raster's rows of Drobot's tables (zbin table, cluster table)
+
+
+def paper_jobs(c: PapersConfig) -> list[PaperJob]:
+    """The papers' configurations (none when the config has no size)."""
+    if not c.size:
         return []
     out = []
 
@@ -115,18 +127,18 @@ def paper_jobs(p: Preset) -> list[PaperJob]:
                                 t.Options().with_(**opts)), frames, scale, visible, sample))
 
     for scene in FIG7_SCENES:
-        for n in p.paper_lights:
-            for f in range(p.paper_frames):
+        for n in c.lights:
+            for f in range(c.frames):
                 for name in FIG7_TECHNIQUES:
-                    add("fig7", scene, n, f, name, p.paper_frames, (FIG7_BASE / n) ** (1 / 3),
-                        sample=p.paper_path_sample)
-    for name in ("zbin", "raster") if p.paper_raster else ("zbin",):
+                    add("fig7", scene, n, f, name, c.frames, (FIG7_BASE / n) ** (1 / 3),
+                        sample=c.path_sample)
+    for name in ("zbin", "raster") if c.raster else ("zbin",):
         for v in range(4):
             add("zbin_table", ZBIN_SCENE, ZBIN_LIGHTS, 0, name, zbin_variant=v)
-    for v in range(4 if p.paper_raster else 0):
+    for v in range(4 if c.raster else 0):
         add("cluster_raster", ZBIN_SCENE, ZBIN_LIGHTS, 0, "raster", raster_variant=v, cluster=1,
             cluster_tile=CLUSTER_TILE, cluster_slices=CLUSTER_SLICES)
-    for tile in CLUSTER_TILES if p.paper_raster else ():
+    for tile in CLUSTER_TILES if c.raster else ():
         if tile != CLUSTER_TILE:                   # that one is the cluster table's first row
             add("cluster_tile", ZBIN_SCENE, ZBIN_LIGHTS, 0, "raster", cluster=1,
                 cluster_tile=tile, cluster_slices=CLUSTER_SLICES)
@@ -135,27 +147,27 @@ def paper_jobs(p: Preset) -> list[PaperJob]:
     for k in FPTL_VISIBLE:
         for v in (0, 1):
             add("fptl_visible", "corridor", FPTL_LIGHTS, 0, "fptl", visible=k, fptl_variant=v)
-    for scene in p.scenes:
+    for scene in c.shared.scenes:
         for name, t in REGISTRY.items():
             if t.role != "floor":
-                add("scenes", scene, p.study_lights, 0, name)
+                add("scenes", scene, c.shared.study_lights, 0, name)
     return out
 
 
 class PapersStudy(Study):
     """The papers' configurations at the papers' resolution (paper_jobs), modelled only: one
     read-back render each, its wave figures and modelled GPU ms, no timing samples.  Rows of
-    results.csv (studies "paper_*"; the report's validation and model sections).  Its config
-    is the preset (Config None): the scenes study runs in the rendered scenes."""
+    results.csv (studies "paper_*"; the report's validation and model sections)."""
     name = "papers"
     sections = ("validation", "model")
+    Config = PapersConfig
 
     def run(self, out, sweep) -> list[dict]:
         from ..model import predict
         from ..pipeline.renderer import Renderer
         from . import measure
-        p = self.config
-        jobs = paper_jobs(p)
+        c = self.config
+        jobs = paper_jobs(c)
         rows = []
         renderer, current = None, None
         try:
@@ -164,10 +176,10 @@ class PapersStudy(Study):
                 if job.scene != current:
                     if renderer is not None:
                         renderer.release()
-                    renderer = Renderer(sweep.scene(job.scene, job.lights), p.paper_size)
+                    renderer = Renderer(sweep.scene(job.scene, job.lights), c.size)
                     current = job.scene
                 renderer.scene = sweep.scene(job.scene, job.lights)
-                w, h = p.paper_size
+                w, h = c.size
                 sweep.progress(i, len(jobs), f"{job.describe()} at {w}x{h} (modelled)")
                 tech = REGISTRY[job.technique]
                 lights = job_lights(pj, sweep.lights_for(job), lambda L: renderer.frame_input(
@@ -175,7 +187,7 @@ class PapersStudy(Study):
                 res = renderer.render(tech, job.frame, job.opts, frames=pj.frames, lights=lights,
                                       defines={"CELLS_ONLY": 1})
                 figures, implied = predict.modelled_frame(renderer, tech, res, job.opts,
-                                                          sample=pj.sample or p.paper_sample)
+                                                          sample=pj.sample or c.sample)
                 r = {"study": job.study, "scene": job.scene, "lights": len(lights),
                      "visible": int(res.meta["stats"].get("visible_lights", 0)), "width": w,
                      "height": h, "frame": job.frame, "frames": pj.frames,

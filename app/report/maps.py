@@ -14,6 +14,13 @@ import numpy as np
 from .common import DPI, plt, save, sel, times
 
 
+def heat_scene(info: dict) -> str:
+    """The heat maps' scene: run.json's config of the rendered study (a run written before
+    the presets were their studies: its flat config)."""
+    config = info.get("config", {})
+    return config.get("rendered", config).get("heat_scene", "")
+
+
 def fig_heat(maps, out, info, roles) -> tuple[str | None, list[str]]:
     from ..images import heat_bar_ticks, heat_cmap, heat_norm, heat_top
     keys = [k for k in maps if k.startswith("evaluated/")]
@@ -40,7 +47,7 @@ def fig_heat(maps, out, info, roles) -> tuple[str | None, list[str]]:
     bar = fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.8)
     heat_bar_ticks(bar, vmax)
     bar.set_label("lights / pixel, log2(1 + n)", fontsize=8)
-    scene = info.get("config", {}).get("heat_scene", "")
+    scene = heat_scene(info)
     b = int(maps.get("block", 16))
     fig.suptitle(f"lights evaluated per pixel, {b}x{b} block means, {scene} frame 0", fontsize=9)
     name = save(fig, out, "heatmaps.png", tight=False)
@@ -121,6 +128,6 @@ def fig_own_maps(maps, out, info) -> tuple[str | None, list[str]]:
         heat_bar_ticks(fig.colorbar(im, ax=ax, shrink=0.8), tops[t])
         text.append(f"{t}, {label}: {lit.mean():.3g} where non-zero, at most {m.max():.0f}"
                     if lit.size else f"{t}, {label}: all zero")
-    scene = info.get("config", {}).get("heat_scene", "")
+    scene = heat_scene(info)
     fig.suptitle(f"each technique's own structure, {scene} frame 0 (log2(1 + n) scale)", fontsize=9)
     return save(fig, out, "technique_maps.png", tight=False), text

@@ -238,14 +238,10 @@ def study_rows(scene_name: str, counts, size, repeat: int, threads=(1, 2), progr
 
 @dataclass(frozen=True)
 class CReferenceConfig(CountSeries):
-    """The sweep's comparison (presets.Preset.c_reference_*, in cpu_scene at cpu_size),
-    numba on each of `threads`."""
+    """The sweep's comparison (in the CPU series' scene at its size), C and numba
+    interleaved frame by frame, numba on each of `threads`; skipped, with a line, where the
+    scene has other lights than points or no C compiler is found."""
     threads: tuple[int, ...]
-
-    @classmethod
-    def of(cls, p) -> "CReferenceConfig":
-        return cls(p.cpu_scene, tuple(p.c_reference_lights), tuple(p.cpu_size),
-                   p.c_reference_repeat, threads=tuple(p.c_reference_threads))
 
 
 class CReferenceStudy(Study):

@@ -15,9 +15,11 @@ from app.bench.presets import QUICK
 from app.bench.sweep import Sweep
 from cpu_prep import caps
 
-TINY = replace(QUICK, size=(64, 36), frames=1, study_repeat=2, scenes=("arena",), lights=(256,),
-               cutoffs=(256,), cutoff_scenes=("arena",), cutoff_lights=256,
-               caps_scenes=("arena",), caps_lights=256, option_studies=False)
+TINY = QUICK.changed(shared=dict(size=(64, 36), frames=1, scenes=("arena",), lights=(256,),
+                                 option_studies=False),
+                     rendered=dict(study_repeat=2, cutoffs=(256,), cutoff_scenes=("arena",),
+                                   cutoff_lights=256, caps_scenes=("arena",), caps_lights=256))
+RENDERED_TINY = TINY.config("rendered")
 RENDERED = ("tiled", "clustered")        # a GPU-built list and a CPU-binned one
 
 
@@ -31,11 +33,11 @@ def series(gl):
     log = io.StringIO()
     sw = Sweep(TINY, log)
     sc = sw.scene("arena", 256)
-    jobs = caps_jobs(TINY, "arena", 256, sc, log)
-    with Renderer(sc, TINY.size) as r:
+    jobs = caps_jobs(RENDERED_TINY, "arena", 256, sc, log)
+    with Renderer(sc, TINY.shared.size) as r:
         sw.measure_group(r, [j for j in jobs if j.technique in RENDERED or caps.per_tile(_policy(j))],
                          1, len(jobs))
-    return jobs, sw.rows, log.getvalue(), dropped_lights(sc, TINY.size, 0, TINY.frames)
+    return jobs, sw.rows, log.getvalue(), dropped_lights(sc, TINY.shared.size, 0, TINY.shared.frames)
 
 
 def test_jobs_every_list_technique_at_the_policies_that_drop(series):
@@ -54,7 +56,7 @@ def test_jobs_every_list_technique_at_the_policies_that_drop(series):
 
 def test_caps_jobs_follow_the_scene_s_last_job():
     from scenes import load_scene
-    p = replace(TINY, scenes=("arena", "city"))
+    p = TINY.changed(shared=dict(scenes=("arena", "city"))).config("rendered")
     counts = lambda scene, c: tuple(c)
     base = plan(p, counts)
     jobs = with_caps_jobs(base, p, counts, lambda n, k: load_scene(n, lights=k, seed=0))
@@ -75,7 +77,7 @@ def test_rows_lose_pixels_and_image_where_capped(series):
         assert r["study"] == CAPS and r["error_ref"] == "unbounded", where
         # exact on the lights it kept: brute without the dropped ones
         assert r["mismatch_count"] == 0 and r["mismatch_hash"] == 0, where
-        assert r["samples"] == TINY.study_repeat and r["frame_cost_ms"] > 0, where
+        assert r["samples"] == RENDERED_TINY.study_repeat and r["frame_cost_ms"] > 0, where
     # HDRP FPTL per tile: the arena's small lights leave its tiles under 24 here, so its rows
     # drop nothing; tests/app/techniques/test_fptl_tile_caps.py holds the counts where it bites
     for t in RENDERED:
@@ -108,11 +110,13 @@ def test_presets_wire_the_series():
     --scenes and --lights narrow it as they narrow the cutoff study."""
     from argparse import Namespace
     from app.bench.presets import FULL, GPU_CHECK, preset_from_args
-    for p in (QUICK, FULL):
+    for p in (QUICK.config("rendered"), FULL.config("rendered")):
         assert p.caps_scenes == ("arena",) and p.caps_lights == p.cutoff_lights
-    assert GPU_CHECK.caps_scenes == ()
+    assert GPU_CHECK.config("rendered").caps_scenes == ()
     blank = dict(full=False, gpu_check=False, size=None, scenes=None, lights=None, frames=None,
                  repeat=None, cpu_lights=None, cpu_size=None, threads=None)
     p = preset_from_args(Namespace(**dict(blank, scenes="city,arena", lights="512,1024")))
+    p = p.config("rendered")
     assert p.caps_scenes == ("city",) and p.caps_lights == 512
-    assert preset_from_args(Namespace(**dict(blank, gpu_check=True, scenes="city"))).caps_scenes == ()
+    gpu_check = preset_from_args(Namespace(**dict(blank, gpu_check=True, scenes="city")))
+    assert gpu_check.config("rendered").caps_scenes == ()

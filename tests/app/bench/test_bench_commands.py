@@ -59,8 +59,9 @@ def test_a_preset_is_its_studies_in_order():
         assert [s.name for s in got] == list(presets.STUDY_ORDER)
         assert all(isinstance(s, study.STUDIES[s.name]) for s in got)
     temporal = preset_studies(presets.QUICK)[0].config
-    assert (temporal.frames, temporal.scene, temporal.size) == (
-        presets.QUICK.temporal_frames, presets.QUICK.temporal_scene, presets.QUICK.temporal_size)
+    assert temporal is presets.QUICK.config("temporal")
+    assert all(s.config is c for s, (_, c) in zip(preset_studies(presets.QUICK),
+                                                  presets.QUICK.studies))
     assert preset_studies(presets.GPU_CHECK)[0].config.frames == 0     # none: no file
 
 

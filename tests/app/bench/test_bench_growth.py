@@ -61,8 +61,9 @@ def test_growth_cap_stops_a_technique():
 
 def test_presets():
     assert GROWTH_LIGHTS == tuple(8192 * 2 ** k for k in range(8)) and GROWTH_LIGHTS[-1] == 1 << 20
-    assert QUICK.growth_lights == GROWTH_LIGHTS and QUICK.growth_threads == (1, 2)
-    assert QUICK.growth_cap_ms > 0 and GPU_CHECK.growth_lights == ()
+    growth = QUICK.config("growth")
+    assert growth.lights == GROWTH_LIGHTS and growth.threads == (1, 2)
+    assert growth.cap_ms > 0 and GPU_CHECK.config("growth").lights == ()
 
 
 def _row(t, n, ms, threads=1, spread=0.02, bins=0.5, cells=0, nbytes=None):

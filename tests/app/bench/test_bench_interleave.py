@@ -11,7 +11,7 @@ from app.techniques import REGISTRY
 
 
 def test_groups_are_one_study_scene_light_count_and_frame():
-    jobs = plan(PRESETS["quick"], lambda scene, counts: tuple(counts))
+    jobs = plan(PRESETS["quick"].config("rendered"), lambda scene, counts: tuple(counts))
     groups = compared_groups(jobs)
     assert sum(len(g) for g in groups) == len(jobs)
     assert [j for g in groups for j in g] == jobs                      # order kept
@@ -86,16 +86,16 @@ class FirstRenders(Sweep):
 
 
 def test_the_first_render_of_a_configurations_programs_is_no_sample():
-    p = PRESETS["quick"]
+    p, repeat = PRESETS["quick"].config("rendered"), PRESETS["quick"].shared.repeat
     sweep = FirstRenders(evaluated=1.0)
     job = Job("path", "arena", 64, 0, "brute", REGISTRY["brute"].Options())
     _, samples, want = sweep.first_render(None, job)
-    assert samples == [] and want == p.repeat                       # compiles: discarded
+    assert samples == [] and want == repeat                         # compiles: discarded
     _, samples, want = sweep.first_render(None, Job("path", "arena", 64, 1, "brute", job.opts))
-    assert len(samples) == 1 and want == p.repeat                   # warm: counts
+    assert len(samples) == 1 and want == repeat                     # warm: counts
     sweep.serial += 1                                               # a new renderer compiles anew
     assert sweep.first_render(None, job)[1] == []
     heavy = FirstRenders(evaluated=p.heavy_eval_pp + 1)
     assert heavy.first_render(None, job)[2] == p.heavy_repeat
     study = Job("tile", "arena", 64, 0, "tiled", REGISTRY["tiled"].Options())
-    assert sweep.first_render(None, study)[2] == p.study_repeat > p.repeat
+    assert sweep.first_render(None, study)[2] == p.study_repeat > repeat

@@ -3,7 +3,6 @@ a job's lights are the scene's at the job's frame of the path loop (Scene.lights
 lights capture's --frame K --frames F renders), cutoffs applied to those; --motion
 overrides it (off: still; bounce: a builtin moves)."""
 import json
-from dataclasses import replace
 
 import numpy as np
 
@@ -17,7 +16,7 @@ SCENE = {"resolution": [64, 36], "camera": {"position": [0, 2, 10], "target": [0
          "lights": [{"type": "point", "position": [x, 1, 0], "radius": 3, "color": [1, 1, 1],
                      "intensity": 5} for x in (-4, 0, 4)],
          "motion": {"kind": "bounce", "speed": 6, "seed": 2}}
-P = replace(QUICK, frames=8)
+P = QUICK.changed(shared=dict(frames=8))
 
 
 def _job(path, frame, cutoff=0):
@@ -36,7 +35,7 @@ def test_a_scene_files_motion_moves_the_sweeps_lights(tmp_path):
     sc = sw.scene(str(path), 3)
     assert sc.motion is not None and sc.motion.speed == 6
     first, later = sw.lights_for(_job(path, 0)), sw.lights_for(_job(path, 5))
-    assert np.array_equal(later, sc.lights_at(5, P.frames))          # capture's frame 5 of 8
+    assert np.array_equal(later, sc.lights_at(5, P.shared.frames))          # capture's frame 5 of 8
     assert not np.array_equal(first["position"], later["position"])
     # a cutoff's radii on the moved lights, one light set a frame
     cut0, cut5 = sw.lights_for(_job(path, 0, 16)), sw.lights_for(_job(path, 5, 16))

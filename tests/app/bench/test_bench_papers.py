@@ -22,19 +22,20 @@ from app.model import cost
 from app.results import PAPER_PREFIX
 from app.techniques import REGISTRY
 
-SMALL = replace(QUICK, paper_size=(96, 64), paper_lights=(256, 512), paper_frames=2,
-                paper_sample=2, paper_path_sample=0, paper_raster=True,
-                scenes=("arena", "corridor"), study_lights=256)
+SMALL = QUICK.changed(shared=dict(scenes=("arena", "corridor"), study_lights=256),
+                      papers=dict(size=(96, 64), lights=(256, 512), frames=2, sample=2,
+                                  path_sample=0, raster=True))
+PAPERS = QUICK.config("papers")
 
 
 def test_paper_jobs_are_the_papers_settings():
-    jobs = paper_jobs(QUICK)
+    jobs = paper_jobs(PAPERS)
     fig7 = [j for j in jobs if j.job.study == PAPER_PREFIX + "fig7"]
-    assert len(fig7) == 2 * len(QUICK.paper_lights) * QUICK.paper_frames * len(FIG7_TECHNIQUES)
+    assert len(fig7) == 2 * len(PAPERS.lights) * PAPERS.frames * len(FIG7_TECHNIQUES)
     for j in fig7:     # radii shrink so that a pixel's overdraw stays at the 8k value
         assert j.radius_scale == pytest.approx((FIG7_BASE / j.job.lights) ** (1 / 3))
-    assert {j.sample for j in fig7} == {QUICK.paper_path_sample}
-    assert {j.job.frame for j in fig7} == set(range(QUICK.paper_frames)) and QUICK.paper_frames >= 16
+    assert {j.sample for j in fig7} == {PAPERS.path_sample}
+    assert {j.job.frame for j in fig7} == set(range(PAPERS.frames)) and PAPERS.frames >= 16
     table = [j.job for j in jobs if j.job.study == PAPER_PREFIX + "zbin_table"]
     assert sorted(j.opts.zbin_variant for j in table) == [0, 1, 2, 3]    # raster's: --full
     assert all(j.lights == 256 for j in table)
@@ -42,7 +43,7 @@ def test_paper_jobs_are_the_papers_settings():
     visible = [j for j in jobs if j.job.study == PAPER_PREFIX + "fptl_visible"]
     assert sorted((j.visible, j.job.opts.fptl_variant) for j in visible) == \
         [(k, v) for k in FPTL_VISIBLE for v in (0, 1)]
-    full = paper_jobs(FULL)
+    full = paper_jobs(FULL.config("papers"))
     table = [j.job for j in full if j.job.study == PAPER_PREFIX + "zbin_table"]
     assert sorted((j.technique, j.opts.zbin_variant) for j in table) == \
         [(t, v) for t in ("raster", "zbin") for v in range(4)]
@@ -54,7 +55,7 @@ def test_paper_jobs_are_the_papers_settings():
     assert sorted(o.cluster_tile for o in swept) == [8, 16, 64]     # 32: the table's row
     scenes = [j.job for j in jobs if j.job.study == PAPER_PREFIX + "scenes"]
     assert {j.technique for j in scenes} == {t for t, x in REGISTRY.items() if x.role != "floor"}
-    assert not paper_jobs(replace(QUICK, paper_size=None))
+    assert not paper_jobs(replace(PAPERS, size=None))
 
 
 def test_scaled_lights_scale_every_size():
@@ -67,19 +68,19 @@ def test_scaled_lights_scale_every_size():
 
 
 def test_gpu_check_preset_plans_every_technique_on_two_scenes():
-    jobs = plan(GPU_CHECK, lambda scene, counts: tuple(counts))
+    jobs = plan(GPU_CHECK.config("rendered"), lambda scene, counts: tuple(counts))
     assert {j.study for j in jobs} == {"path"}
     assert {j.scene for j in jobs} == {"arena", "city"}
     assert {j.lights for j in jobs} == {8192, 32768, 65536}
     assert {j.technique for j in jobs} == set(REGISTRY)
-    assert len(jobs) == len(REGISTRY) * 2 * 3 * GPU_CHECK.frames
-    assert GPU_CHECK.size == (1920, 1080) and not paper_jobs(GPU_CHECK)
-    assert not CpuStudy(GPU_CHECK).jobs(Sweep(GPU_CHECK))
+    assert len(jobs) == len(REGISTRY) * 2 * 3 * GPU_CHECK.shared.frames
+    assert GPU_CHECK.shared.size == (1920, 1080) and not paper_jobs(GPU_CHECK.config("papers"))
+    assert not CpuStudy(GPU_CHECK.config("cpu")).jobs(Sweep(GPU_CHECK))
 
 
 @pytest.fixture(scope="module")
 def paper_rows(gl):
-    return PapersStudy(SMALL).run(None, Sweep(SMALL))
+    return PapersStudy(SMALL.config("papers")).run(None, Sweep(SMALL))
 
 
 def test_paper_rows_are_modelled_not_shaded(paper_rows):

@@ -8,9 +8,9 @@ from app.report.cutoff import _stochastic_finding, stochastic_budget
 
 
 def test_the_quick_plan_adds_a_few_stochastic_jobs_to_the_cutoff_study():
-    jobs = plan(QUICK, lambda scene, counts: tuple(counts))
+    jobs = plan(QUICK.config("rendered"), lambda scene, counts: tuple(counts))
     stoch = [j for j in jobs if stochastic_draw(j.opts)]
-    assert len(stoch) == len(QUICK.cutoff_scenes) * len(STOCHASTIC_BUDGETS) * len(STOCHASTIC_TECHNIQUES)
+    assert len(stoch) == len(QUICK.config("rendered").cutoff_scenes) * len(STOCHASTIC_BUDGETS) * len(STOCHASTIC_TECHNIQUES)
     for j in stoch:
         assert j.study == "cutoff" and j.cutoff == 0 and j.technique in STOCHASTIC_TECHNIQUES
         assert stochastic_draw(j.opts) == (j.opts.stochastic, 0, 0)

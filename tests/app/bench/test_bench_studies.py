@@ -5,6 +5,8 @@ from app.bench.presets import QUICK
 from app.results import option_studies
 from app.techniques import REGISTRY, with_role
 
+RENDERED = QUICK.config("rendered")
+
 
 def test_studies_are_the_options_with_study_values():
     want = {}
@@ -22,7 +24,7 @@ def test_studies_are_the_options_with_study_values():
 
 
 def test_plan_covers_each_study_value_and_technique():
-    jobs = plan(QUICK, lambda scene, counts: tuple(counts))
+    jobs = plan(RENDERED, lambda scene, counts: tuple(counts))
     assert technique_order()[0] == with_role("reference").name
     for name, (spec, techs) in option_studies().items():
         sub = [j for j in jobs if j.study == name]
@@ -33,22 +35,22 @@ def test_plan_covers_each_study_value_and_technique():
             assert {k: v for k, v in j.opts.as_dict().items() if k != name} == \
                 {k: v for k, v in default.items() if k != name}
     path = [j for j in jobs if j.study == "path"]
-    assert len(path) == len(QUICK.scenes) * len(QUICK.lights) * QUICK.frames * len(REGISTRY)
+    s = QUICK.shared
+    assert len(path) == len(s.scenes) * len(s.lights) * s.frames * len(REGISTRY)
 
 
 def test_a_study_runs_in_its_own_scene_when_the_run_has_it():
     """fptl's type_loops is about mixed light shapes: its study runs in the corridor; a run
     without the corridor studies it in the preset's study scene like every other option."""
-    from dataclasses import replace
     counts = lambda scene, c: tuple(c)
     spec = option_studies()["type_loops"][0]
-    assert spec.study_scene == "corridor" and "corridor" in QUICK.scenes
-    scenes = {j.scene for j in plan(QUICK, counts) if j.study == "type_loops"}
+    assert spec.study_scene == "corridor" and "corridor" in QUICK.shared.scenes
+    scenes = {j.scene for j in plan(RENDERED, counts) if j.study == "type_loops"}
     assert scenes == {"corridor"}
-    others = {j.scene for j in plan(QUICK, counts)
+    others = {j.scene for j in plan(RENDERED, counts)
               if j.study not in ("path", "cutoff", "type_loops") and "@" not in j.study}
-    assert others == {QUICK.study_scene}
-    no_corridor = replace(QUICK, scenes=("arena", "city"))
+    assert others == {QUICK.shared.study_scene}
+    no_corridor = QUICK.changed(shared=dict(scenes=("arena", "city"))).config("rendered")
     assert {j.scene for j in plan(no_corridor, counts) if j.study == "type_loops"} == {"arena"}
 
 
@@ -59,7 +61,7 @@ def test_a_study_also_runs_in_a_second_scene():
     counts = lambda scene, c: tuple(c)
     spec = option_studies()["raster_variant"][0]
     assert spec.also_study == ("contention",)
-    jobs = [j for j in plan(QUICK, counts) if j.study == "raster_variant@contention"]
+    jobs = [j for j in plan(RENDERED, counts) if j.study == "raster_variant@contention"]
     assert {j.scene for j in jobs} == {"contention"} and {j.technique for j in jobs} == {"raster"}
     assert sorted(j.opts.raster_variant for j in jobs) == list(spec.study)
-    assert not [j for j in plan(replace(QUICK, also_studies=False), counts) if "@" in j.study]
+    assert not [j for j in plan(replace(RENDERED, also_studies=False), counts) if "@" in j.study]

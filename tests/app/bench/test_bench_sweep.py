@@ -214,15 +214,18 @@ def test_presets_wire_the_gpu_build_comparison():
     --gpu-build-lights overrides the counts (0: none), --scenes the scene, --repeat the samples."""
     from argparse import Namespace
     from app.bench.presets import FULL, GPU_CHECK, QUICK, preset_from_args
-    assert len(QUICK.gpu_build_lights) >= 2 and len(FULL.gpu_build_lights) > len(QUICK.gpu_build_lights)
-    assert GPU_CHECK.gpu_build_lights == ()
+    def counts(p):
+        return p.config("gpu_build").lights
+    assert len(counts(QUICK)) >= 2 and len(counts(FULL)) > len(counts(QUICK))
+    assert counts(GPU_CHECK) == ()
     blank = dict(full=False, gpu_check=False, size=None, scenes=None, lights=None, frames=None,
                  repeat=None, cpu_lights=None, cpu_size=None, threads=None)
     p = preset_from_args(Namespace(**dict(blank, scenes="hangar,arena", repeat=2,
                                           gpu_build_lights="512,1024")))
-    assert (p.gpu_build_scene, p.gpu_build_lights, p.gpu_build_repeat) == ("hangar", (512, 1024), 2)
-    assert preset_from_args(Namespace(**dict(blank, gpu_build_lights="0"))).gpu_build_lights == ()
-    assert preset_from_args(Namespace(**blank)).gpu_build_lights == QUICK.gpu_build_lights
+    c = p.config("gpu_build")
+    assert (c.scene, c.lights, c.repeat) == ("hangar", (512, 1024), 2)
+    assert counts(preset_from_args(Namespace(**dict(blank, gpu_build_lights="0")))) == ()
+    assert counts(preset_from_args(Namespace(**blank))) == counts(QUICK)
 
 
 def test_image_flip_computes_a_pair_once(monkeypatch):

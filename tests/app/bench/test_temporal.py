@@ -33,9 +33,15 @@ def test_popping_is_a_set_change_where_the_exact_set_stays():
     assert f["temporal_error_pct"] == pytest.approx(100 * (1 / 4) / 2.25)
 
 
+def test_the_series_writes_the_file_the_report_reads():
+    from app.report import temporal as report
+    assert temporal.CSV == report.CSV
+
+
 def test_the_quick_preset_runs_a_small_series_and_the_full_a_larger():
-    assert 2 <= QUICK.temporal_frames <= 8 and QUICK.temporal_size[0] * QUICK.temporal_size[1] <= 128 * 72
-    assert FULL.temporal_frames > QUICK.temporal_frames and GPU_CHECK.temporal_frames == 0
+    quick, full = QUICK.config("temporal"), FULL.config("temporal")
+    assert 2 <= quick.frames <= 8 and quick.size[0] * quick.size[1] <= 128 * 72
+    assert full.frames > quick.frames and GPU_CHECK.config("temporal").frames == 0
 
 
 def test_exact_techniques_never_pop_and_a_binding_cap_does(gl, tmp_path):
