@@ -157,8 +157,8 @@ def test_mode_ids_are_generated_from_one_source():
     PROXY_* from raster_proxies.PROXY_NAMES: no raster shader compares them with a literal."""
     import re
     from pathlib import Path
-    glsl = Path(__file__).resolve().parents[3] / "glsl"
-    for path in sorted(glsl.glob("raster*")):
+    folder = Path(rs.__file__).parent
+    for path in sorted(folder.glob("raster*")):
         text = path.read_text()
         assert not re.search(r"\b(u_mode|u_shape)\s*[!=]=\s*\d", text), path.name
     for i, name in enumerate(rs.MODES):

@@ -66,16 +66,16 @@ import numpy as np
 
 from cpu_prep import frame as cpuframe, grid as gridmod, limits, zbin as zb
 
-from ..errors import UserError
-from ..model import waves
-from ..pipeline.passes import Buffer, HostStep, Pass
-from .base import Technique, prepare
-from .bit_arrays import (VARIANTS, ShadingOptions, add_bit_words, attach_zbins, shading_steps,
+from ...errors import UserError
+from ...model import waves
+from ...pipeline.passes import Buffer, HostStep, Pass
+from ..base import Technique, prepare
+from ..bit_arrays import (VARIANTS, ShadingOptions, add_bit_words, attach_zbins, shading_steps,
                          tile_bit_maps, variant_flags)
-from .blocks import tile_boxes
-from .gpu_build import BuildOptions, build_bits, on_gpu
-from .options import CapOptions, FeatureVariantOptions, StochasticOptions, option
-from . import variants
+from ..blocks import tile_boxes
+from ..gpu_build import BuildOptions, build_bits, on_gpu
+from ..options import CapOptions, FeatureVariantOptions, StochasticOptions, option
+from .. import variants
 
 DEPTH_GROUP = 64              # zbin_tile_depth.comp: one 8x8 group a tile
 
@@ -259,7 +259,7 @@ def _frame_1080p(n: int):
     """n small lights spread in front of a 1920x1080 camera: the slides' memory table input."""
     from cpu_prep.camera import frame_camera
     from scenes.model import Camera, make_lights
-    from ..pipeline.passes import FrameInput
+    from ...pipeline.passes import FrameInput
     cam = frame_camera(Camera((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), far=300.0), 1920, 1080)
     k = np.arange(n, dtype=np.float64)
     depth = 10.0 + 1.0 * k                 # all in front of the far plane: every light visible

@@ -102,12 +102,12 @@ import numpy as np
 from cpu_prep import caps, grid as gridmod, layouts, limits
 from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT, LIGHT_TYPES
 
-from ..model import waves
-from ..pipeline.passes import Buffer, HostStep, Pass
-from ..errors import UserError
-from . import variants
-from .base import Technique, add_all_lights, prepare, shading_passes
-from .options import CapOptions, FeatureVariantOptions, StochasticOptions, cap_policy, choice, option
+from ...model import waves
+from ...pipeline.passes import Buffer, HostStep, Pass
+from ...errors import UserError
+from .. import variants
+from ..base import Technique, add_all_lights, prepare, shading_passes
+from ..options import CapOptions, FeatureVariantOptions, StochasticOptions, cap_policy, choice, option
 
 TILE = 16                    # the chapter's tile: 64 invocations x 2x2 pixels
 LIST_CAP = 24                # pruned lights in a tile's 8 R10G10B10A2 blocks

@@ -14,13 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import waves
-from .base import Technique, add_cell_lists, cell_head, entry_list, grid_uniforms, prepare_binned, shading_passes
-from .blocks import cell_ranges, list_buffers, list_reads
-from .gpu_build import BuildOptions, build_lists, on_gpu
-from .options import (CapOptions, FeatureVariantOptions, ListOptions, ScalarizeOptions, SliceOptions,
+from ...model import waves
+from ..base import Technique, add_cell_lists, cell_head, entry_list, grid_uniforms, prepare_binned, shading_passes
+from ..blocks import cell_ranges, list_buffers, list_reads
+from ..gpu_build import BuildOptions, build_lists, on_gpu
+from ..options import (CapOptions, FeatureVariantOptions, ListOptions, ScalarizeOptions, SliceOptions,
                       StochasticOptions, WaveOptions)
-from . import variants
+from .. import variants
 
 
 class Clustered(Technique, register_at=30):

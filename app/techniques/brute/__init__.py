@@ -6,9 +6,9 @@
 """
 import numpy as np
 
-from ..model import waves
-from .base import Technique, add_all_lights, prepare, shading_passes
-from .options import StochasticOptions
+from ...model import waves
+from ..base import Technique, add_all_lights, prepare, shading_passes
+from ..options import StochasticOptions
 
 
 class Brute(Technique, register_at=10):

@@ -11,12 +11,12 @@ import numpy as np
 
 from cpu_prep import layouts
 
-from ..model import waves
-from ..pipeline.passes import Buffer, Pass
-from .base import (Technique, add_all_lights, add_cell_lists, cell_head, grid_uniforms, make_grid,
+from ...model import waves
+from ...pipeline.passes import Buffer, Pass
+from ..base import (Technique, add_all_lights, add_cell_lists, cell_head, grid_uniforms, make_grid,
                    prepare, refuse, shading_passes)
-from .options import CapOptions, FeatureVariantOptions, StochasticOptions, TileOptions
-from . import variants
+from ..options import CapOptions, FeatureVariantOptions, StochasticOptions, TileOptions
+from .. import variants
 
 OVERFLOW = 0xFFFFFFFF          # a tile's count when its list did not fit the pool
 

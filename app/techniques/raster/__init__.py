@@ -26,13 +26,13 @@ import numpy as np
 
 from cpu_prep import frame as cpuframe, grid as gridmod, layouts, limits, raster_proxies as rp, zbin as zb
 
-from ..pipeline.gbuffer import column_major
-from ..pipeline.passes import Buffer, Draw, HostStep, Pass, StencilStep, Target, image_groups
-from .base import Technique, grid_uniforms, prepare, shading_passes
-from .options import StochasticOptions, choice, option
-from .bit_arrays import (ShadingOptions, add_bit_words, attach_zbins, shading_steps, tile_bit_maps,
+from ...pipeline.gbuffer import column_major
+from ...pipeline.passes import Buffer, Draw, HostStep, Pass, StencilStep, Target, image_groups
+from ..base import Technique, grid_uniforms, prepare, shading_passes
+from ..options import StochasticOptions, choice, option
+from ..bit_arrays import (ShadingOptions, add_bit_words, attach_zbins, shading_steps, tile_bit_maps,
                          tile_uniforms, variant_flags)
-from .blocks import tile_boxes
+from ..blocks import tile_boxes
 
 VARIANTS = ("atomic", "atomic + 4xMSAA", "atomic + compaction", "atomic + compaction + 4xMSAA")
 MSAA_SAMPLES = 4
@@ -172,7 +172,7 @@ class Raster(Technique, register_at=80):
         mode with its depth bound: an 8x8 group of lanes a block, a texel each, reduced in
         shared memory when the tile is a multiple of 8) and the proxy draws: their
         vertices, and the fragments and atomics the untimed stats twin counted."""
-        from ..model import waves
+        from ...model import waves
         b = frame.build
         w, h = frame.size
         frags = int(b.stats.get("raster_fragments", 0))
@@ -213,7 +213,7 @@ class Raster(Technique, register_at=80):
 
     def wave_program(self, frame, width):
         """zbin's loop over the rasterized bits, or the per-cluster loop (cluster mode)."""
-        from ..model import waves
+        from ...model import waves
         opts = frame.opts
         masked, scalarized = variant_flags(opts.zbin_variant)
         prog = waves.Program(frame, width)
@@ -472,8 +472,8 @@ def contention_figures(technique, size=SLIDES_SIZE) -> dict[int, dict]:
 @lru_cache(maxsize=4)
 def _contention_figures(technique, size) -> dict[int, dict]:
     from scenes import load_scene
-    from ..model import cost, counts, waves
-    from ..pipeline.renderer import Renderer
+    from ...model import cost, counts, waves
+    from ...pipeline.renderer import Renderer
     gpu = cost.BY_KEY[MODEL_GPU]
     out = {}
     scene = load_scene(CONTENTION_SCENE)
@@ -505,7 +505,7 @@ def _variant_table(technique, study, measured=()) -> list[str]:
     here at the slides' resolution), the variant study's rows, and the contention scene's
     own study rows (`measured`: the benchmark's "raster_variant@contention")."""
     import json
-    from ..pipeline import gl
+    from ...pipeline import gl
     by = {int(r["raster_variant"]): r for r in study}
     there = {int(r["raster_variant"]): r for r in measured}
     r0 = study[0]
@@ -624,7 +624,7 @@ def _cluster_tile_text(rows) -> list[str]:
     tiles of the optimization table beside it): lights evaluated a pixel against the
     clusters' size."""
     import json
-    from ..results import PAPER_PREFIX
+    from ...results import PAPER_PREFIX
     sweep = [r for r in rows if r.get("study") == PAPER_PREFIX + "cluster_tile" or (
         r.get("study") == PAPER_PREFIX + "cluster_raster" and int(float(r["raster_variant"])) == 0)]
     if len(sweep) < 2:

@@ -15,13 +15,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model import waves
-from ..pipeline.passes import WAVE_DIM
-from .base import Technique, cell_head, entry_list, prepare_binned
-from .blocks import (SHARED_TREE_NODES, add_shared_load, cell_ranges, live_groups, live_pixels,
+from ...model import waves
+from ...pipeline.passes import WAVE_DIM
+from ..base import Technique, cell_head, entry_list, prepare_binned
+from ..blocks import (SHARED_TREE_NODES, add_shared_load, cell_ranges, live_groups, live_pixels,
                      one_tree_groups, study_notes, tree_buffers, tree_passes)
-from .gpu_build import BuildOptions, build_trees, on_gpu
-from .options import CapOptions, ListOptions, StochasticOptions, TileOptions, TreeOptions, option
+from ..gpu_build import BuildOptions, build_trees, on_gpu
+from ..options import CapOptions, ListOptions, StochasticOptions, TileOptions, TreeOptions, option
 
 class Tree(Technique, register_at=40):
     name = "tree"

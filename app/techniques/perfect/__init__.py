@@ -23,11 +23,11 @@ import numpy as np
 
 from cpu_prep.limits import MAX_STORAGE_BYTES
 
-from ..errors import UserError
-from ..model import waves
-from ..pipeline.passes import Buffer, HostStep, Pass, image_groups
-from .base import Technique, prepare, shading_passes, windows
-from .options import StochasticOptions
+from ...errors import UserError
+from ...model import waves
+from ...pipeline.passes import Buffer, HostStep, Pass, image_groups
+from ..base import Technique, prepare, shading_passes, windows
+from ..options import StochasticOptions
 
 
 def bands(counts: np.ndarray, max_band_bytes: int) -> list[tuple[int, int, int]]:

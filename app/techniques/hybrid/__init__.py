@@ -22,15 +22,15 @@ import numpy as np
 
 from cpu_prep import hybrid as hybridmod, layouts
 
-from ..model import waves
-from ..pipeline.passes import OUT_STATS, WAVE_DIM, WAVE_STATS, HostStep
-from .base import Technique, cell_head, entry_list, prepare_binned
-from .gpu_build import BuildOptions, build_trees, on_gpu
-from .options import (CapOptions, ListOptions, ScalarizeOptions, SliceOptions, StochasticOptions, TreeOptions,
+from ...model import waves
+from ...pipeline.passes import OUT_STATS, WAVE_DIM, WAVE_STATS, HostStep
+from ..base import Technique, cell_head, entry_list, prepare_binned
+from ..gpu_build import BuildOptions, build_trees, on_gpu
+from ..options import (CapOptions, ListOptions, ScalarizeOptions, SliceOptions, StochasticOptions, TreeOptions,
                       WaveOptions, FeatureVariantOptions, option)
-from . import variants
-from ..pipeline import features as feat
-from .blocks import (add_shared_load, live_groups, one_tree_groups, study_notes, tree_buffers,
+from .. import variants
+from ...pipeline import features as feat
+from ..blocks import (add_shared_load, live_groups, one_tree_groups, study_notes, tree_buffers,
                      tree_passes)
 
 CELL_TREE_BIT = np.uint32(1 << 31)     # a cell's count word: listing 2 chose a tree
