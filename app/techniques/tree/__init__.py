@@ -15,11 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...model import waves
 from ...pipeline.passes import WAVE_DIM
-from ..base import Technique, cell_head, entry_list, prepare_binned
-from ..blocks import (SHARED_TREE_NODES, add_shared_load, cell_ranges, live_groups, live_pixels,
-                     one_tree_groups, study_notes, tree_buffers, tree_passes)
+from ..base import Technique, prepare_binned
+from ..blocks import SHARED_TREE_NODES, tree_buffers, tree_passes
 from ..gpu_build import BuildOptions, build_trees, on_gpu
 from ..options import CapOptions, ListOptions, StochasticOptions, TileOptions, TreeOptions, option
 
@@ -47,50 +45,6 @@ class Tree(Technique, register_at=40):
         return tree_passes(build, opts, "shade_tree.comp",
                            defines={"SHARED_TREE": int(opts.shared_tree),
                                     "TILE_ALIGNED": int(tile_aligned(opts.tile))})
-
-    def report_notes(self, rows):
-        """The tree_build and shared_tree studies' per-pixel work and costs (app/report/notes.py)."""
-        return "tree builds (paper 3.2) and the shared-memory tree (3.4)", study_notes(rows)
-
-    def wave_program(self, frame, width):
-        """shade_tree.comp: the tile's record, then listing 3's traversal per lane (one step
-        per node visit); shared_tree: the groups that share one tree load it (every
-        invocation a node in 64), then traverse it from shared memory."""
-        prog = waves.Program(frame, width)
-        b, opts = frame.build, frame.opts
-        lanes = np.nonzero(frame.shading)[0]
-        ranges = cell_ranges(b)
-        cell = frame.cell[lanes]
-        first, count = ranges[cell, 0], ranges[cell, 1]
-        nodes = b.buffers["nodes"]
-        lid = entry_list(prog, b.buffers["entries"], opts.duplicated)
-        if not opts.shared_tree:
-            prog.add(lanes, head=cell_head(prog, lanes))
-            prog.add_tree(lanes, first, count, nodes, lid)
-            return prog
-        live = live_groups(prog)
-        if tile_aligned(opts.tile):
-            # every invocation reads its group's tile record, from one address: no vote
-            gcell = group_tiles(frame, b.grid)
-            gfirst, gcount = ranges[gcell, 0], ranges[gcell, 1]
-            one = live & (gcount >= 1) & (gcount <= SHARED_TREE_NODES)
-            px = live_pixels(frame)
-            prog.add(px, head=("cell", "ranges", gcell[frame.group[px]] * 8, 8, True))
-        else:
-            prog.barriers += 4 * int(live.sum())           # the vote (groupReduce)
-            prog.add(lanes, head=cell_head(prog, lanes))
-            group = frame.group[lanes]
-            one = one_tree_groups(group, cell, count, prog.groups)
-            gfirst = np.zeros(prog.groups, np.int64)
-            gcount = np.zeros(prog.groups, np.int64)
-            gfirst[group], gcount[group] = first, count    # one cell per `one` group
-        prog.barriers += int(one.sum())                    # load_shared_tree's barrier
-        add_shared_load(prog, gfirst, gcount, one)
-        shared = one[frame.group[lanes]]
-        prog.add_tree(lanes[shared], first[shared], count[shared], nodes, lid, step0=64,
-                      shared=True)
-        prog.add_tree(lanes[~shared], first[~shared], count[~shared], nodes, lid)
-        return prog
 
 
 def tile_aligned(tile: int) -> bool:
