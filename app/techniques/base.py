@@ -175,7 +175,7 @@ def prepare(frame: FrameInput, sort_buckets: int = 0, opts=None) -> Build:
     """The steps every technique shares: cull, sort, pack the visible lights.  Options
     with a cap policy (options.CapOptions, not none) drop lights after the cull, as that
     engine does (cpu_prep.caps): the frame differs from brute on purpose, and its stats
-    say so (cap_policy, capped_lights; the dropped scene ids in data["capped_ids"], which
+    say so (cap_policy, capped_lights; the dropped scene ids in Build.capped_ids, which
     the exactness check reads).  Options with stochastic culling on (options.StochasticOptions)
     draw each light's range first (stochastic_ranges), so every structure is built from it,
     and write each light's alpha into its GPU record (right.w) for the shading's 1/p weight;
@@ -198,7 +198,7 @@ def prepare(frame: FrameInput, sort_buckets: int = 0, opts=None) -> Build:
                        stochastic_frame=drawn[2], stochastic_dark_lights=len(dark))
     if policy != caps.NONE:
         b.stats.update(cap_policy=policy, capped_lights=len(dropped))
-        b.data["capped_ids"] = dropped
+        b.capped_ids = dropped
     return b
 
 

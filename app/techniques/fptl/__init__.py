@@ -330,13 +330,13 @@ class Fptl(Technique, register_at=70):
 
 def _tile_cap_stats(build, tile_cap, seen: np.ndarray, dropped: np.ndarray):
     """A per-tile cap's stats from what fptl_lists.comp counted: capped_lights (lights dropped
-    from some tile; their scene ids in data["capped_ids"]), capped_entries (tile list entries
+    from some tile; their scene ids in Build.capped_ids), capped_entries (tile list entries
     dropped), capped_tiles (tiles that dropped one)."""
     cap = np.array(tile_cap, np.int64)          # (punctual, area): the lists' u_tile_cap
     over = np.maximum(np.asarray(seen).reshape(-1, 2).astype(np.int64) - cap, 0)
     bits = np.unpackbits(np.asarray(dropped, np.uint32).view(np.uint8), bitorder="little")
     ids = np.sort(build.lights.ids[np.nonzero(bits[:len(build.lights)])[0]]).astype(np.uint32)
-    build.data["capped_ids"] = ids
+    build.capped_ids = ids
     build.stats.update(capped_lights=len(ids), capped_entries=int(over.sum()),
                        capped_tiles=int((over.sum(1) > 0).sum()))
     return {}, []

@@ -69,7 +69,7 @@ from cpu_prep import frame as cpuframe, grid as gridmod, limits, zbin as zb
 from ...errors import UserError
 from ...pipeline.passes import Buffer, HostStep, Pass
 from ..base import Technique, prepare
-from ..bit_arrays import ShadingOptions, attach_zbins, shading_steps, tile_bit_maps, variant_flags
+from ..bit_arrays import VARIANTS, ShadingOptions, attach_zbins, shading_steps, tile_bit_maps, variant_flags
 from ..blocks import tile_boxes
 from ..gpu_build import BuildOptions, build_bits, on_gpu
 from ..options import CapOptions, FeatureVariantOptions, StochasticOptions, option
