@@ -173,7 +173,7 @@ def _check_capped(result, reference, cap, renderer, technique, reference_techniq
         args = dict(render_args or {})
         args.pop("opts", None)
         frame = result.build.frame
-        args["lights"] = caps.without(frame.lights, result.build.data["capped_ids"],
+        args["lights"] = caps.without(frame.lights, result.build.capped_ids,
                                       frame.camera.view_from_world)
         intended = renderer.render(reference_technique, **args)
         m = _compare(result, intended, renderer, technique, reference_technique,

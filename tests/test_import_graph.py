@@ -108,3 +108,14 @@ def test_layers():
         if mod.startswith("app.pipeline"):
             assert all(d.startswith(("app.pipeline", "app.errors", "cpu_prep", "scenes"))
                        for d in deps), (mod, deps)
+
+
+def test_technique_frames_stay_free_of_the_model_and_report():
+    """A technique's frame (its folder's __init__) is what the renderer needs: the cost model
+    and the report find its replay and paper modules (app.techniques.parts), never the
+    other way round, and the frame stays short."""
+    g = graph()
+    for path in sorted((ROOT / "app" / "techniques").glob("*/__init__.py")):
+        name = f"app.techniques.{path.parent.name}"
+        assert not any(d.startswith(("app.model", "app.report")) for d in g[name]), (name, g[name])
+        assert len(path.read_text().splitlines()) <= 400, name

@@ -35,7 +35,6 @@ from . import steps
 
 COUNTERS = "gb_counters"
 # Build.data key of a GPU build's steps, run by the renderer in place of technique.passes()
-BUILD_STEPS = "build_steps"
 # counter words: each count one pass makes for the next (SCRATCH: a scan's unkept total;
 # TREES / LISTS: cells of more than one leaf / of one; CHOSEN_TREES, LISTS_AS_TREES: the
 # hybrid's listing 2 choices, and its lists stored as trees of lists)
@@ -237,11 +236,11 @@ def unbuilt_lights(frame: FrameInput) -> lightsmod.PreparedLights:
 
 def start(frame: FrameInput, then, **stats) -> Build:
     """A Build whose lights the GPU culls, sorts and packs (the scene's records go up), then
-    `then(b)`'s steps: build.data[BUILD_STEPS], which the renderer runs in place of the
+    `then(b)`'s steps: build.steps, which the renderer runs in place of the
     technique's passes.  stats: the build's own, beside build=gpu."""
     check_lights(frame)
     b = Build(frame=frame, lights=unbuilt_lights(frame))
     b.buffers["scene_lights"] = scene_words(frame.lights)
     b.stats.update(build="gpu", **stats)
-    b.data[BUILD_STEPS] = cull_and_sort(frame) + [visible_step(b, then)]
+    b.steps = cull_and_sort(frame) + [visible_step(b, then)]
     return b

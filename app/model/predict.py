@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..techniques import parts
 from . import cost, counts, waves
 
 SHADE = "shade"        # the shading pass's name in the figures (its timed passes may be many)
@@ -56,8 +57,8 @@ def _figures(renderer, technique, result, opts, unbounded, widths, sample):
     part, share = waves.sampled(fr, sample)
     out, last = {}, None
     for width in widths:
-        passes = dict(technique.cull_figures(fr, width))
-        prog = technique.wave_program(part, width)
+        passes = dict(parts.cull_figures(technique, fr, width))
+        prog = parts.wave_program(technique, part, width)
         last = waves.replay(prog)
         shade = last.figures
         passes[SHADE] = shade if share >= 1.0 else shade.scaled(1.0 / max(share, 1e-9), prog.buffers)

@@ -75,7 +75,10 @@ class FrameInput:
 class Build:
     """What a technique's CPU stage hands the renderer: arrays to upload (by buffer name),
     the visible lights, timings by step, figures for the meta, and the technique's own data
-    for its passes (`data`; e.g. the grid)."""
+    for its passes (`data`; e.g. the grid).  `steps`: a build made on the GPU
+    (app/gpu_build) brings its passes, ending in the technique's, which the renderer runs in
+    place of technique.passes(); `capped_ids`: the scene ids of the lights a cap policy
+    dropped (None: no cap), which the exactness check renders without."""
     frame: FrameInput
     lights: cpuframe.PreparedLights
     buffers: dict[str, np.ndarray] = field(default_factory=dict)
@@ -83,6 +86,8 @@ class Build:
     stats: dict[str, object] = field(default_factory=dict)
     grid: gridmod.Grid | None = None
     data: dict[str, object] = field(default_factory=dict)
+    steps: list | None = None
+    capped_ids: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

@@ -271,7 +271,7 @@ class Renderer:
         self._frame.counting_from = begun   # the first step's check holds back what came before
         if first:
             # a build made on the GPU (app/gpu_build) brings its passes, ending in the technique's
-            steps = build.data.get("build_steps") or technique.passes(build, opts)
+            steps = build.steps or technique.passes(build, opts)
             self.run(steps, *env, technique=technique.name)
             # a GPU build knows its visible lights' shapes once its steps ran (app/gpu_build)
             features = feat.feature_set(build.lights.type, self.gbuffer.specular)

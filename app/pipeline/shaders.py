@@ -1,7 +1,9 @@
 """Shader loader and program cache.
 
-- `#include "name"` is resolved from glsl/ (or from generated virtual files), depth-limited,
-  and wrapped in `#line` directives so compile errors name the right file and line.
+- A shader name (a pass's source or an `#include "name"`) is found among the generated
+  virtual files, then in the folder of the code that owns it (a technique's folder,
+  app/gpu_build/ for the GPU build), then in glsl/ (what several owners share); names are
+  unique across these folders.  Includes are depth-limited and wrapped in `#line` directives so compile errors name the right file and line.
 - Defines are injected right after `#version` from a dict.  A shader declares the names it
   accepts with a `// define: NAME ...` comment; an undeclared name is an error.
 - A stage given a native WAVE_NATIVE (glsl/wave.glsl: 1 ARB, 2 KHR) gets that path's
@@ -17,6 +19,7 @@
 """
 from __future__ import annotations
 
+from functools import lru_cache
 from pathlib import Path
 import re
 from typing import NamedTuple
@@ -26,7 +29,9 @@ import moderngl
 from ..errors import UserError
 from .gl import WAVE_EXTENSIONS
 
-GLSL_DIR = Path(__file__).resolve().parents[2] / "glsl"
+ROOT = Path(__file__).resolve().parents[2]
+GLSL_DIR = ROOT / "glsl"
+SHADER_SUFFIXES = (".comp", ".glsl", ".vert", ".frag")
 MAX_INCLUDE_DEPTH = 16
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*(//.*)?$')     # a trailing // comment allowed
 _DECLARE = re.compile(r"^\s*//\s*define:\s*(.+)$")
@@ -38,6 +43,26 @@ _MEMBER = re.compile(r"(\w+)\s*(?:\[[^\]]*\])?\s*;")
 
 class ShaderError(UserError):
     pass
+
+
+def shader_dirs() -> list[Path]:
+    """Where shader files live: each technique's folder and the GPU build's, then glsl/."""
+    owned = sorted(p for p in (ROOT / "app" / "techniques").iterdir() if (p / "__init__.py").is_file())
+    return owned + [ROOT / "app" / "gpu_build", GLSL_DIR]
+
+
+@lru_cache(maxsize=None)
+def shader_files() -> dict[str, Path]:
+    """Every shader file by name; a name in two folders is an error (an include names a
+    file, not a folder)."""
+    found: dict[str, Path] = {}
+    for folder in shader_dirs():
+        for path in sorted(folder.iterdir()):
+            if path.suffix in SHADER_SUFFIXES:
+                if path.name in found:
+                    raise ShaderError(f"shader {path.name} in two folders: {found[path.name]}, {path}")
+                found[path.name] = path
+    return found
 
 
 class Source:
@@ -52,8 +77,8 @@ class Source:
     def _read(self, name: str) -> str:
         if name in self.virtual:
             return self.virtual[name]
-        path = GLSL_DIR / name
-        if not path.is_file():
+        path = shader_files().get(name)
+        if path is None:
             raise ShaderError(f"shader include not found: {name}")
         return path.read_text()
 

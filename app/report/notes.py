@@ -10,13 +10,13 @@ from __future__ import annotations
 
 
 def technique_notes(rows) -> list[tuple[str, str]]:
-    from ..techniques import REGISTRY
+    from ..techniques import REGISTRY, parts
     out = []
     present = {r["technique"] for r in rows}
     for name, t in REGISTRY.items():
         if name not in present:
             continue
-        title, text = t.report_notes(_rows_of(rows, t))
+        title, text = parts.report_notes(t, _rows_of(rows, t))
         if text:
             out.append((f"{name}: {title}", text))
     from .variants import variant_notes

@@ -12,21 +12,27 @@
     evaluates_per_wave  per-pixel `evaluated` depends on the wave width (scalarized loops)
     maps()        optional per-tile or per-pixel maps of its own structure for a rendered
                   frame (capture --maps, the report's technique maps)
-    report_notes()  its paper's figures beside a benchmark run's (app.report.notes); none
-                  by default
     refusal()     why it would refuse a frame (a limit its build meets), from counts and
                   options alone: the window's probe asks before building
     build()       the CPU stage: numpy in, GPU-layout arrays out, timed by step
     passes()      its GPU passes in order, the shading pass last (app.pipeline.passes)
-    wave_program()  its shading pass as the wave replay's segments, over the frame's own
-                  buffers (app.model.waves): per-wave figures for the GPU cost model
 
-A technique is one module under app/techniques/ and nothing else: its class registers one
-instance, at its place in the registry, when its module is imported,
+Beside its frame (the folder's __init__.py, which never imports app.model) a technique's
+folder may hold (found by app.techniques.parts, not imported by the frame):
+
+    replay.py     wave_program(technique, frame, width): its shading pass as the wave
+                  replay's segments over the frame's own buffers (app.model.waves), and
+                  optionally cull_figures(technique, frame, width): the passes before it
+    paper.py      report_notes(technique, rows): its paper's figures beside a benchmark
+                  run's (app.report.notes); none without it
+    *.comp, ...   its own shaders (app.pipeline.shaders looks there, then in glsl/)
+
+A technique is one folder under app/techniques/ and nothing else: its class registers one
+instance, at its place in the registry, when its package is imported,
 
     class Tiled(Technique, register_at=20): ...
 
-and the package imports every module it holds (app/techniques/__init__.py), so the
+and the package imports every module and folder it holds (app/techniques/__init__.py), so the
 renderer, capture, window, benchmark, report and registry need no edit for it.  The
 registry's order (register_at: brute 10 ... perfect 90) is the order reports and tests
 list the techniques in.
@@ -120,21 +126,6 @@ class Technique:
     def passes(self, build: Build, opts) -> list:
         raise NotImplementedError
 
-    def wave_program(self, frame, width: int):
-        """app.model.waves.Program of the shading pass on waves of `width` lanes."""
-        raise NotImplementedError
-
-    def cull_figures(self, frame, width: int) -> dict:
-        """{timed pass name: app.model.waves.Figures} of the GPU passes before the shading
-        pass (none: a structure the CPU built)."""
-        return {}
-
-    def report_notes(self, rows) -> tuple[str, str]:
-        """(title, markdown) of its paper's figures beside a benchmark run's, from this
-        technique's results rows (its meta stats in the `stats` column, JSON); empty text:
-        no section (app.report.notes)."""
-        return "", ""
-
 
 # ---- refusals: the limits a frame meets, asked before and in the build --------------------
 
@@ -184,7 +175,7 @@ def prepare(frame: FrameInput, sort_buckets: int = 0, opts=None) -> Build:
     """The steps every technique shares: cull, sort, pack the visible lights.  Options
     with a cap policy (options.CapOptions, not none) drop lights after the cull, as that
     engine does (cpu_prep.caps): the frame differs from brute on purpose, and its stats
-    say so (cap_policy, capped_lights; the dropped scene ids in data["capped_ids"], which
+    say so (cap_policy, capped_lights; the dropped scene ids in Build.capped_ids, which
     the exactness check reads).  Options with stochastic culling on (options.StochasticOptions)
     draw each light's range first (stochastic_ranges), so every structure is built from it,
     and write each light's alpha into its GPU record (right.w) for the shading's 1/p weight;
@@ -207,7 +198,7 @@ def prepare(frame: FrameInput, sort_buckets: int = 0, opts=None) -> Build:
                        stochastic_frame=drawn[2], stochastic_dark_lights=len(dark))
     if policy != caps.NONE:
         b.stats.update(cap_policy=policy, capped_lights=len(dropped))
-        b.data["capped_ids"] = dropped
+        b.capped_ids = dropped
     return b
 
 
@@ -280,39 +271,3 @@ def shading_passes(build: Build, shader: str, reads: tuple[str, ...] = (), longe
     return [shading_pass(build, shader, reads, uniforms=dict(uniforms or {}, u_window=win),
                          waves_cleared=waves_cleared and k == 0, **kw)
             for k, win in enumerate(windows(build.frame, longest, steps))]
-
-
-# ---- the wave replay's walks several techniques share (app.model.waves) -------------------
-
-def add_all_lights(prog, lanes, step=0, branch=0) -> None:
-    """evaluate_all_lights (pixel.glsl): every visible light in order, a wave-uniform loop of
-    affects tests, then per run of 32 each lane's affecting lights (LightList.runs)."""
-    prog.add(lanes, step=step, branch=branch,
-             lights=(prog.all_lights(), 0, len(prog.frame.build.lights), True))
-
-
-def cell_head(prog, lanes, buf: str = "ranges", record=layouts.CELL_RANGE, scalar: bool = False):
-    """The head fetch of each lane's cell record `buf[cell]` (cell from out_cell)."""
-    cell = prog.frame.cell[np.asarray(lanes, np.int64)]
-    return ("cell", buf, cell * record.itemsize, record.itemsize, scalar)
-
-
-def add_cell_lists(prog, lanes, ranges, entries, duplicated: bool = False, step=0, branch=0,
-                   head: bool = True, entry_buf: str = "entries") -> None:
-    """Per lane its cell's record ranges[cell] = (first, count) and that index list
-    (lists.glsl evaluate_list)."""
-    lanes = np.asarray(lanes, np.int64)
-    cell = prog.frame.cell[lanes]
-    lid = entry_list(prog, entries, duplicated, entry_buf)
-    prog.add(lanes, step=step, branch=branch, head=cell_head(prog, lanes) if head else None,
-             lights=(lid, ranges[cell, 0], ranges[cell, 1], False))
-
-
-def entry_list(prog, entries, duplicated: bool = False, entry_buf: str = "entries") -> int:
-    """The light list of an index buffer: entry k fetched at 4k, then its light (indexed), or
-    the copy at dup_lights[k] (duplicated, paper figure 5)."""
-    entries = np.asarray(entries, np.int64)
-    k = np.arange(len(entries), dtype=np.int64)
-    if duplicated:
-        return prog.add_list(entries, slot=k, light_buf="dup_lights")
-    return prog.add_list(entries, entry_off=4 * k, entry_buf=entry_buf)

@@ -18,7 +18,8 @@ import numpy as np
 from cpu_prep import layouts, limits, zbin as zb
 
 from ..pipeline.passes import WAVE_STATS, HostStep
-from .base import cell_head, grid_uniforms, shading_passes
+from .base import grid_uniforms, shading_passes
+from .replay_walks import cell_head
 from .options import WaveOptions, choice, option
 
 VARIANTS = ("base tile", "tile + zbin", "scalarized tile", "scalarized tile + zbin")

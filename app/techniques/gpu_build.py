@@ -89,7 +89,7 @@ def _later(b, result):
 
 def build_lists(frame, opts, slices: int, shade):
     """A list technique's Build whose cull, sort and binning run on the GPU; its steps
-    (build.data[prepare.BUILD_STEPS], which the renderer runs in place of the technique's
+    (build.steps, which the renderer runs in place of the technique's
     passes) end in `shade(b)`: the technique's own passes, once the longest list
     (b.data["longest_list"]) is known, then the lists read back for the figures."""
     grid = make_grid(frame, opts, slices)

@@ -309,7 +309,8 @@ def fastest(renderer, candidates, opts_of, lights, cam, max_pixels: int = PROBE_
 
 
 ROOT = Path(__file__).resolve().parents[2]
-COST_SOURCES = ("glsl/*", "cpu_prep/*.py", "app/pipeline/*.py", "app/techniques/*.py", "scenes/*.py")
+COST_SOURCES = ("glsl/*", "cpu_prep/*.py", "app/pipeline/*.py", "app/techniques/*.py", "app/techniques/*/*",
+                "app/gpu_build/*.comp", "app/gpu_build/*.glsl", "scenes/*.py")
 
 
 @lru_cache(maxsize=None)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.model import waves
-from app.techniques import REGISTRY
+from app.techniques import REGISTRY, parts
 
 
 def gl_order(a: np.ndarray) -> np.ndarray:
@@ -19,7 +19,7 @@ def check(renderer, name: str, opts: dict, width: int, where: str) -> waves.Repl
     tech = REGISTRY[name]
     res = renderer.render(tech, 0, opts)
     fr = waves.frame_data(renderer, res, tech.resolve_options(opts))
-    rp = waves.replay(tech.wave_program(fr, width))
+    rp = waves.replay(parts.wave_program(tech, fr, width))
     what = f"{where} {name} {opts} W={width}"
     ev, nodes = gl_order(res.evaluated), gl_order(res.nodes)
     bad = np.nonzero(rp.evaluated != ev)[0]

@@ -10,7 +10,7 @@ import pytest
 
 from app.model import predict, waves
 from app.pipeline.renderer import Renderer
-from app.techniques import REGISTRY
+from app.techniques import REGISTRY, parts
 from scenes import BUILTIN_SCENES, load_scene
 from tests.app.model.replay_check import check, gl_order
 from tests.helpers import pixel_oracle
@@ -72,14 +72,14 @@ def test_widths_change_only_what_they_should(gl):
         for name, opts in (("clustered", {}), ("tree", {})):
             tech = REGISTRY[name]
             fr = waves.frame_data(r, r.render(tech, 0, opts), tech.resolve_options(opts))
-            a, b = (waves.replay(tech.wave_program(fr, w)) for w in (32, 64))
+            a, b = (waves.replay(parts.wave_program(tech, fr, w)) for w in (32, 64))
             assert np.array_equal(a.evaluated, b.evaluated) and np.array_equal(a.nodes, b.nodes)
             i32, i64 = a.figures.loops[:, 0].sum(), b.figures.loops[:, 0].sum()
             assert i64 <= i32 <= 2 * i64, (name, i32, i64)
             assert a.figures.waves == 2 * b.figures.waves
         tech = REGISTRY["zbin"]
         fr = waves.frame_data(r, r.render(tech, 0, {}), tech.resolve_options(None))
-        a, b = (waves.replay(tech.wave_program(fr, w)) for w in (32, 64))
+        a, b = (waves.replay(parts.wave_program(tech, fr, w)) for w in (32, 64))
         assert (a.evaluated <= b.evaluated).all() and a.evaluated.sum() < b.evaluated.sum()
         assert np.array_equal(a.contrib, b.contrib)
 
@@ -134,7 +134,7 @@ def test_figures_count_what_the_loops_do(gl):
     with Renderer(sc, SIZE) as r:
         res = r.render(REGISTRY["brute"], 0)
         fr = waves.frame_data(r, res, REGISTRY["brute"].resolve_options(None))
-        prog = REGISTRY["brute"].wave_program(fr, 64)
+        prog = parts.wave_program(REGISTRY["brute"], fr, 64)
         f = waves.replay(prog).figures
         assert_list_lines(prog, f, "brute")
         n = len(res.build.lights)
@@ -148,7 +148,7 @@ def test_figures_count_what_the_loops_do(gl):
         assert_set_bit_loop(f, res, r, sc, SIZE)
         res = r.render(REGISTRY["clustered"], 0)
         fr = waves.frame_data(r, res, REGISTRY["clustered"].resolve_options(None))
-        prog = REGISTRY["clustered"].wave_program(fr, 64)
+        prog = parts.wave_program(REGISTRY["clustered"], fr, 64)
         f = waves.replay(prog).figures
         assert_list_lines(prog, f, "clustered")
         ev = gl_order(res.evaluated)
@@ -163,7 +163,7 @@ def test_figures_count_what_the_loops_do(gl):
             tech = REGISTRY["clustered"]
             fr = waves.frame_data(r, r.render(tech, 0, opts), tech.resolve_options(opts))
             for width in (32, 64):
-                prog = tech.wave_program(fr, width)
+                prog = parts.wave_program(tech, fr, width)
                 assert_list_lines(prog, waves.replay(prog).figures, f"clustered {opts} W={width}")
 
 
@@ -222,11 +222,11 @@ def test_cells_only_frames_replay_like_shaded_ones(gl):
         for name in REGISTRY:
             tech = REGISTRY[name]
             full = r.render(tech, 0)
-            a = waves.replay(tech.wave_program(waves.frame_data(r, full, tech.resolve_options(None)), 32))
+            a = waves.replay(parts.wave_program(tech, waves.frame_data(r, full, tech.resolve_options(None)), 32))
             cells = r.render(tech, 0, defines={"CELLS_ONLY": 1})
             assert np.array_equal(cells.cell, full.cell), name
             assert int(cells.evaluated.sum()) == 0, f"{name}: CELLS_ONLY still shaded"
-            b = waves.replay(tech.wave_program(waves.frame_data(r, cells, tech.resolve_options(None)), 32))
+            b = waves.replay(parts.wave_program(tech, waves.frame_data(r, cells, tech.resolve_options(None)), 32))
             assert np.array_equal(a.evaluated, b.evaluated), name
             assert np.array_equal(a.figures.loops, b.figures.loops), name
 

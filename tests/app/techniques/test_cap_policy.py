@@ -48,7 +48,7 @@ def test_a_capped_frame_is_an_intended_loss_of_exactly_the_dropped_lights(gl, ca
             res = r.render(t, opts=opts)
             stats = res.meta["stats"]
             assert stats["cap_policy"] == "urp-16" and stats["visible_lights"] == 16, name
-            assert stats["capped_lights"] == len(res.build.data["capped_ids"]) > 0, name
+            assert stats["capped_lights"] == len(res.build.capped_ids) > 0, name
             assert res.meta["options"]["cap_policy"] == caps.NAMES.index("urp-16")
             m = check(res, ref, r, t, ref_t, {"opts": opts})
             assert isinstance(m, IntendedLoss), f"{name}: {m.message() if m else 'a pass'}"
@@ -65,7 +65,7 @@ def test_no_cap_changes_nothing(gl, capped_scene):
         ref = r.render(ref_t)
         for name in ("tiled", "clustered"):
             res = r.render(REGISTRY[name], opts={"cap_policy": "none"})
-            assert "cap_policy" not in res.meta["stats"] and "capped_ids" not in res.build.data
+            assert "cap_policy" not in res.meta["stats"] and res.build.capped_ids is None
             assert check(res, ref) is None
             # a policy over more lights than the frame has drops none: exact, still counted 0
             res = r.render(REGISTRY[name], opts={"cap_policy": "filament-256"})
@@ -127,7 +127,7 @@ def test_the_engines_view_caps_drop_the_lights_their_order_says(gl, crowd, polic
             t = REGISTRY[name]
             opts = t.Options.make({"cap_policy": policy})
             res = r.render(t, opts=opts)
-            got = sorted(int(i) for i in res.build.data["capped_ids"])
+            got = sorted(int(i) for i in res.build.capped_ids)
             assert got == want, f"{name}: dropped {got[:8]}... expected {want[:8]}..."
             assert res.meta["stats"]["capped_lights"] == len(want), name
             bad = differing(res, intended)     # brute without exactly those, at every pixel

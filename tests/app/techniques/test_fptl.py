@@ -448,8 +448,8 @@ def test_more_than_1024_visible_lights_take_16_bit_indices(gl, n, bits):
 
 def test_32_bit_indices(gl, monkeypatch):
     """The 32-bit format (past 65,536 visible lights), forced on a small frame."""
-    monkeypatch.setattr(fptl, "INDEX10_MAX", 4)
-    monkeypatch.setattr(fptl, "INDEX16_MAX", 8)
+    monkeypatch.setattr(fptl.lists, "INDEX10_MAX", 4)         # the formats live in fptl.lists
+    monkeypatch.setattr(fptl.lists, "INDEX16_MAX", 8)
     rng = np.random.default_rng(32)
     scene = shapes_scene(rng, 200, size=(48, 32))
     with Renderer(scene) as r:

@@ -42,7 +42,7 @@ def test_each_tile_keeps_each_categorys_lowest_sort_keys(gl, cap):
     assert lit_tiles >= 4 and st["capped_entries"] == lit_tiles * (points + capsules - 2 * cap)
     # the GPU's own counts are the CPU's expectation
     assert (m.lights, m.entries, m.tiles) == (st["capped_lights"], st["capped_entries"], lit_tiles)
-    assert st["capped_lights"] == points + capsules - 2 * cap == len(res.build.data["capped_ids"])
+    assert st["capped_lights"] == points + capsules - 2 * cap == len(res.build.capped_ids)
     assert st["max_pruned"] == 2 * cap and m.pixels > 0 and m.contributions >= m.pixels
     assert (res.contrib_count <= ref.contrib_count).all()
     assert m.message().startswith(f"intended loss: {m.pixels} pixels, {m.lights} lights dropped "

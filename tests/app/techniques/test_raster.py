@@ -28,7 +28,7 @@ import pytest
 
 from app.pipeline.passes import FrameInput
 from app.pipeline.renderer import Renderer
-from app.techniques import REGISTRY
+from app.techniques import REGISTRY, parts
 from app.techniques import raster as rs
 from app.techniques.base import prepare
 from cpu_prep import raster_proxies as rp
@@ -157,8 +157,8 @@ def test_mode_ids_are_generated_from_one_source():
     PROXY_* from raster_proxies.PROXY_NAMES: no raster shader compares them with a literal."""
     import re
     from pathlib import Path
-    glsl = Path(__file__).resolve().parents[3] / "glsl"
-    for path in sorted(glsl.glob("raster*")):
+    folder = Path(rs.__file__).parent
+    for path in sorted(folder.glob("raster*")):
         text = path.read_text()
         assert not re.search(r"\b(u_mode|u_shape)\s*[!=]=\s*\d", text), path.name
     for i, name in enumerate(rs.MODES):
@@ -481,8 +481,8 @@ def test_notes_set_the_slides_tables_beside_the_run(gl):
     rows += [row("cluster", cluster=float(c), evaluated_pp=(4.5, 17.0, 17.0)[c], waste=(2.4, 8.6, 8.6)[c],
                  gpu_cull_ms=(1.0, 3.0, 4.0)[c], stats=stats((900, 500, 700)[c], (40, 70, 90)[c], (8, 32, 32)[c]))
              for c in range(3)]
-    title, text = RASTER.report_notes(rows)
-    assert text == RASTER.report_notes(rows)[1]
+    title, text = parts.report_notes(RASTER, rows)
+    assert text == parts.report_notes(RASTER, rows)[1]
     assert "| atomic + compaction + 4xMSAA | 0.10 ms (7%) | " in text and "1920x1080: 240x135 tiles" in text
     line = next(l for l in text.splitlines() if l.startswith("| atomic |"))
     assert int(line.split("|")[3].replace(",", "")) >= 3 * 1920 * 1080       # every pixel, three lights

@@ -12,7 +12,7 @@ import pytest
 
 from app.model import waves
 from app.pipeline.renderer import Renderer
-from app.techniques import REGISTRY, with_role
+from app.techniques import REGISTRY, with_role, parts
 from app.techniques.blocks import SHARED_TREE_NODES
 from app.techniques.tree import group_tiles
 from scenes import BUILTIN_SCENES, load_scene
@@ -82,7 +82,7 @@ def test_shared_groups_and_barriers(gl, opts):
         assert want.any(), f"{opts}: no group read a shared tree: the test is void"
         if "max_leaves" in opts:
             assert not want.all(), "trees past 128 nodes should take the global path"
-        prog = tech.wave_program(fr, 64)
+        prog = parts.wave_program(tech, fr, 64)
         vote = 0 if opts.get("tile", 48) % 8 == 0 else 4 * prog.groups
         assert prog.barriers == vote + int(want.sum())
         f = waves.replay(prog).figures

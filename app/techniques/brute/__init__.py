@@ -4,11 +4,9 @@
                                                     an affects mask per run of 32, then
                                                     the shading of its set bits in order
 """
-import numpy as np
 
-from ..model import waves
-from .base import Technique, add_all_lights, prepare, shading_passes
-from .options import StochasticOptions
+from ..base import Technique, prepare, shading_passes
+from ..options import StochasticOptions
 
 
 class Brute(Technique, register_at=10):
@@ -28,7 +26,3 @@ class Brute(Technique, register_at=10):
     def passes(self, build, opts):
         return shading_passes(build, "shade_brute.comp", longest=len(build.lights))
 
-    def wave_program(self, frame, width):
-        prog = waves.Program(frame, width)
-        add_all_lights(prog, np.nonzero(frame.shading)[0])     # wave-uniform tests
-        return prog

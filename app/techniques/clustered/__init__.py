@@ -12,15 +12,13 @@ go to WAVE_STATS.iterations instead of the longest lane's loop.
 """
 from dataclasses import dataclass
 
-import numpy as np
 
-from ..model import waves
-from .base import Technique, add_cell_lists, cell_head, entry_list, grid_uniforms, prepare_binned, shading_passes
-from .blocks import cell_ranges, list_buffers, list_reads
-from .gpu_build import BuildOptions, build_lists, on_gpu
-from .options import (CapOptions, FeatureVariantOptions, ListOptions, ScalarizeOptions, SliceOptions,
+from ..base import Technique, grid_uniforms, prepare_binned, shading_passes
+from ..blocks import list_buffers, list_reads
+from ..gpu_build import BuildOptions, build_lists, on_gpu
+from ..options import (CapOptions, FeatureVariantOptions, ListOptions, ScalarizeOptions, SliceOptions,
                       StochasticOptions, WaveOptions)
-from . import variants
+from .. import variants
 
 
 class Clustered(Technique, register_at=30):
@@ -57,21 +55,4 @@ class Clustered(Technique, register_at=30):
         return variants.with_variants(build, opts, shade,
                                       variants.CellSource(variants.CELL_LISTS, ("ranges", "entries")))
 
-    def cull_figures(self, frame, width):
-        """The feature variants' passes when on (the lists are CPU-built)."""
-        return variants.figures_if_on(frame, width, variants.list_scans, {})
 
-    def wave_program(self, frame, width):
-        prog = waves.Program(frame, width)
-        b, opts = frame.build, frame.opts
-        lanes = np.nonzero(frame.shading)[0]
-        ranges = cell_ranges(b)
-        if not opts.scalarize:
-            add_cell_lists(prog, lanes, ranges, b.buffers["entries"], opts.duplicated)
-            return prog
-        # one round per distinct cell of the wave: its record and list from a uniform address
-        cell = frame.cell[lanes]
-        lid = entry_list(prog, b.buffers["entries"], opts.duplicated)
-        prog.add(lanes, step=waves.rounds(prog, lanes, cell), head=cell_head(prog, lanes, scalar=True),
-                 lights=(lid, ranges[cell, 0], ranges[cell, 1], True))
-        return prog

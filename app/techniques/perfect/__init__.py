@@ -23,11 +23,10 @@ import numpy as np
 
 from cpu_prep.limits import MAX_STORAGE_BYTES
 
-from ..errors import UserError
-from ..model import waves
-from ..pipeline.passes import Buffer, HostStep, Pass, image_groups
-from .base import Technique, prepare, shading_passes, windows
-from .options import StochasticOptions
+from ...errors import UserError
+from ...pipeline.passes import Buffer, HostStep, Pass, image_groups
+from ..base import Technique, prepare, shading_passes, windows
+from ..options import StochasticOptions
 
 
 def bands(counts: np.ndarray, max_band_bytes: int) -> list[tuple[int, int, int]]:
@@ -97,19 +96,3 @@ class Perfect(Technique, register_at=90):
         build.stats.update(bands=len(fills), list_entries=int(counts.sum(dtype=np.int64)))
         return uploads, fills + shades
 
-    def wave_program(self, frame, width):
-        """Each band's per-pixel lists: the pixel's range, then its exact list."""
-        prog = waves.Program(frame, width)
-        w, row, k = frame.size[0], 0, 0
-        while f"perfect_ranges_{k}" in frame.names:
-            ranges = frame.read(f"perfect_ranges_{k}").reshape(-1, 2).astype(np.int64)
-            pix = row * w + np.arange(len(ranges))
-            lanes = pix[frame.shading[pix]]
-            band = lanes - row * w
-            entries = frame.read(f"perfect_entries_{k}")
-            lid = prog.add_list(entries, entry_off=4 * np.arange(len(entries)),
-                                entry_buf=f"perfect_entries_{k}")
-            prog.add(lanes, head=("cell", f"perfect_ranges_{k}", band * 8, 8, False),
-                     lights=(lid, ranges[band, 0], ranges[band, 1], False))
-            row, k = row + len(ranges) // w, k + 1
-        return prog

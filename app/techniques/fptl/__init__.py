@@ -99,21 +99,22 @@ from typing import ClassVar
 
 import numpy as np
 
-from cpu_prep import caps, grid as gridmod, layouts, limits
+from cpu_prep import caps, grid as gridmod, limits
 from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT, LIGHT_TYPES
 
-from ..model import waves
-from ..pipeline.passes import Buffer, HostStep, Pass
-from ..errors import UserError
-from . import variants
-from .base import Technique, add_all_lights, prepare, shading_passes
-from .options import CapOptions, FeatureVariantOptions, StochasticOptions, cap_policy, choice, option
+from ...pipeline.passes import Buffer, HostStep, Pass
+from ...errors import UserError
+from .. import variants
+from ..base import Technique, prepare, shading_passes
+# its GPU formats (lists.py), also read as fptl.NAME by its replay and the tests
+from .lists import (TILE, COARSE_BATCH, LIST_CAP, INDEX10_MAX, INDEX16_MAX, FLAG_COARSE_OVER,
+                    FLAG_SPILLED, FLAG_POOL_FULL, FLAG_COVERED, STATE, SPILLED_COUNTS,
+                    POOL_FULL_COUNTS, INDEX_FORMATS, BLOCK_COUNT_SHIFT, COUNT_WORD_LISTED,
+                    COUNT_WORD_STATE_SHIFT, format_glsl, index_bits, head_words, list_words,
+                    decode_lists, decode_state, state_bytes, shade_bytes, FPTL_AABB, FPTL_CELL,
+                    STRUCTS, SPILL_HEAD, CATEGORY_SEEN, structs_glsl)
+from ..options import CapOptions, FeatureVariantOptions, StochasticOptions, cap_policy, choice, option
 
-TILE = 16                    # the chapter's tile: 64 invocations x 2x2 pixels
-LIST_CAP = 24                # pruned lights in a tile's 8 R10G10B10A2 blocks
-COARSE_BATCH = 64            # coarse lights in shared memory at once (the chapter's LDS list)
-INDEX10_MAX = 1 << 10        # 10-bit indices: at most 1,024 visible lights
-INDEX16_MAX = 1 << 16
 SPILL_MAX_ENTRIES = 8 << 20  # spill pool cap (32 MiB); past it cells shade every light
 CELL_SLICES = limits.DEFAULT_SLICES
 
@@ -129,43 +130,6 @@ assert [CLASS_OF_TYPE[t] for t in LOOP_ORDER] == sorted(CLASS_OF_TYPE.values())
 _CLASS_LUT = np.array([CLASS_OF_TYPE[t] for t in range(len(LIGHT_TYPES))], np.uint8)
 _LOOP_RANK = np.array([LOOP_ORDER.index(t) for t in range(len(LIGHT_TYPES))], np.uint8)
 
-# Cell flags: the tile's coarse list passed 64 (pruned batch by batch); the cell's list
-# passed 24 (the rest in the spill); the spill pool ran short (the cell shades every light);
-# some pixel of the cell shades (statistics).  SPILLED and POOL_FULL are also in the list's
-# words (its state in band: what shading reads), with these values in the wide formats'
-# count word.
-FLAG_COARSE_OVER, FLAG_SPILLED, FLAG_POOL_FULL, FLAG_COVERED = 1, 2, 4, 8
-STATE = FLAG_SPILLED | FLAG_POOL_FULL
-# 10-bit blocks' count patterns of the two states (fptl_common.glsl): an empty block 0 before
-# full blocks, which no plain list has (it fills its blocks front to back)
-SPILLED_COUNTS = (0,) + (3,) * 7           # the 24 slots full, the rest in the spill
-POOL_FULL_COUNTS = (0, 1) + (0,) * 6       # no list: every light
-
-# The lists' formats by index width (index_bits): the chapter's 10-bit blocks, whose 2-bit
-# count sits above three indices (bits 30-31), and the wide formats' count word, the listed
-# entries in bits 0-7 and the state above them.  fptl_format.glsl is generated from these.
-INDEX_FORMATS = (10, 16, 32)
-BLOCK_COUNT_SHIFT = 30
-COUNT_WORD_LISTED = 0xFF
-COUNT_WORD_STATE_SHIFT = 8
-
-# GPU structs of this technique (the GLSL is generated from them: fptl_structs.glsl).
-FPTL_AABB = np.dtype([
-    ("rect", np.float32, 4),     # x0, x1, y0, y1 in pixels (GL, y up), margins included
-    ("depth", np.float32, 2),    # view depth range, conservative
-    ("light", np.uint32),        # index into lights[] (depth order)
-    ("pad", np.uint32),
-])
-FPTL_CELL = np.dtype([
-    ("coarse", np.uint32),       # lights whose AABB meets the tile (every scan window)
-    ("pruned", np.uint32),       # the cell's list length (listed + spilled)
-    ("flags", np.uint32),        # FLAG_*
-    ("reserved", np.uint32),
-])
-STRUCTS = {"FptlAabb": FPTL_AABB, "FptlCell": FPTL_CELL}
-SPILL_HEAD = np.dtype((np.uint32, 2))      # (first, count) in fptl_spill
-CATEGORY_SEEN = np.dtype((np.uint32, 2))   # per cell: lights found of category 0 and 1
-
 # A per-tile cap's scan order must be HDRP's key order within each category: the loop order
 # restricted to a category's shapes ascends in HDRP's GPU light type (point, spot, box)
 for _group in (caps.HDRP_PUNCTUAL, caps.HDRP_AREA):
@@ -173,58 +137,9 @@ for _group in (caps.HDRP_PUNCTUAL, caps.HDRP_AREA):
     assert _gpu == sorted(_gpu), "fptl's loop order is not HDRP's key order in a category"
 
 
-def structs_glsl() -> str:
-    """fptl_structs.glsl: the structs and constants above, written once here."""
-    structs = "\n".join(layouts.glsl_struct(n, d) for n, d in STRUCTS.items()) + "\n"
-    tile = layouts.glsl_defines({"FPTL_TILE": TILE}, suffix="")     # an int: ivec2 pixel maths
-    return structs + tile + layouts.glsl_defines({
-        "FPTL_CAP": LIST_CAP, "FPTL_BATCH": COARSE_BATCH, "FPTL_COARSE_OVER": FLAG_COARSE_OVER,
-        "FPTL_SPILLED": FLAG_SPILLED, "FPTL_POOL_FULL": FLAG_POOL_FULL,
-        "FPTL_COVERED": FLAG_COVERED})
-
-
-def format_glsl() -> str:
-    """fptl_format.glsl: per index width (FPTL_INDEX_BITS) the words of a cell's list, the
-    words before its indices, the indices a word and their mask; the count fields; the two
-    states' 10-bit count patterns.  fptl_common.glsl reads them; decode_* read the same."""
-    out = []
-    for k, bits in enumerate(INDEX_FORMATS):
-        out.append(f"#{'elif' if k else 'if'} FPTL_INDEX_BITS == {bits}")
-        out.append(layouts.glsl_defines({
-            "FPTL_LIST_WORDS": list_words(bits), "FPTL_HEAD_WORDS": head_words(bits),
-            "FPTL_PER_WORD": 32 // bits, "FPTL_INDEX_MASK": (1 << bits) - 1}).rstrip())
-    out += ["#else", "#error FPTL_INDEX_BITS: not a list format", "#endif"]
-    out.append(layouts.glsl_defines({
-        "FPTL_BLOCK_COUNT_SHIFT": BLOCK_COUNT_SHIFT, "FPTL_COUNT_WORD_LISTED": COUNT_WORD_LISTED,
-        "FPTL_COUNT_WORD_STATE_SHIFT": COUNT_WORD_STATE_SHIFT,
-        "FPTL_SPILLED_SUM": sum(SPILLED_COUNTS)}).rstrip())
-    for name, counts in (("FPTL_SPILLED_COUNTS", SPILLED_COUNTS),
-                         ("FPTL_POOL_FULL_COUNTS", POOL_FULL_COUNTS)):
-        out.append(f"const uint {name}[{len(counts)}] = uint[{len(counts)}]"
-                   f"({', '.join(f'{c}u' for c in counts)});")
-    return "\n".join(out) + "\n"
-
-
 def variant_flags(variant: int) -> tuple[bool, bool]:
     """(fine pruning, per 2.5D cell) of an `fptl_variant`."""
     return not variant & 1, bool(variant & 2)
-
-
-def index_bits(n: int) -> int:
-    """Index width of a frame's lists: the chapter's 10 bits up to 1,024 visible lights, else
-    16 up to 65,536, else 32 (never a wrapped index)."""
-    return 10 if n <= INDEX10_MAX else 16 if n <= INDEX16_MAX else 32
-
-
-def head_words(bits: int) -> int:
-    """Words before a cell's indices: none at 10 bits (the counts are in the blocks' A2
-    fields), the count word in the wide formats."""
-    return 0 if bits == 10 else 1
-
-
-def list_words(bits: int) -> int:
-    """32-bit words of one cell's list of LIST_CAP lights, its count word included."""
-    return head_words(bits) + LIST_CAP // (32 // bits)
 
 
 def class_order(types: np.ndarray, ids: np.ndarray | None = None) -> np.ndarray:
@@ -403,88 +318,6 @@ class Fptl(Technique, register_at=70):
         return variants.with_variants(build, opts, [aabb] + lists + shade + [counts],
                                       variants.CellSource(variants.CELL_PRECOMPUTED, ()))
 
-    def report_notes(self, rows):
-        """The chapter's figures beside this run's (app/report/notes.py)."""
-        return _notes(rows)
-
-    def cull_figures(self, frame, width):
-        """fptl_aabb.comp (a light a lane) and fptl_lists.comp (per 16x16 tile one 64-lane
-        group: the 2x2 pixels' depths, the coarse AABB test 64 lights a round, then fine
-        pruning: every lane tests its four pixels against each coarse light); with
-        --feature-variants its shape words (a shared atomic per kept entry, the word written
-        each scan window) and the classification passes (variants.cull_figures)."""
-        b = frame.build
-        g, n = b.grid, len(b.lights)
-        fine, _ = variant_flags(frame.opts.fptl_variant)
-        per = 64 // width
-        light_waves = max(1, -(-n // 64)) * per
-        line = lambda issued, nbytes: issued * width * nbytes // waves.LINE
-        aabb = waves.analytic(width, light_waves,
-                              {"aabb": (light_waves, n, 3 * light_waves, line(light_waves, 116))},
-                              {"lights": n * 96, "bounds": n * 16, "fptl_order": n * 4,
-                               "fptl_aabbs": n * FPTL_AABB.itemsize})
-        tiles = g.tiles_x * g.tiles_y
-        cells = frame.read("fptl_cells").view(FPTL_CELL).reshape(tiles, g.slices)
-        coarse = cells["coarse"][:, 0].astype(np.int64)
-        pixels, covered, *_ = waves.per_tile(frame, TILE)
-        busy = int((covered > 0).sum())
-        rounds = -(-n // COARSE_BATCH) + 1
-        flushes = int((-(-coarse // COARSE_BATCH)).sum())
-        depth = (tiles * per * 4, pixels.sum(), tiles * per * 4, line(tiles * per * 4, 16))
-        test = (busy * per * rounds, busy * n, busy * per * rounds, line(busy * per * rounds, 32))
-        prune_it = per * int(coarse.sum() if fine else flushes)
-        prune = (prune_it, prune_it * width, 0, 0, prune_it, 2 * prune_it)
-        words = list_words(index_bits(n))
-        shapes = variants.on(b, frame.opts)
-        lists = waves.analytic(
-            width, tiles * per, {"depth": depth, "cull_test": test, "prune": prune},
-            {"g_position": int(pixels.sum()) * 16, "fptl_aabbs": n * FPTL_AABB.itemsize,
-             "lights": min(int(coarse.sum()), n) * 96, "fptl_lists": g.cells * words * 4,
-             "fptl_cells": g.cells * FPTL_CELL.itemsize,
-             **({"cell_features": g.cells * 4 * len(b.data["scans"])} if shapes else {})},
-            barriers=tiles * (6 + 3 * rounds) + 4 * flushes,
-            shared_atomics=4 * int(covered.sum()) + int(coarse.sum()) + 8 * 64 * flushes
-            + (int(cells["pruned"].sum()) if shapes else 0),
-            atomics=int((cells["flags"] & FLAG_SPILLED != 0).sum()))
-        return variants.figures_if_on(frame, width, None, {"light_aabb": aabb, "fptl_lists": lists})
-
-    def wave_program(self, frame, width):
-        """fptl_shade.comp: the cell's list words (the eight blocks, or the wide formats'
-        count word), whose in-band state says the length and whether the cell spilled or
-        shades every light; then its packed list, and each scan window's spill head and
-        spill for spilled cells only; every run as one loop per shape compiled (type_loops)
-        or one loop."""
-        prog = waves.Program(frame, width)
-        b, opts = frame.build, frame.opts
-        bits = index_bits(len(b.lights))
-        lanes = np.nonzero(frame.shading)[0]
-        words = frame.read("fptl_lists")
-        listed, state = decode_state(words, bits)
-        cell = frame.cell[lanes]
-        prog.add(lanes, head=("cell", "fptl_lists", cell * list_words(bits) * 4,
-                              state_bytes(bits), False))
-        full = (state[cell] & FLAG_POOL_FULL) != 0
-        add_all_lights(prog, lanes[full], step=1, branch=1)
-        lanes, cell = lanes[~full], cell[~full]
-        shapes = np.unique(b.lights.type)            # the shapes whose loops are compiled
-        idx, off = decode_lists(words, bits)
-        main = prog.add_list(idx.ravel(), entry_off=off.ravel(), entry_buf="fptl_lists")
-        _add_runs(prog, lanes, main, cell * LIST_CAP, listed[cell], 8, shapes, opts.type_loops)
-        heads = np.ascontiguousarray(frame.read("fptl_spill_heads")).view(np.uint32).reshape(-1, 2).astype(np.int64)
-        spilled = (state[cell] & FLAG_SPILLED) != 0
-        if spilled.any():
-            lanes, cell = lanes[spilled], cell[spilled]
-            used = int(heads.sum(1).max(initial=0))
-            spill = prog.add_list(frame.read("fptl_spill")[:used], entry_off=4 * np.arange(used),
-                                  entry_buf="fptl_spill")
-            for scan in range(len(b.data["scans"])):
-                h = scan * b.grid.cells + cell
-                step = 8 * (2 + scan)
-                prog.add(lanes, step=step, head=("cell", "fptl_spill_heads", h * 8, 8, False))
-                _add_runs(prog, lanes, spill, heads[h, 0], heads[h, 1], step + 1, shapes,
-                          opts.type_loops)
-        return prog
-
     def maps(self, result, read):
         """The chapter's figures 2.4-2.6: lights per tile in the coarse list and after fine
         pruning (per tile: its longest cell's list)."""
@@ -495,93 +328,15 @@ class Fptl(Technique, register_at=70):
                 "pruned": (t["pruned"], "pruned lights / tile")}
 
 
-def _words(words: np.ndarray, bits: int) -> np.ndarray:
-    return np.ascontiguousarray(words).view(np.uint32).reshape(-1, list_words(bits)).astype(np.int64)
-
-
-def decode_lists(words: np.ndarray, bits: int) -> tuple[np.ndarray, np.ndarray]:
-    """(cells, LIST_CAP) light indices of every cell's packed list (fptl_common.glsl
-    fptl_get) and the byte offset of the word each is read from."""
-    per = 32 // bits
-    w = _words(words, bits)
-    k = np.arange(LIST_CAP)
-    word, shift = head_words(bits) + k // per, (k % per) * (32 // per)
-    idx = (w[:, word] >> shift) & ((1 << bits) - 1)
-    off = (np.arange(len(w))[:, None] * list_words(bits) + word) * 4
-    return idx, off
-
-
-def decode_state(words: np.ndarray, bits: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per cell (entries in its blocks, state bits FLAG_SPILLED | FLAG_POOL_FULL) from its
-    words, as fptl_shade.comp decodes them (fptl_common.glsl fptl_decode_counts /
-    fptl_decode_count_word): at 10 bits the sum of the blocks' 2-bit counts, a pattern
-    with an empty block 0 and full blocks after it a spilled list (24 listed), with one
-    entry in block 1 a pool-full cell; in the wide formats the count word."""
-    w = _words(words, bits)
-    if bits != 10:
-        return w[:, 0] & COUNT_WORD_LISTED, (w[:, 0] >> COUNT_WORD_STATE_SHIFT) & STATE
-    counts = w >> BLOCK_COUNT_SHIFT
-    total, c0 = counts.sum(1), counts[:, 0]
-    marked = (c0 == 0) & (total != 0)
-    spilled = marked & (total == sum(SPILLED_COUNTS))
-    listed = np.where(marked, np.where(spilled, LIST_CAP, 0), total)
-    state = np.where(marked, np.where(spilled, FLAG_SPILLED, STATE), 0)
-    return listed.astype(np.int64), state.astype(np.int64)
-
-
-def state_bytes(bits: int) -> int:
-    """Bytes of a cell's words shading reads before its loops: the eight blocks whole (the
-    sum of their counts), or the wide formats' count word."""
-    return 4 * list_words(bits) if bits == 10 else 4
-
-
-def shade_bytes(words: np.ndarray, heads: np.ndarray, bits: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per cell the bytes fptl_shade.comp reads of the culling structure (the same for every
-    pixel of the cell), from the words and heads it reads: (list words, spill heads and
-    spill).  10 bits: the 32 B of blocks; wide: the count word and the index words the
-    list fills; a spilled cell also every scan window's head (8 B) and its spilled entries
-    (4 B each); a pool-full cell reads its state and then every light (not counted here)."""
-    listed, state = decode_state(words, bits)
-    per = 32 // bits
-    full = (state & FLAG_POOL_FULL) != 0
-    lst = np.full(len(listed), state_bytes(bits), np.int64)
-    if bits != 10:
-        lst += np.where(full, 0, 4 * (-(-listed // per)))
-    spilled = ((state & FLAG_SPILLED) != 0) & ~full
-    h = np.ascontiguousarray(heads).view(np.uint32).reshape(-1, len(listed), 2).astype(np.int64)
-    spill = np.where(spilled, 8 * h.shape[0] + 4 * h[..., 1].sum(0), 0)
-    return lst, spill
-
-
-def _add_runs(prog, lanes, list_id: int, first, count, step: int, shapes, type_loops: bool) -> None:
-    """One run of a list per lane (fptl_shade.comp shade_run): its entries, in shape order,
-    as one loop per shape compiled (each its own step), or one loop."""
-    first, count = np.asarray(first, np.int64), np.asarray(count, np.int64)
-    if not type_loops:
-        prog.add(lanes, step=step, lights=(list_id, first, count, False))
-        return
-    L = prog.lists[list_id]
-    rank = _LOOP_RANK[prog.frame.build.lights.type[L.light].astype(np.intp)] if len(L.light) \
-        else np.zeros(0, np.uint8)
-    start = first.copy()
-    for t in LOOP_ORDER:
-        if t not in shapes:
-            continue
-        cum = np.concatenate([[0], np.cumsum(rank == _LOOP_RANK[t])])
-        n = cum[first + count] - cum[first]
-        prog.add(lanes, step=step + int(_LOOP_RANK[t]), lights=(list_id, start, n, False))
-        start = start + n
-
-
 def _tile_cap_stats(build, tile_cap, seen: np.ndarray, dropped: np.ndarray):
     """A per-tile cap's stats from what fptl_lists.comp counted: capped_lights (lights dropped
-    from some tile; their scene ids in data["capped_ids"]), capped_entries (tile list entries
+    from some tile; their scene ids in Build.capped_ids), capped_entries (tile list entries
     dropped), capped_tiles (tiles that dropped one)."""
     cap = np.array(tile_cap, np.int64)          # (punctual, area): the lists' u_tile_cap
     over = np.maximum(np.asarray(seen).reshape(-1, 2).astype(np.int64) - cap, 0)
     bits = np.unpackbits(np.asarray(dropped, np.uint32).view(np.uint8), bitorder="little")
     ids = np.sort(build.lights.ids[np.nonzero(bits[:len(build.lights)])[0]]).astype(np.uint32)
-    build.data["capped_ids"] = ids
+    build.capped_ids = ids
     build.stats.update(capped_lights=len(ids), capped_entries=int(over.sum()),
                        capped_tiles=int((over.sum(1) > 0).sum()))
     return {}, []
@@ -630,64 +385,3 @@ def _counts(build, cells: np.ndarray, counter: np.ndarray, words: np.ndarray, he
                        shade_spill_bytes_per_tile=mean(spill_t),
                        shade_bytes_max_tile=int((lst_t + spill_t).max(initial=0)))
     return {}, []
-
-
-# ---- the chapter's figures beside this run's (app/report/notes.py) ----------------------
-
-def _bytes_note(rows) -> list[str]:
-    """The bytes shading reads per lit tile (stat shade_bytes_per_tile, the chapter's
-    variant: per-tile fine lists) per scene and index format, beside the chapter's 32 B."""
-    import json
-    by: dict[tuple, list] = {}
-    for r in rows:
-        st = json.loads(r["stats"]) if r.get("stats") else {}
-        if "shade_bytes_per_tile" not in st or int(float(r.get("fptl_variant") or 0)) != 0:
-            continue
-        by.setdefault((r["scene"], int(st["index_bits"])), []).append(st)
-    if not by:
-        return []
-    parts = []
-    for (scene, bits), sts in by.items():
-        m = lambda k: sum(s[k] for s in sts) / len(sts)
-        parts.append(f"{scene} ({bits}-bit indices, {list_words(bits) * 4} B a tile stored) "
-                     f"{m('shade_bytes_per_tile'):.1f} B ({m('shade_list_bytes_per_tile'):.1f} of list "
-                     f"words, {m('shade_spill_bytes_per_tile'):.1f} of spill heads and spill)")
-    return ["The chapter stores a tile's list in 32 bytes (eight R10G10B10A2 blocks, the count "
-            "in their 2-bit fields: 1 bit a pixel), all that lighting pulls from the tile.  This "
-            "run's shading reads its lists the same way, the length and the spill flag in the "
-            "words themselves (at 10-bit indices exactly the 32 B; past 1,024 visible lights a "
-            "count word and the index words filled), plus, for lists past 24, the spill the "
-            "chapter does not have; bytes shading reads per lit tile, mean over the frames: "
-            + "; ".join(parts) + ".", ""]
-
-
-def _notes(rows) -> tuple[str, str]:
-    import json
-    text = ["The chapter (1920x1080 interior, AMD GCN): coarse lists cost 0.5 ms and lighting "
-            "5.4 ms; fine pruning costs 1.7 ms and lighting drops to 1.4 ms; its heat maps "
-            "(figures 2.4-2.6) show pruning lowering the count in almost every tile.", ""]
-    text += _bytes_note(rows)
-    study = [r for r in rows if r["study"] == "fptl_variant"]
-    if study:
-        text += [f"This run's variant study ({study[0]['scene']}, {int(study[0]['lights'])} lights):",
-                 "", "| variant | list building ms | shading ms | evaluated/px | coarse/tile | "
-                 "pruned/tile | shading reads B/tile | culling bytes |", "|---|---|---|---|---|---|---|---|"]
-        for r in sorted(study, key=lambda r: int(r["fptl_variant"])):
-            st = json.loads(r["stats"]) if r.get("stats") else {}
-            build_ms = float(r.get("gpu_cull_ms") or 0)      # light_aabb + fptl_lists
-            text.append(f"| {VARIANTS[int(r['fptl_variant'])]} | {build_ms:.3g} | "
-                        f"{float(r.get('gpu_shade_ms') or 0):.3g} | {float(r['evaluated_pp']):.3g} | "
-                        f"{st.get('coarse_per_tile', 0):.3g} | {st.get('pruned_per_tile', 0):.3g} | "
-                        f"{st.get('shade_bytes_per_tile', 0):.3g} | {int(r['bytes_culling']):,} |")
-    path = [r for r in rows if r["study"] == "path"]
-    for scene in dict.fromkeys(r["scene"] for r in path):
-        st = [json.loads(r["stats"]) for r in path if r["scene"] == scene and r.get("stats")]
-        coarse = sum(s.get("coarse_entries", 0) for s in st)
-        pruned = sum(s.get("pruned_entries", 0) for s in st)
-        over = sum(s.get("pruned_overflow_cells", 0) + s.get("coarse_overflow_tiles", 0) for s in st)
-        if coarse:
-            text.append(f"\n{scene} (every path frame): fine pruning keeps {pruned / coarse:.1%} of "
-                        f"the coarse entries ({pruned:,} of {coarse:,}); {over:,} tile lists "
-                        f"passed a cap (64 coarse or 24 pruned) and were shaded exactly from the "
-                        f"spill.")
-    return "what the chapter measures", "\n".join(text)
