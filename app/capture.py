@@ -1,4 +1,4 @@
-"""Headless capture (DESIGN "Contract: capture and dump").
+"""Headless capture (docs/contracts.md "Contract: capture and dump").
 
     python -m app.capture --scene NAME_OR_JSON --technique ID [--lights N] [--seed S]
                           [--size WxH] [--frame K] [--out image.png] [--dump frame.npz]
@@ -18,7 +18,7 @@ is printed apart as `cpu_warmup_ms`.  The frame's GPU passes are timed once by d
 that first dispatch of each program includes the driver's compile of it (llvmpipe compiles
 at the first dispatch), so the printed `gpu_timing` says "first frame"; --repeat N times N
 more samples of the frame's passes and prints their per-pass median (`gpu_ms`) and the
-total's min / max (`gpu_total_ms`), as the benchmark does (DESIGN "Measuring": medians over
+total's min / max (`gpu_total_ms`), as the benchmark does (docs/platform.md "Measuring": medians over
 repeated frames).
 
 The PNGs are what the window shows (app.images, one definition): --out is the displayed

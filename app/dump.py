@@ -1,4 +1,4 @@
-"""The dump of the contract (DESIGN "Contract: capture and dump"): per pixel, row 0 = top,
+"""The dump of the contract (docs/contracts.md "Contract: capture and dump"): per pixel, row 0 = top,
 image float32 (H,W,3), depth float32, evaluated / contrib_count / contrib_hash uint32, and
 meta, a JSON string."""
 from __future__ import annotations

@@ -3,7 +3,7 @@ minute, before the benchmark report):
 
     python -m app.summary out/capture [--out out/summary]
 
-reads every capture dump in the folder (`--dump`, DESIGN "Contract: capture and dump") of one
+reads every capture dump in the folder (`--dump`, docs/contracts.md "Contract: capture and dump") of one
 scene and frame, and writes
 
     summary.png  the reference's shaded image, then every technique's heat map of lights

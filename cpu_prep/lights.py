@@ -144,7 +144,7 @@ def _view_light(li, m):
     t = li.type
     rx = ry = rz = np.float32(0.0)
     if t == LIGHT_BOX:
-        # right = normalize(cross(direction, up)), up' = cross(right, direction) (DESIGN)
+        # right = normalize(cross(direction, up)), up' = cross(right, direction) (docs/contracts.md)
         ux, uy, uz = _rotate(m, li.up)
         fx, fy, fz = float(dx), float(dy), float(dz)
         x, y, z = _unit(fy * uz - fz * uy, fz * ux - fx * uz, fx * uy - fy * ux)

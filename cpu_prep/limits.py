@@ -16,7 +16,7 @@ NODE_SKIP_BITS = 15
 NODE_MAX_LIGHTS = (1 << NODE_COUNT_BITS) - 1     # 65,535 lights in one leaf
 NODE_MAX_SKIP = (1 << NODE_SKIP_BITS) - 1        # 32,767 nodes in one subtree
 
-# Shading workgroup: the emulated 64-lane wave is one 8x8 workgroup (DESIGN "Subgroup-style").
+# Shading workgroup: the emulated 64-lane wave is one 8x8 workgroup (docs/platform.md "Subgroup-style").
 WAVE_SIZE = 64
 WAVE_DIM = 8
 

@@ -8,7 +8,7 @@ and flat bit arrays.  numpy in, GPU-layout numpy arrays out, no OpenGL.
     tile_bits[tile * words + N / 32] bit N % 32 = light N's screen rectangle touches the tile
                 (tile = ty * tiles_x + tx, ty from the bottom, as cpu_prep.grid)
 
-Widths and fallbacks (DESIGN "Bit-width limits"; nothing is ever wrapped):
+Widths and fallbacks (cpu_prep/limits.py; nothing is ever wrapped):
   * 16-bit ids hold lights 0..65,535, so up to ZBIN_NARROW_MAX_LIGHTS = 65,536 visible lights
     use the slides' 2 x 16-bit entry.  Past that the LUT takes 2 x 32-bit entries
     (uvec2 (min, max) per bin; `wide=True`; the shader's ZBIN_WIDE=1): twice the bytes of a

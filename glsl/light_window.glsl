@@ -1,4 +1,4 @@
-// Finite-window attenuation (DESIGN "Light model"): (1 - (d/r)^4)^2 / (d^2 + 1), zero
+// Finite-window attenuation (docs/contracts.md "Light model"): (1 - (d/r)^4)^2 / (d^2 + 1), zero
 // outside the volume, so culling at the radius is exact.
 // With UNBOUNDED_FALLOFF (the benchmark's no-cutoff reference) the window is dropped and
 // every light reaches every point: 1 / (d^2 + 1).

@@ -4,7 +4,7 @@
 // "features.glsl" (app.pipeline.features), so a scene compiles only the light types it has.
 //
 // Dispatch windows: a software rasterizer (llvmpipe) silently stops every loop of an
-// invocation once their iterations together pass 65,535 (DESIGN "Platform facts").  So a pass
+// invocation once their iterations together pass 65,535 (docs/platform.md "Platform facts").  So a pass
 // may run as several dispatches, each evaluating the lights at positions [u_window.x,
 // u_window.y) of the pixel's sequence (the order its loops meet lights in, counted by s.seq)
 // and carrying the pixel's sums over from the previous dispatch: the same lights in the same
@@ -150,7 +150,7 @@ uint affecting_mask(inout PixelState s, uint first, uint n) {
 // the set-bit loop pays it only as often as the busiest lane has lights (brute 3.7x faster
 // on the arena at 8,192 lights).  On a GPU the set-bit loop packs the lanes of a wave onto
 // their own lights instead of running one light's shading for any lane it affects
-// (app/model/waves.py replays both loops).  Loop budget: up to 2 + 3/32 iterations a light
+// (app/model/waves replays both loops).  Loop budget: up to 2 + 3/32 iterations a light
 // (cpu_prep/limits.py DISPATCH_WINDOW).
 void evaluate_all_lights(inout PixelState s) {
     uvec2 w = window_part(s, u_light_count);

@@ -1,4 +1,4 @@
-// Subgroup-style wave API (DESIGN "Subgroup-style emulation").
+// Subgroup-style wave API (docs/platform.md "Subgroup-style emulation").
 //
 // group*: the portable emulation, one 64-lane wave = one 8x8 workgroup, through shared
 //   memory.  Every invocation of the group must call each function (they hold barriers), so

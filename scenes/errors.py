@@ -5,7 +5,7 @@ Every rejection is a `SceneError` (a ValueError) whose message is one line
 `<file>: <field path>: <what is wrong> (got <value>)`, e.g.
 `scene.json: lights[3].radius: must be a finite number in (0, 1e+07] (got -1.0)`.
 
-Range checks apply to the values as they are stored (DESIGN "Contract: scene files"): a light's
+Range checks apply to the values as they are stored (docs/contracts.md "Contract: scene files"): a light's
 fields and the geometry live in float32, so `FieldChecker.num` rounds to float32 first and
 checks the rounded value; nothing that passes can round into an invalid value (a radius of
 1e-46 is 0 in float32 and is refused).  The camera is stored as Python floats (float64), so

@@ -1,4 +1,4 @@
-"""glTF 2.0 scenes (`.gltf`, `.glb`) -> Scene (DESIGN.md "Contract: scene files").
+"""glTF 2.0 scenes (`.gltf`, `.glb`) -> Scene (docs/contracts.md "Contract: scene files").
 
 What is read, and how it converts (every rule below is this lab's, stated once here):
 

@@ -1,4 +1,4 @@
-"""Scene loading: builtin names, JSON scene files and glTF 2.0 files (DESIGN.md "Contract:
+"""Scene loading: builtin names, JSON scene files and glTF 2.0 files (docs/contracts.md "Contract:
 scene files"; glTF in scenes/gltf.py).
 
 Every rejection is a `SceneError` (a ValueError) whose message is one line
@@ -20,7 +20,7 @@ Strict on purpose:
 - the builtin scenes' draw arguments (`distribution`, a non-default `seed`) are errors for a
   file (load_scene).
 
-Light shapes (DESIGN "Light model"): point, spot, capsule (`direction`, `length` >= 0) and box
+Light shapes (docs/contracts.md "Light model"): point, spot, capsule (`direction`, `length` >= 0) and box
 (`direction`, `up` not parallel to it, half extents `extent` > 0, no `radius`: a box light's
 stored radius is its bounding sphere |extent|, the model ignores it).
 """
@@ -55,7 +55,7 @@ TOP_KEYS = ("resolution", "camera", "geometry", "lights", "lights_npz", "motion"
 MOTION_KEYS = ("kind", "speed", "seed", "bounds")
 CAMERA_KEYS = ("position", "target", "up", "fov_y_deg", "near", "far")
 BOX_KEYS = ("min", "max")
-# A geometry entry's material (DESIGN "Contract: scene files"): albedo, and GGX specular when
+# A geometry entry's material (docs/contracts.md "Contract: scene files"): albedo, and GGX specular when
 # `roughness` is given (> 0; without it, or at 0, the surface is matte), `metallic` in [0, 1].
 MATERIAL_KEYS = ("albedo", "roughness", "metallic")
 GEOMETRY_KEYS = {"box": ("box",) + MATERIAL_KEYS,
@@ -286,7 +286,7 @@ def _json_lights(ctx: FieldChecker, v) -> np.ndarray:
                              f"(got {jtype(e)} {show(e)})")
             rec["extent"] = [ctx.num(x, f"{fe}[{k}]", 0.0, MAX_RADIUS, lo_incl=False)
                              for k, x in enumerate(e)]
-            # radius is ignored for a box (DESIGN "Light model"): it holds the box's bounding
+            # radius is ignored for a box (docs/contracts.md "Light model"): it holds the box's bounding
             # sphere, so code that reads any light's radius stays conservative.
             rec["radius"] = np.linalg.norm(rec["extent"].astype(np.float64))
     return out
@@ -400,14 +400,14 @@ def _npz_lights(ctx: FieldChecker, v, n_json: int) -> np.ndarray:
         out[key] = f32[key]
     out["direction"] = dn
     out["up"] = up
-    # a box's radius is ignored (DESIGN): it holds the box's bounding sphere (as JSON boxes)
+    # a box's radius is ignored (docs/contracts.md): it holds the box's bounding sphere (as JSON boxes)
     out["radius"][box] = np.linalg.norm(f32["extent"][box].astype(np.float64), axis=1)
     return out
 
 
 # -------------------------------------------------------------------------------- API
 def scene_from_dict(d, base_dir=None, source_name: str = "<scene>") -> Scene:
-    """Validate a parsed JSON scene (DESIGN.md contract) and build the Scene.
+    """Validate a parsed JSON scene (docs/contracts.md) and build the Scene.
 
     `base_dir` resolves relative mesh / npz paths; `source_name` prefixes every error."""
     ctx = FieldChecker(str(source_name), base_dir)

@@ -3,7 +3,7 @@
 `scenes` produces scenes and nothing else: no OpenGL, no culling.
 
 Lights are one structured numpy array (LIGHT_DTYPE), one row per light; a light's
-id is its row index.  The light model (DESIGN.md "Light model"): a light affects
+id is its row index.  The light model (docs/contracts.md "Light model"): a light affects
 a point only inside its finite volume:
 
     point    distance(P, position) < radius
@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-# The light type ids of the scene contract (DESIGN "Contract: scene files"), defined here
+# The light type ids of the scene contract (docs/contracts.md "Contract: scene files"), defined here
 # once: index = type id.  The CPU stage, the loader and the generated GLSL (LIGHT_SPOT ...)
 # all read this tuple.
 LIGHT_TYPES = ("point", "spot", "capsule", "box")

@@ -41,7 +41,7 @@ class Motion:
     hi: tuple[float, float, float]
 
     def to_dict(self) -> dict:
-        """The scene file's form (DESIGN "Contract: scene files", `motion`)."""
+        """The scene file's form (docs/contracts.md "Contract: scene files", `motion`)."""
         return {"kind": self.kind, "speed": self.speed, "seed": self.seed,
                 "bounds": {"min": list(self.lo), "max": list(self.hi)}}
 

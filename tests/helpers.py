@@ -62,7 +62,7 @@ def random_shapes(rng, n: int, lo, hi, radius=(0.2, 5.0), length=(0.0, 12.0), ex
 
 def affects64(P: np.ndarray, lights: np.ndarray, view_from_world: np.ndarray, rel: float = 1e-4):
     """(inside, near) (N_points, N_lights) bools in float64: whether each light's volume
-    (DESIGN "Light model") holds each view-space point, and whether the point lies within
+    (docs/contracts.md "Light model") holds each view-space point, and whether the point lies within
     `rel` of the volume's boundary (where float32 may decide either way)."""
     m = np.asarray(view_from_world, np.float64)
     rot = lambda v: np.asarray(v, np.float64) @ m[:3, :3].T
@@ -124,7 +124,7 @@ def pixel_oracle(renderer, lights, camera=CAMERA):
 
 
 def npz_arrays(n: int = 3) -> dict:
-    """A lights_npz file's arrays (DESIGN "Contract: scene files"): n valid lights, the
+    """A lights_npz file's arrays (docs/contracts.md "Contract: scene files"): n valid lights, the
     second a spot, the others points; tests change or drop arrays to make bad files."""
     types = np.zeros(n, np.uint8)
     types[1:2] = LIGHT_SPOT

@@ -1,4 +1,4 @@
-"""Benchmark: what each culling technique costs and what it gains (DESIGN "Measuring").
+"""Benchmark: what each culling technique costs and what it gains (docs/platform.md "Measuring").
 
     python -m app.bench cpu --scene S --technique T [--lights N] [--size WxH] [--tile 48]
                             [--slices 16] [--repeat R] [--threads 1] [--json]

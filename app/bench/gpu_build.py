@@ -1,7 +1,7 @@
 """`python -m app.bench gpu-build`: each technique's structures built on the CPU and on the
 GPU (--build cpu / gpu) at each light count, as a ratio, and where the GPU
 build's time goes: on llvmpipe the passes run on the same two cores as the numba stage, so
-only the ratio (and the passes' shares) mean anything (DESIGN "Measuring").
+only the ratio (and the passes' shares) mean anything (docs/platform.md "Measuring").
 
     cpu ms   the CPU stage's steps (cull, sort, bin, build, pack; meta cpu_ms less the upload)
     gpu ms   the build's timed passes (meta gpu_ms: build_cull, build_sort, build_pack,

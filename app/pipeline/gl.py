@@ -1,7 +1,7 @@
 """The one GL context of the process (headless EGL), its limits, and pass timing.
 
 Timing: GL timer queries on a real GPU; on llvmpipe they do not time compute dispatches
-(DESIGN "Platform facts"), so there a pass is wall clock around the dispatch plus finish().
+(docs/platform.md "Platform facts"), so there a pass is wall clock around the dispatch plus finish().
 """
 from __future__ import annotations
 

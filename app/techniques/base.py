@@ -5,7 +5,7 @@
     role          "technique"; "reference" (brute: the exactness check's reference) or
                   "floor" (perfect: the shading floor no technique can beat)
     Options       its own frozen dataclass of declared options (app.techniques.options)
-    views         the window's views it has (app.window.views): every technique has shaded,
+    views         the window's views it has (app.views): every technique has shaded,
                   heat, diff and split; one with that structure adds tiles, slices, classes
     glsl          shader texts of its own by file name, beside glsl/: its structs and
                   constants generated from Python (fptl_structs.glsl); usually empty

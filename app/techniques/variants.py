@@ -62,7 +62,7 @@ CELL_LISTS, CELL_NODES, CELL_BITS = 1, 2, 3       # variant_cells.comp CELL_SOUR
 # its packed lists with spill are no CSR scan; fptl_lists.comp ORs each kept light's shape)
 CELL_PRECOMPUTED = 4
 # A cell scan longer than this takes every shape of the frame unscanned: 8 llvmpipe lanes in
-# lockstep x 4,096 stay within its 65,535-iteration loop limit (DESIGN "Platform facts").
+# lockstep x 4,096 stay within its 65,535-iteration loop limit (docs/platform.md "Platform facts").
 SCAN_BUDGET = 4096
 MAX_PROGRAMS = 28        # specialised programs a frame; with the general one HDRP's 29 variants
 HDRP_TILE = 16           # HDRP's classification tile (TILE_SIZE_FPTL)

@@ -1,4 +1,4 @@
-"""Bad input through the command line (DESIGN "Contract: scene files" and "capture"): every
+"""Bad input through the command line (docs/contracts.md "Contract: scene files" and "capture"): every
 rejection is exit status 2 and exactly one line on stderr naming the field, no traceback.
 
 tests/scenes/test_loader.py unit-tests the loader; here the same kinds of faults go through

@@ -81,7 +81,7 @@ def test_geometry_distribution_touches_geometry(name):
     tris = mesh_triangles(s.meshes)
     L = s.lights
     d = _min_dist_to_triangles(L["position"].astype(np.float64), tris)
-    # the reach of each shape's volume from its position (DESIGN "Light model")
+    # the reach of each shape's volume from its position (docs/contracts.md "Light model")
     from scenes.model import LIGHT_BOX, LIGHT_CAPSULE
     reach = np.where(L["type"] == LIGHT_CAPSULE, L["radius"] + L["length"] / 2, L["radius"])
     reach = np.where(L["type"] == LIGHT_BOX, np.linalg.norm(L["extent"], axis=1), reach)

@@ -85,7 +85,7 @@ class ZBin(Technique, register_at=60):
     # depends on the wave width (native subgroup or emulated 64-lane group); counts, hashes
     # and images do not.
     evaluates_per_wave = True
-    # the window's views (app.window.views): the common ones and the bit arrays' tile grid
+    # the window's views (app.views): the common ones and the bit arrays' tile grid
     views = Technique.views + ("tiles", "maps", "variants")
 
     @dataclass(frozen=True)

@@ -311,7 +311,7 @@ def test_limits_record_the_native_path(gl):
         exts, *(glmod.gl_integers(0x9532, 0x9533, 0x9534) if "GL_KHR_shader_subgroup" in exts
                 else (0, 0, 0)))
     assert lim.wave_define == glmod.WAVE_PATHS[lim.native_wave]
-    if lim.software:     # llvmpipe (Mesa 22.3, DESIGN "Platform facts"): ARB, no KHR
+    if lim.software:     # llvmpipe (Mesa 22.3, docs/platform.md "Platform facts"): ARB, no KHR
         assert lim.native_wave == "arb" and lim.native_ballot and lim.subgroup_size == 0
     # the raw query: a name moderngl knows reads the same; a refused one reads 0, no error left
     assert glmod.gl_integers(0x0D33) == (int(gl.info["GL_MAX_TEXTURE_SIZE"]),)
