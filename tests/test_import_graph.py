@@ -119,3 +119,14 @@ def test_technique_frames_stay_free_of_the_model_and_report():
         name = f"app.techniques.{path.parent.name}"
         assert not any(d.startswith(("app.model", "app.report")) for d in g[name]), (name, g[name])
         assert len(path.read_text().splitlines()) <= 400, name
+
+
+def test_headless_tools_stand_below_the_window():
+    """Capture and the benchmark run without a display: they import nothing of the window
+    (the camera-path format is scenes.camera_path, the shared flags app.cli, the views'
+    definitions app.views)."""
+    g = graph()
+    tools = [m for m in g if m == "app.capture" or m.startswith("app.bench")]
+    assert "app.capture" in tools and "app.bench" in tools
+    for mod in tools:
+        assert not any(d.startswith("app.window") for d in g[mod]), (mod, g[mod])
