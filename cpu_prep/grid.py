@@ -229,17 +229,25 @@ def rect_boxes(grid: Grid, rect, depth_lo, depth_hi, arena: Arena | None = None)
     return out
 
 
+@numba.njit(inline="always")
+def _store_box(i, rect, d_lo, d_hi, tile, tiles_x, tiles_y, table, out):
+    """Light i's box of cells into out[i], and returned; an empty box (1, 0, ...) where
+    nothing of the light can be seen."""
+    x0, x1, y0, y1, lo, hi = rect[i, 0], rect[i, 1], rect[i, 2], rect[i, 3], float(d_lo[i]), float(d_hi[i])
+    if not (x0 <= x1 and y0 <= y1 and lo <= hi):
+        a0, a1, b0, b1, s0, s1 = 1, 0, 1, 0, 1, 0
+    else:
+        a0, a1, b0, b1, s0, s1 = _box(x0, x1, y0, y1, lo, hi, tile, tiles_x, tiles_y, table)
+    # six stores, not out[i] = (tuple): numba lowers a tuple stored into an array row
+    # through its general sequence setitem, 3 s of the cold compile of this loop
+    out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = a0, a1, b0, b1, s0, s1
+    return a0, a1, b0, b1, s0, s1
+
+
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _rect_boxes(rect, d_lo, d_hi, tile, tiles_x, tiles_y, table, out):
     for i in range(rect.shape[0]):
-        x0, x1, y0, y1, lo, hi = rect[i, 0], rect[i, 1], rect[i, 2], rect[i, 3], float(d_lo[i]), float(d_hi[i])
-        if not (x0 <= x1 and y0 <= y1 and lo <= hi):     # nothing of the light can be seen
-            out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = 1, 0, 1, 0, 1, 0
-            continue
-        # six stores, not out[i] = (tuple): numba lowers a tuple stored into an array row
-        # through its general sequence setitem, 3 s of the cold compile of this loop
-        a0, a1, b0, b1, s0, s1 = _box(x0, x1, y0, y1, lo, hi, tile, tiles_x, tiles_y, table)
-        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = a0, a1, b0, b1, s0, s1
+        _store_box(i, rect, d_lo, d_hi, tile, tiles_x, tiles_y, table, out)
 
 
 @numba.njit(inline="always")
@@ -272,12 +280,7 @@ def _box_corners(boxes, diff):
 def _boxes_corners_range(a, b, rect, d_lo, d_hi, tile, tiles_x, tiles_y, table, out, diff):
     """rect_boxes() and the difference-array count in one pass over lights a .. b-1."""
     for i in range(a, b):
-        x0, x1, y0, y1, lo, hi = rect[i, 0], rect[i, 1], rect[i, 2], rect[i, 3], float(d_lo[i]), float(d_hi[i])
-        if not (x0 <= x1 and y0 <= y1 and lo <= hi):     # nothing of the light can be seen
-            out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = 1, 0, 1, 0, 1, 0
-            continue
-        a0, a1, b0, b1, s0, s1 = _box(x0, x1, y0, y1, lo, hi, tile, tiles_x, tiles_y, table)
-        out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4], out[i, 5] = a0, a1, b0, b1, s0, s1
+        a0, a1, b0, b1, s0, s1 = _store_box(i, rect, d_lo, d_hi, tile, tiles_x, tiles_y, table, out)
         if a0 <= a1 and b0 <= b1 and s0 <= s1:
             _add_corners(diff, a0, a1, b0, b1, s0, s1)
 

@@ -135,6 +135,15 @@ def _check_layout(lib) -> None:
                               "matches scenes.model.LIGHT_DTYPE / _Out: update hybrid_ref.c")
 
 
+def native_array(addr: int, dtype, count: int) -> np.ndarray:
+    """`count` elements of `dtype` at a compiled reference's output address, viewed in place
+    (valid until its context's next frame or close); empty for a null or empty output."""
+    if count == 0 or not addr:
+        return np.zeros(0, dtype)
+    buf = (ctypes.c_char * (count * np.dtype(dtype).itemsize)).from_address(addr)
+    return np.frombuffer(buf, dtype, count)
+
+
 class NativeContext:
     """A compiled C library with one context of its own, reused frame to frame: its
     `<prefix>_new`, `<prefix>_free` and `<prefix>_struct_sizes`."""
@@ -226,12 +235,7 @@ class CReference(NativeContext):
             raise CReferenceError("the C reference ran out of memory")
         n, cells = int(o.visible), int(o.cells)
 
-        def arr(addr, dtype, count):
-            if count == 0 or not addr:
-                return np.zeros(0, dtype)
-            buf = (ctypes.c_char * (count * np.dtype(dtype).itemsize)).from_address(addr)
-            return np.frombuffer(buf, dtype, count)
-
+        arr = native_array
         sorted_ = arr(o.sorted, np.uint64, n)
         rows = arr(o.rows, np.float32, n * layouts.LIGHT_WORDS).view(layouts.GPU_LIGHT)
         try:                           # the limits our stage meets (cpu_prep.frame, grid)

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import CReferenceError, NativeContext, library_path
+from . import CReferenceError, NativeContext, library_path, native_array
 
 SOURCE = Path(__file__).with_name("lean_ref.c")
 # plain C: -O2 for the host CPU, the compiler's own floating-point contraction allowed
@@ -110,12 +110,7 @@ class LeanReference(NativeContext):
             raise CReferenceError("the lean C takes at most 64 slices and 16,384 leaves a tree")
         n, cells = int(o.visible), int(o.cells)
 
-        def arr(addr, dtype, count):
-            if count == 0 or not addr:
-                return np.zeros(0, dtype)
-            buf = (ctypes.c_char * (count * np.dtype(dtype).itemsize)).from_address(addr)
-            return np.frombuffer(buf, dtype, count)
-
+        arr = native_array
         return LeanFrame(
             ids=arr(o.ids, np.uint32, n), rows=arr(o.rows, ROW, n),
             depth=arr(o.z, np.float32, 2 * n).reshape(n, 2), boxes=arr(o.boxes, BOX, n),
