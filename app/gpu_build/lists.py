@@ -85,12 +85,12 @@ def fill_cells(b: Build, capacity: int, entries: int, then, ranges: str) -> list
                   uniforms=dict(bin_uniforms(g), u_cells=g.cells),
                   sources={"counters": COUNTERS, "sorted_cells": "gb_sorted_cells", "ranges": ranges})
     b.stats["list_entries"] = entries
-    b.data["longest_list"] = None            # (known once the next host step has read it)
+    b.longest_list = None                    # (known once the next host step has read it)
     cell_bits = max(int(g.cells - 1).bit_length(), 1)
 
     def longest(read):
-        b.data["longest_list"] = int(read[COUNTERS][LONGEST])
-        return {}, then(b.data["longest_list"])
+        b.longest_list = int(read[COUNTERS][LONGEST])
+        return {}, then(b.longest_list)
     return ([expand] + steps.sort("build_bin", "gb_entry_cells", "gb_entry_lights", "gb_sorted_cells",
                                   "entries", max(entries, 1), cell_bits, COUNTERS, ENTRIES)
             + [bounds, host("build_bin_longest", (COUNTERS,), longest)])

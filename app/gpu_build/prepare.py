@@ -34,7 +34,6 @@ from ..pipeline.passes import Build, Buffer, FrameInput, HostStep, Pass
 from . import steps
 
 COUNTERS = "gb_counters"
-# Build.data key of a GPU build's steps, run by the renderer in place of technique.passes()
 # counter words: each count one pass makes for the next (SCRATCH: a scan's unkept total;
 # TREES / LISTS: cells of more than one leaf / of one; CHOSEN_TREES, LISTS_AS_TREES: the
 # hybrid's listing 2 choices, and its lists stored as trees of lists)

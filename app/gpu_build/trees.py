@@ -97,13 +97,16 @@ def plan_passes(b: Build, windows) -> list[Pass]:
     g = b.grid
     return [cell_pass(2, g.cells, ("counters", "list_ranges", "entries", "light_depth", "slice_depths"),
                       {"sums": Buffer(8 * g.cells)}, {"u_slices": g.slices, "u_entries_window": w})
-            for w in windows(b.data["longest_list"])]
+            for w in windows(b.longest_list)]
 
 
-def tree_passes(b: Build, opts, plan: bool, windows, then) -> list:
-    """The cells' trees (plan: the hybrid's choice first) into `ranges` and `nodes`, then the
-    host step that sizes the nodes and hands over to `then()`: the technique's steps."""
+def tree_passes(b: Build, opts, table_leaves: int, tree_bit: int | None, windows, then) -> list:
+    """The cells' trees (tree_bit: the hybrid's CELL_TREE_BIT, its choice first; None: every
+    cell a tree) into `ranges` and `nodes`, then the host step that sizes the nodes and hands
+    over to `then()`: the technique's steps.  table_leaves: the most leaves a tree holds
+    (the tables upload_tables put in the build)."""
     g, entries = b.grid, b.stats["list_entries"]
+    plan = tree_bit is not None
     choice = {"u_slices": g.slices, "u_radius_scale": float(opts.radius_scale)} if plan else {}
     leaves = cell_pass(3, g.cells, ("list_ranges",) + (("slice_depths", "sums") if plan else ()),
                        {"counters": counters(), "node_counts": steps.words(g.cells),
@@ -123,17 +126,17 @@ def tree_passes(b: Build, opts, plan: bool, windows, then) -> list:
             used = int(c[TREES]) + int(c[LISTS])
             b.stats.update(trees=int(c[CHOSEN_TREES]), lists=used - int(c[CHOSEN_TREES]),
                            lists_stored_as_trees=int(c[LISTS_AS_TREES]))
-        return {}, node_passes(b, opts, plan, nodes) + list(then())
+        return {}, node_passes(b, table_leaves, int(tree_bit or 0), nodes) + list(then())
     return (block_passes(entries) + sums + [leaves]
             + steps.scan("build_tree", "gb_node_counts", "gb_node_first", g.cells, COUNTERS, NODES)
             + [host("build_tree_nodes", (COUNTERS,), sized)])
 
 
-def node_passes(b: Build, opts, plan: bool, nodes: int) -> list[Pass]:
-    """Each cell's range and each node (the tables uploaded with the build: b.data)."""
+def node_passes(b: Build, leaves: int, tree_bit: int, nodes: int) -> list[Pass]:
+    """Each cell's range (tree_bit: the hybrid's CELL_TREE_BIT, else 0) and each node (the
+    tables uploaded with the build for trees of up to `leaves` leaves)."""
     g = b.grid
-    _, skip_at, offsets_at = tables(b.data["tree_table_leaves"])
-    tree_bit = int(b.data.get("cell_tree_bit", 0)) if plan else 0
+    _, skip_at, offsets_at = tables(leaves)
     ranges = cell_pass(4, g.cells, ("node_first", "node_counts", "cell_leaves"),
                        {"ranges": Buffer(g.cells * layouts.CELL_RANGE.itemsize, layouts.CELL_RANGE)},
                        {"u_tree_bit": tree_bit})
@@ -148,10 +151,13 @@ def node_passes(b: Build, opts, plan: bool, nodes: int) -> list[Pass]:
     return [ranges, fill]
 
 
-def upload_tables(b: Build, opts) -> None:
-    """The depth-first tables for every tree this frame can hold, uploaded with the build."""
-    leaves = most_leaves(opts.max_leaves, len(b.frame.lights))
-    b.data["tree_table_leaves"] = leaves
+def frame_leaves(frame, opts) -> int:
+    """The most leaves a tree of this frame can hold (tree_passes' `table_leaves`)."""
+    return most_leaves(opts.max_leaves, len(frame.lights))
+
+
+def upload_tables(b: Build, leaves: int) -> None:
+    """The depth-first tables for every tree of up to `leaves` leaves, uploaded with the build."""
     b.buffers[TABLES] = tables(leaves)[0]
 
 

@@ -35,13 +35,13 @@ def tree_leaves(bins: int) -> int:
 
 def lut_passes(b: Build, bins: int, capacity: int) -> list[Pass]:
     """The Z-bin LUT of the frame's sorted lights into `zbins` (its scale into
-    b.data["bin_scale"], as bit_arrays.attach_zbins)."""
+    b.bin_scale, as bit_arrays.attach_zbins)."""
     n = len(b.lights)
     wide = zb.is_wide(n)
     if wide and n > zb.ZBIN_WIDE_EMPTY_MIN:
         raise LimitError(f"zbin: {n} lights exceed the 31-bit ids of the wide LUT")
     scale = zb.bin_scale(bins, b.frame.max_depth)
-    b.data["bin_scale"] = float(scale)
+    b.bin_scale = float(scale)
     size = tree_leaves(bins)
     defines = {"ZBIN_WIDE": int(wide),
                "ZBIN_EMPTY_MIN": zb.ZBIN_WIDE_EMPTY_MIN if wide else zb.ZBIN_NARROW_EMPTY}

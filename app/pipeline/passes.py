@@ -74,18 +74,23 @@ class FrameInput:
 @dataclass
 class Build:
     """What a technique's CPU stage hands the renderer: arrays to upload (by buffer name),
-    the visible lights, timings by step, figures for the meta, and the technique's own data
-    for its passes (`data`; e.g. the grid).  `steps`: a build made on the GPU
-    (app/gpu_build) brings its passes, ending in the technique's, which the renderer runs in
-    place of technique.passes(); `capped_ids`: the scene ids of the lights a cap policy
-    dropped (None: no cap), which the exactness check renders without."""
+    the visible lights, timings by step, figures for the meta, the grid, and what its passes
+    read: `longest_list` (the longest cell list of a CSR binning, a windowed loop's bound;
+    None until a GPU build has read it back), `bin_scale` (the Z-bin LUT's depth scale,
+    zbin's and raster's), `own` (the technique's own frozen dataclass, e.g. fptl.FptlData).
+    `steps`: a build made on the GPU (app/gpu_build) brings its passes, ending in the
+    technique's, which the renderer runs in place of technique.passes(); `capped_ids`: the
+    scene ids of the lights a cap policy dropped (None: no cap), which the exactness check
+    renders without."""
     frame: FrameInput
     lights: cpuframe.PreparedLights
     buffers: dict[str, np.ndarray] = field(default_factory=dict)
     times: cpuframe.StageTimes = field(default_factory=cpuframe.StageTimes)
     stats: dict[str, object] = field(default_factory=dict)
     grid: gridmod.Grid | None = None
-    data: dict[str, object] = field(default_factory=dict)
+    longest_list: int | None = None
+    bin_scale: float = 0.0
+    own: object | None = None
     steps: list | None = None
     capped_ids: np.ndarray | None = None
 

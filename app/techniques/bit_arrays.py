@@ -29,11 +29,11 @@ DEFAULT_BIT_TILE = 8          # the slides' 8x8 pixel tiles
 
 def attach_zbins(b, zbins: int, max_depth: float) -> None:
     """Drobot's Z-bins over the build's depth-sorted lights: the look-up table into
-    b.buffers["zbins"] and its depth scale into b.data["bin_scale"] (zbin and raster)."""
+    b.buffers["zbins"] and its depth scale into b.bin_scale (zbin and raster)."""
     with b.times.stage("bin"):
         lut, scale = zb.zbin_lut(b.lights.depth_lo, b.lights.depth_hi, zbins, max_depth)
     b.buffers["zbins"] = lut
-    b.data["bin_scale"] = float(scale)
+    b.bin_scale = float(scale)
 
 
 def variant_flags(variant: int) -> tuple[bool, bool]:
@@ -97,7 +97,7 @@ def shading_steps(build, opts: ShadingOptions, bits: str) -> list:
                  "ZBIN_WIDE": int(wide), "ZBIN_PRINTED_MASK": int(opts.printed_mask),
                  "ZBIN_EMPTY_MIN": zb.ZBIN_WIDE_EMPTY_MIN if wide else zb.ZBIN_NARROW_EMPTY},
         uniforms=dict(tile_uniforms(g), u_words=zb.words_for(n), u_bins=opts.zbins,
-                      u_bin_scale=build.data.get("bin_scale", 0.0)),
+                      u_bin_scale=build.bin_scale),
         native_wave=opts.native_wave, sources={"tile_bits": bits})
     return shade + [HostStep("wave counters", (WAVE_STATS,),
                              lambda got: wave_counters(build, got[WAVE_STATS]), figures=True)]

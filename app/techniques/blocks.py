@@ -33,7 +33,7 @@ def list_buffers(b, offsets, entries, duplicated: bool) -> None:
         b.buffers["dup_lights"] = b.lights.gpu[entries]
         cpuframe.check_buffer("duplicated light lists", b.buffers["dup_lights"].nbytes)
     b.stats["list_entries"] = len(entries)
-    b.data["longest_list"] = int(np.diff(offsets).max(initial=0))
+    b.longest_list = int(np.diff(offsets).max(initial=0))
 
 
 def list_reads(duplicated: bool) -> tuple[str, ...]:
@@ -74,7 +74,7 @@ def tree_passes(build, opts, shader: str, native_wave: bool = False, defines=Non
     most its cell's lights (the leaves split the cell's list), in as many inner loops as it
     hits leaves (windows' `steps`)."""
     return shading_passes(build, shader, list_reads(opts.duplicated) + ("nodes",),
-                          build.data["longest_list"], steps=limits.NODE_MAX_SKIP + 1,
+                          build.longest_list, steps=limits.NODE_MAX_SKIP + 1,
                           defines=dict(defines or {}, LIGHTS_DUPLICATED=int(opts.duplicated),
                                        SHARED_TREE_NODES=SHARED_TREE_NODES),
                           uniforms=grid_uniforms(build.grid), native_wave=native_wave)

@@ -91,7 +91,7 @@ def build_lists(frame, opts, slices: int, shade):
     """A list technique's Build whose cull, sort and binning run on the GPU; its steps
     (build.steps, which the renderer runs in place of the technique's
     passes) end in `shade(b)`: the technique's own passes, once the longest list
-    (b.data["longest_list"]) is known, then the lists read back for the figures."""
+    (b.longest_list) is known, then the lists read back for the figures."""
     grid = make_grid(frame, opts, slices)
 
     def after_pack(b):
@@ -147,19 +147,19 @@ def build_trees(frame, opts, slices: int, shade, tree_bit: int | None = None):
     2 chooses) Build whose cull, sort, binning and trees run on the GPU; its steps end in
     `shade(b)`, then the trees read back for the figures."""
     grid = make_grid(frame, opts, slices)
-    plan = tree_bit is not None
+    leaves = gputrees.frame_leaves(frame, opts)
 
     def after_pack(b):
         b.grid = grid
 
         def trees(longest):
-            return gputrees.tree_passes(b, opts, plan, lambda n: windows(frame, n), lambda: with_visible_features(
-                b, shade(b)) + [gpulists.readback_step(b, gputrees.tree_readback(b))])
+            return gputrees.tree_passes(b, opts, leaves, tree_bit, lambda n: windows(frame, n),
+                                        lambda: with_visible_features(b, shade(b)) + [
+                                            gpulists.readback_step(b, gputrees.tree_readback(b))])
         return gpulists.bin_lists(b, trees, ranges=gputrees.LIST_RANGES)
     b = prepare.start(frame, after_pack, cells=grid.cells)
     b.buffers["gb_slice_table"] = gpulists.slice_table(grid)
-    gputrees.upload_tables(b, opts)
-    if plan:
-        b.data["cell_tree_bit"] = tree_bit
+    gputrees.upload_tables(b, leaves)
+    if tree_bit is not None:
         b.buffers[gputrees.SLICE_DEPTHS] = np.column_stack(hybridmod.cell_depth_ranges(grid, frame.max_depth))
     return b

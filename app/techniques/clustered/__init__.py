@@ -48,7 +48,7 @@ class Clustered(Technique, register_at=30):
         # scalarized, the wave walks its cells one round each: its lanes' lists run at
         # different rounds (base.windows' steps)
         shade = shading_passes(build, "shade_clustered.comp", list_reads(opts.duplicated),
-                               build.data["longest_list"], steps=64 if opts.scalarize else 1,
+                               build.longest_list, steps=64 if opts.scalarize else 1,
                                defines={"LIGHTS_DUPLICATED": int(opts.duplicated),
                                         "SCALARIZED": int(opts.scalarize)},
                                uniforms=grid_uniforms(build.grid), native_wave=opts.native_wave)

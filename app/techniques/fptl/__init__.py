@@ -22,7 +22,7 @@ pixel of the tile against each light's true shape, packed as R10G10B10A2 blocks.
                                   counts flag one), the chapter's fixed sequence of per-type
                                   loops -> evaluate_light_as
     counts       (host step)      per-tile coarse / pruned counts, the bytes shading read
-                                  -> meta stats, build.data
+                                  -> meta stats, FptlData.tile_counts
 
 Variants (`fptl_variant`, bit flags like zbin's): 0 fine-pruned per tile (the chapter),
 1 coarse only (what pruning buys: the chapter's 5.4 ms -> 1.4 ms lighting), 2 fine-pruned
@@ -94,7 +94,7 @@ Where the lab departs from the chapter, and why (nothing is ever dropped silentl
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar
 
 import numpy as np
@@ -175,7 +175,6 @@ def sphere_rects(pl, cam) -> np.ndarray:
     bounding sphere's rectangle, fptl_aabb.comp): the same Mara & McGuire rectangle, at the
     AABB pass's near plane, a pixel wider for the GPU's rounding and its inclusive tile
     edges."""
-    from dataclasses import replace
     from cpu_prep.bounds import screen_rects
     x0, x1, y0, y1 = screen_rects(pl.center, pl.bound_radius, replace(cam, near=cam.near * (1 - 1e-3)))
     return np.column_stack([x0 - 1.0, x1 + 1.0, y0 - 1.0, y1 + 1.0])
@@ -201,6 +200,18 @@ def scan_windows(frame, n: int) -> list[tuple[int, int]]:
     if frame.loop_budget is None or n <= size:
         return [(0, n)]
     return [(lo, min(lo + size, n)) for lo in range(0, n, size)]
+
+
+@dataclass(frozen=True)
+class FptlData:
+    """fptl's own build state (Build.own): the spill pool's entries, the list passes' scan
+    windows, whether a per-tile cap applies; tile_counts (read_counts) is set, as a new
+    value, by the frame's counts step, which reads the cells after the frame (None: a frame
+    rendered without its figures)."""
+    spill_capacity: int
+    scans: list[tuple[int, int]]
+    tile_cap: bool
+    tile_counts: dict[str, np.ndarray] | None = None
 
 
 class Fptl(Technique, register_at=70):
@@ -246,7 +257,7 @@ class Fptl(Technique, register_at=70):
         capacity = int(min(need, SPILL_MAX_ENTRIES))
         bits = index_bits(n)
         classes = np.bincount(_CLASS_LUT[b.lights.type.astype(np.intp)], minlength=3)
-        b.data.update(spill_capacity=capacity, scans=scan_windows(frame, n), tile_cap=tile_cap)
+        b.own = FptlData(capacity, scan_windows(frame, n), tile_cap)
         b.stats.update(variant=opts.choice_name("fptl_variant"), tile=TILE, slices=g.slices,
                        tiles=g.tiles_x * g.tiles_y, cells=g.cells, index_bits=bits,
                        list_bytes_per_cell=list_words(bits) * 4, spill_capacity=capacity,
@@ -260,10 +271,8 @@ class Fptl(Technique, register_at=70):
         g, cam, n = build.grid, build.frame.camera, len(build.lights)
         bits = index_bits(n)
         words = list_words(bits)
-        scans = build.data["scans"]
-        capacity = build.data["spill_capacity"]
+        scans, capacity, tile_cap = build.own.scans, build.own.spill_capacity, build.own.tile_cap
         common = {"FPTL_SLICES": g.slices, "FPTL_INDEX_BITS": bits}
-        tile_cap = build.data["tile_cap"]
         cap_writes = {"fptl_category_seen": Buffer(g.cells * CATEGORY_SEEN.itemsize, CATEGORY_SEEN),
                       "fptl_dropped": Buffer(4 * max(1, -(-n // 32)), cleared=True)} if tile_cap else {}
         cap_u = tile_cap_uniforms(cap_policy(opts)) if tile_cap else {}
@@ -321,7 +330,7 @@ class Fptl(Technique, register_at=70):
     def maps(self, result, read):
         """The chapter's figures 2.4-2.6: lights per tile in the coarse list and after fine
         pruning (per tile: its longest cell's list)."""
-        t = result.build.data.get("tile_counts")
+        t = result.build.own.tile_counts
         if t is None:                    # a frame rendered without its figures (the window)
             t = read_counts(result.build, read("fptl_cells"))
         return {"coarse": (t["coarse"], "coarse lights / tile"),
@@ -358,7 +367,7 @@ def _counts(build, cells: np.ndarray, counter: np.ndarray, words: np.ndarray, he
     """Meta stats from the cells' records and, for the bytes shading reads, from what
     shading reads: the lists' words and spill heads (untimed, after the frame)."""
     t = read_counts(build, cells)
-    build.data["tile_counts"] = t
+    build.own = replace(build.own, tile_counts=t)
     pruned, flags, coarse = t["pruned_cells"], t["flags"], t["coarse"]
     full = (flags & FLAG_POOL_FULL) != 0
     lit = coarse > 0
@@ -372,7 +381,7 @@ def _counts(build, cells: np.ndarray, counter: np.ndarray, words: np.ndarray, he
         coarse_overflow_tiles=int((coarse > COARSE_BATCH).sum()),
         pruned_overflow_cells=int((pruned > LIST_CAP).sum()),
         pool_full_cells=int(full.sum()),
-        spill_used=int(min(int(counter[0]), build.data["spill_capacity"])))
+        spill_used=int(min(int(counter[0]), build.own.spill_capacity)))
     # bytes shading reads per tile: every cell some pixel reads (each pixel of a cell reads
     # the same), summed per tile, over the lit tiles (coarse > 0, as the per-tile counts)
     g = build.grid

@@ -46,7 +46,7 @@ def cull_figures(technique, frame, width):
         {"g_position": int(pixels.sum()) * 16, "fptl_aabbs": n * FPTL_AABB.itemsize,
          "lights": min(int(coarse.sum()), n) * 96, "fptl_lists": g.cells * words * 4,
          "fptl_cells": g.cells * FPTL_CELL.itemsize,
-         **({"cell_features": g.cells * 4 * len(b.data["scans"])} if shapes else {})},
+         **({"cell_features": g.cells * 4 * len(b.own.scans)} if shapes else {})},
         barriers=tiles * (6 + 3 * rounds) + 4 * flushes,
         shared_atomics=4 * int(covered.sum()) + int(coarse.sum()) + 8 * 64 * flushes
         + (int(cells["pruned"].sum()) if shapes else 0),
@@ -83,7 +83,7 @@ def wave_program(technique, frame, width):
         used = int(heads.sum(1).max(initial=0))
         spill = prog.add_list(frame.read("fptl_spill")[:used], entry_off=4 * np.arange(used),
                               entry_buf="fptl_spill")
-        for scan in range(len(b.data["scans"])):
+        for scan in range(len(b.own.scans)):
             h = scan * b.grid.cells + cell
             step = 8 * (2 + scan)
             prog.add(lanes, step=step, head=("cell", "fptl_spill_heads", h * 8, 8, False))

@@ -29,7 +29,7 @@ from ...pipeline.passes import Buffer, Draw, HostStep, Pass, StencilStep, Target
 from ..base import Technique, grid_uniforms, prepare, shading_passes
 from ..options import StochasticOptions, choice, option
 from ..bit_arrays import ShadingOptions, attach_zbins, shading_steps, tile_bit_maps, tile_uniforms, variant_flags
-from ..blocks import tile_boxes
+from .counters import raster_counters
 
 VARIANTS = ("atomic", "atomic + 4xMSAA", "atomic + compaction", "atomic + compaction + 4xMSAA")
 MSAA_SAMPLES = 4
@@ -61,6 +61,16 @@ STRUCTS_GLSL = "\n".join(
     + _defines("RASTER_MODE_", MODES)
     + [f"#define DEPTH_BIAS_REL {DEPTH_BIAS_REL!r}", f"#define DEPTH_BIAS_ABS {DEPTH_BIAS_ABS!r}",
        f"#define SHADER_SLACK {SHADER_SLACK!r}"]) + "\n"
+
+
+@dataclass(frozen=True)
+class RasterData:
+    """raster's own build state (Build.own): the visible lights per (proxy shape, side) group,
+    in raster_order's order (one instanced draw a group), and the MSAA samples' full-res
+    pixels in their 2x2 block and positions (_msaa_samples)."""
+    groups: np.ndarray
+    quad: np.ndarray
+    sample_pos: np.ndarray
 
 
 class Raster(Technique, register_at=80):
@@ -130,7 +140,7 @@ class Raster(Technique, register_at=80):
         cpuframe.check_buffer("raster bit arrays", bits_bytes)
         b.buffers["raster_proxies"] = proxies
         b.buffers["raster_order"] = order if n else np.zeros(1, np.uint32)
-        b.data.update(groups=groups, quad=quad, sample_pos=positions)
+        b.own = RasterData(groups, quad, positions)
         b.stats.update(_build_stats(b, opts, masked, bits_bytes, dilation, frame.limits))
         return b
 
@@ -151,7 +161,7 @@ class Raster(Technique, register_at=80):
             out += [replace(p, figures=True) for p in self._cull_passes(build, opts, stats=True)]
             out.append(HostStep("raster counters", ("raster_counters", "raster_light_tiles",
                                                     "raster_tile_depth"),
-                                lambda got: _raster_counters(build, got), figures=True))
+                                lambda got: raster_counters(build, got), figures=True))
         out += self._cull_passes(build, opts, stats=False)
         if opts.cluster:
             g = build.grid
@@ -180,7 +190,7 @@ class Raster(Technique, register_at=80):
         lh = -(-h // 2) if msaa else h
         sx, sy = (w / (2.0 * lw), h / (2.0 * lh)) if msaa else (1.0, 1.0)
         clip = column_major(cam.clip_from_view)
-        quad = np.ascontiguousarray(build.data["quad"], np.int32)
+        quad = np.ascontiguousarray(build.own.quad, np.int32)
         writes = {bits_name: Buffer(max(g.cells * words, 1) * 4, cleared=True)}
         if stats:
             writes["raster_counters"] = Buffer(16, cleared=True)
@@ -188,7 +198,7 @@ class Raster(Technique, register_at=80):
         # raster_proxy.vert's and raster_common.glsl's (the cluster passes add the slices)
         uniforms = dict(tile_uniforms(g), u_clip_from_view=clip, u_near=float(cam.near),
                         u_instance=0, u_step=0, u_ndc=(sx, sy, sx - 1.0, sy - 1.0), u_words=words,
-                        u_sample_pixel=quad, u_sample_pos=build.data["sample_pos"])
+                        u_sample_pixel=quad, u_sample_pos=build.own.sample_pos)
         # each tile's min / max scene depth: the stats' (tile mode: which unmarked lights a
         # depth-bounds test would keep), the cluster MARK / WALK's bounds (the depth prepass)
         bounded = opts.cluster == CLUSTER_BOUNDED
@@ -223,7 +233,7 @@ class Raster(Technique, register_at=80):
         # commands, side effects (our atomics) and all: on hangar at 480x270 an eye-inside
         # proxy drawn later erased other lights' marks in whole 2x2-tile blocks.
         target = Target("raster_cluster", scale=2 if msaa else 1, samples=MSAA_SAMPLES if msaa else 0)
-        groups, out = build.data["groups"], []
+        groups, out = build.own.groups, []
         starts = np.concatenate([[0], np.cumsum(groups)])      # order[] is sorted by (shape, side)
         uniforms = dict(uniforms, **grid_uniforms(build.grid))
         for mode, back, cull in (("mark", 0, "front"), ("walk", 0, "back"), ("inside", 1, "front")):
@@ -264,7 +274,7 @@ class Raster(Technique, register_at=80):
                     draw=Draw(count=3, target=target, depth_test="always", depth_write=True, clear=True),
                     defines={"RASTER_MSAA": int(msaa)}, timed=not stats,
                     uniforms={"u_near": float(cam.near), "u_sample_pixel": quad})]
-        groups = build.data["groups"]
+        groups = build.own.groups
         first = 0
         drawn = False
         for shape in range(4):
@@ -314,7 +324,7 @@ def _msaa_samples(frame, msaa: bool) -> tuple[np.ndarray, np.ndarray, float]:
 
 def _build_stats(b, opts, masked: bool, bits_bytes: int, dilation: float, gl_limits) -> dict:
     """The build's meta stats: the variant, the grid, the bit arrays and the proxies drawn."""
-    g, n, groups = b.grid, len(b.lights), b.data["groups"]
+    g, n, groups = b.grid, len(b.lights), b.own.groups
     tris = sum(int(groups[2 * s + k]) * len(rp.MESHES[s]) // 3 for s in range(4) for k in range(2))
     cluster = f" ({CLUSTER_NAMES[opts.cluster]})" if opts.cluster else ""
     return dict(
@@ -339,55 +349,6 @@ def _compaction(variant: int, gl_limits) -> str:
     if gl_limits.native_wave:
         return "native subgroup"
     return "unavailable (neither GL_KHR_shader_subgroup nor GL_ARB_shader_ballot): plain atomics"
-
-
-def _raster_counters(build, got):
-    """Meta stats of the untimed twin (module doc): fragments, atomics, marks, and the
-    lights occlusion removed."""
-    c = got["raster_counters"].view(np.uint32)
-    per_light = got["raster_light_tiles"].view(np.uint32)[:len(build.lights)].astype(np.int64)
-    g, pl = build.grid, build.lights
-    boxes = tile_boxes(pl, g)
-    nx = (boxes[:, 1] - boxes[:, 0] + 1).clip(0)
-    ny = (boxes[:, 3] - boxes[:, 2] + 1).clip(0)
-    ns = (boxes[:, 5] - boxes[:, 4] + 1).clip(0)
-    rect_tiles = nx * ny * ns              # the cells (tiles, or clusters) of the CPU's boxes
-    depth = got["raster_tile_depth"].view(np.uint32).reshape(-1, 2)
-    lo = (~depth[:, 0]).view(np.float32).reshape(g.tiles_y, g.tiles_x)
-    hi = depth[:, 1].view(np.float32).reshape(g.tiles_y, g.tiles_x)
-    covered = depth[:, 1].reshape(g.tiles_y, g.tiles_x) != 0
-    unmarked = np.nonzero((per_light == 0) & (rect_tiles > 0))[0]
-    occluded = _kept_by_tile_depth(boxes[unmarked], pl.depth_lo[unmarked], pl.depth_hi[unmarked],
-                                   covered, lo, hi)
-    build.stats.update(
-        raster_fragments=int(c[0]), raster_atomics=int(c[1]), raster_marks=int(per_light.sum()),
-        rect_marks=int(rect_tiles.sum()), unmarked_lights=int(len(unmarked)),
-        occluded_lights=int(occluded), raster_pixel_marks=int(c[2]))
-    return {}, []
-
-
-def _kept_by_tile_depth(boxes, depth_lo, depth_hi, covered, lo, hi,
-                        pairs_per_step: int = 1 << 22) -> int:
-    """How many of these lights a tile depth-bounds test (tiled's) would keep: some covered
-    tile of the light's rectangle (boxes: x0, x1, y0, y1 inclusive) whose depth range meets
-    the light's.  Every (light, tile) pair at once, in steps of at most `pairs_per_step`
-    pairs (one light's rectangle may be the whole screen)."""
-    w = (boxes[:, 1] - boxes[:, 0] + 1).astype(np.int64)
-    h = (boxes[:, 3] - boxes[:, 2] + 1).astype(np.int64)
-    n = w * h
-    ends = np.cumsum(n)
-    kept, first = 0, 0
-    while first < len(n):
-        last = max(first + 1, int(np.searchsorted(ends, ends[first] - n[first] + pairs_per_step, "right")))
-        own = np.repeat(np.arange(first, last), n[first:last])
-        starts = ends[first:last] - n[first:last]
-        k = np.arange(len(own)) + starts[0] - np.repeat(starts, n[first:last])   # tile of its box
-        tx = boxes[own, 0] + k % w[own]
-        ty = boxes[own, 2] + k // w[own]
-        keep = covered[ty, tx] & (lo[ty, tx] <= depth_hi[own]) & (hi[ty, tx] >= depth_lo[own])
-        kept += len(np.unique(own[keep]))
-        first = last
-    return kept
 
 
 # ---- the slides' figures beside this run's (app/report/notes.py) ------------------------

@@ -148,7 +148,7 @@ class ZBin(Technique, register_at=60):
         intersection)."""
         b = result.build
         out = tile_bit_maps(b.buffers["tile_bits"], b.grid, result.depth,
-                            b.buffers.get("zbins"), b.data.get("bin_scale", 0.0))
+                            b.buffers.get("zbins"), b.bin_scale)
         if "light_depth" in b.buffers:
             m = tile_bit_maps(read("zbin_bits"), b.grid)["tile_lights"][0]
             out["tile_lights_depth"] = (m, "lights / tile after the depth test")

@@ -66,7 +66,7 @@ def test_a_cell_past_65535_lights_splits_and_listing_2_sums_over_windows(gl):
             cpu, got[name] = render_both(f.renderer, name, opts, lights=L)
             assert_same_build(cpu, got[name], name)
         fi = FrameInput(L, f.cam, f.scene.max_depth, loop_budget=f.renderer.limits.loop_budget)
-    assert len(windows(fi, got["hybrid"].build.data["longest_list"])) > 1
+    assert len(windows(fi, got["hybrid"].build.longest_list)) > 1
     assert got["hybrid"].meta["stats"]["lists_stored_as_trees"] == 1
     assert got["tree"].meta["stats"]["nodes"] == 3                  # two leaves and a root
     assert (brute.contrib_count > 0).any()

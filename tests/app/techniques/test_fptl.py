@@ -170,7 +170,7 @@ def expected_shade_bytes(r, res, lists_of):
     st, b = res.meta["stats"], res.build
     bits, g = st["index_bits"], b.grid
     cells = r.read("fptl_cells").view(fptl.FPTL_CELL)
-    scans = len(b.data["scans"])
+    scans = len(b.own.scans)
     per_cell = np.zeros(len(cells), np.int64)
     for c, rec in enumerate(cells):
         if not rec["flags"] & fptl.FLAG_COVERED:
@@ -183,7 +183,7 @@ def expected_shade_bytes(r, res, lists_of):
         if k > 24:
             per_cell[c] += 8 * scans + 4 * (k - 24)
     t = per_cell.reshape(g.tiles_y, g.tiles_x, g.slices).sum(2)[::-1]
-    return t[b.data["tile_counts"]["coarse"] > 0]
+    return t[b.own.tile_counts["coarse"] > 0]
 
 
 def perfect_tile_sets(r, tiles_x, tiles_y):
@@ -323,12 +323,12 @@ def test_fine_lists_are_exactly_the_lights_of_the_tile_in_class_order(gl, n):
 
 
 def test_per_tile_counts_for_heat_maps(gl, rng):
-    """build.data['tile_counts'] (image order) and the per-pixel evaluated counts agree: in
+    """build.own.tile_counts (image order) and the per-pixel evaluated counts agree: in
     the fine per-tile variant every covered pixel evaluates its tile's pruned list."""
     scene = shapes_scene(rng, 200, size=(80, 48))
     with Renderer(scene) as r:
         res = render(r)
-    t = res.build.data["tile_counts"]
+    t = res.build.own.tile_counts
     assert t["coarse"].shape == t["pruned"].shape == (3, 5)
     assert (t["coarse"] >= t["pruned"]).all()
     per_pixel = np.repeat(np.repeat(t["pruned"], 16, 0), 16, 1)[:48, :80]
@@ -375,7 +375,7 @@ def test_coarse_past_64_and_pruned_past_24_spill_and_stay_exact(gl):
     assert (flags & fptl.FLAG_COARSE_OVER).all() and (flags & fptl.FLAG_SPILLED).all()
     # a spilled tile reads its 32 B, each scan window's head and its spill, nothing more
     assert st["shade_bytes_per_tile"] == pytest.approx(want.mean())
-    assert st["shade_bytes_max_tile"] == want.max() == 32 + 8 * len(res.build.data["scans"]) + 4 * (n - 24)
+    assert st["shade_bytes_max_tile"] == want.max() == 32 + 8 * len(res.build.own.scans) + 4 * (n - 24)
     lit_px = res.contrib_count > 0
     assert (res.evaluated[lit_px] == n).all() and (res.contrib_count == n).mean() > 0.5
     assert all(sorted(v) == list(range(n)) for t, v in lists.items() if lit[t])
@@ -480,7 +480,7 @@ def test_scan_windows_give_the_same_lists(gl, monkeypatch):
         many = render(r)
         lists_many, cells_many = read_lists(r, many)
         ref = render_on(r, techniques=["brute"])
-    assert len(many.build.data["scans"]) == -(-many.meta["stats"]["visible_lights"] // 64) > 2
+    assert len(many.build.own.scans) == -(-many.meta["stats"]["visible_lights"] // 64) > 2
     assert_exact({"brute": ref["brute"], "fptl": many}, "scan windows")
     assert lists_one == lists_many
     assert np.array_equal(cells_one["pruned"], cells_many["pruned"])
@@ -552,7 +552,7 @@ def test_variants_are_exact_and_ordered(gl, rng):
     covered = res[0].depth > 0
     assert (coarse >= fine).all() and (fine >= cell).all() and (cell_coarse >= cell).all()
     assert coarse[covered].sum() > 1.5 * fine[covered].sum()
-    t = res[1].build.data["tile_counts"]
+    t = res[1].build.own.tile_counts
     per_pixel = np.repeat(np.repeat(t["coarse"], 16, 0), 16, 1)[:48, :80]
     assert np.array_equal(res[1].evaluated[covered], per_pixel[covered])
     assert res[2].meta["stats"]["slices"] == fptl.CELL_SLICES

@@ -61,7 +61,7 @@ def test_a_tile_under_its_cap_is_exact(gl):
     with Renderer(make_scene(L, size=SIZE, camera=CAMERA)) as r:
         res, ref, m = render_checked(r, "hdrp-fptl-24")
     assert isinstance(m, IntendedLoss) and m.entries > 0, m.message() if m else "a pass"
-    cells = res.build.data["tile_counts"]["pruned"]          # image order (tiles_y, tiles_x)
+    cells = res.build.own.tile_counts["pruned"]          # image order (tiles_y, tiles_x)
     # a capped tile keeps 24 punctual lights: one of fewer dropped none
     under = np.kron(cells < 24, np.ones((16, 16), bool))[:SIZE[1], :SIZE[0]]
     lit = under & (ref.contrib_count > 0)
@@ -107,7 +107,7 @@ def test_scan_windows_carry_the_category_counts(gl, monkeypatch):
         if r.frame_input(0, 64).loop_budget is None:
             monkeypatch.setattr(r.limits.__class__, "loop_budget", property(lambda self: 65535))
         many, _, m = render_checked(r, "hdrp-fptl-24")
-    assert len(many.build.data["scans"]) > 2
+    assert len(many.build.own.scans) > 2
     assert isinstance(m, IntendedLoss) and m.entries > 0, m.message() if m else "a pass"
     assert np.array_equal(one.contrib_hash, many.contrib_hash)
     assert one.meta["stats"]["capped_entries"] == many.meta["stats"]["capped_entries"]

@@ -123,7 +123,7 @@ def test_spilled_and_pool_full_cells_words(gl, monkeypatch, windows, pool):
     assert_exact({"brute": ref, "fptl": res}, f"spill, windows {windows}")
     s = res.meta["stats"]
     assert s["spilled_lights"] > 0 and (s["pool_full_cells"] > 0) == (pool is not None)
-    assert (len(res.build.data["scans"]) > 2) == windows
+    assert (len(res.build.own.scans) > 2) == windows
     # some cell has a shape in its spill only: a word of its 24 blocks alone would lack it
     types = res.build.lights.type
     spilled = np.nonzero((flags & fptl.STATE) == fptl.FLAG_SPILLED)[0]

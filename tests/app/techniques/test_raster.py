@@ -495,7 +495,7 @@ def test_occluded_lights_count_equals_the_per_light_test():
     """The unmarked lights a tile depth-bounds test would keep (meta occluded_lights), counted
     over every (light, tile) pair at once in steps, against the plain per-light test: random
     grids, rectangles up to the whole grid, steps from one pair to all."""
-    from app.techniques.raster import _kept_by_tile_depth
+    from app.techniques.raster.counters import kept_by_tile_depth
     rng = np.random.default_rng(1)
     for _ in range(100):
         ty, tx = (int(v) for v in rng.integers(1, 30, 2))
@@ -511,4 +511,4 @@ def test_occluded_lights_count_equals_the_per_light_test():
         want = sum(bool((covered[sl] & (lo[sl] <= dh[i]) & (hi[sl] >= dl[i])).any())
                    for i in range(m) for sl in [np.s_[y0[i]:y1[i] + 1, x0[i]:x1[i] + 1]])
         for step in (1, 7, 1 << 22):
-            assert _kept_by_tile_depth(boxes, dl, dh, covered, lo, hi, step) == want
+            assert kept_by_tile_depth(boxes, dl, dh, covered, lo, hi, step) == want
