@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from contextlib import contextmanager
 from functools import lru_cache
+import json
 from pathlib import Path
 
 import numpy as np
@@ -310,3 +311,13 @@ def registered(technique, at: float = float("inf")):
         yield technique
     finally:
         unregister(technique.name)
+
+
+def path_file(tmp_path, n=3) -> Path:
+    """A camera-path file of `n` keys flying down arena's middle (scenes.camera_path's format)."""
+    keys = [{"t": k / 30, "position": [0.0, 6.0, 20.0 - 6 * k], "target": [0.0, 4.0, -20.0],
+             "up": [0, 1, 0], "fov_y_deg": 60, "near": 0.1, "far": 500} for k in range(n)]
+    p = tmp_path / "fly.json"
+    p.write_text(json.dumps({"format": "many-light-lab camera path", "version": 1,
+                             "scene": "arena", "size": [320, 180], "keys": keys}))
+    return p

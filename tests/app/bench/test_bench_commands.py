@@ -11,7 +11,7 @@ import pytest
 from app import bench
 from app.bench import presets, study
 from app.bench.sweep import preset_studies
-from tests.app.bench.test_bench_path import path_file
+from tests.helpers import path_file
 
 ROOT = Path(__file__).resolve().parents[3]
 

@@ -10,17 +10,9 @@ import pytest
 
 from app import bench
 from app.techniques import REGISTRY, with_role
+from tests.helpers import path_file
 
 ROOT = Path(__file__).resolve().parents[3]
-
-
-def path_file(tmp_path, n=3) -> Path:
-    keys = [{"t": k / 30, "position": [0.0, 6.0, 20.0 - 6 * k], "target": [0.0, 4.0, -20.0],
-             "up": [0, 1, 0], "fov_y_deg": 60, "near": 0.1, "far": 500} for k in range(n)]
-    p = tmp_path / "fly.json"
-    p.write_text(json.dumps({"format": "many-light-lab camera path", "version": 1,
-                             "scene": "arena", "size": [320, 180], "keys": keys}))
-    return p
 
 
 def test_every_technique_along_the_path(gl, tmp_path):
