@@ -17,7 +17,7 @@ which lights of a group over its budget go first:
 
 A per_tile policy (HDRP FPTL: 24 or 63 lights of each category in a 16x16 tile's fine-pruned
 list) drops nothing from the view: it acts inside fptl's per-tile list build
-(app/techniques/fptl.py, glsl/fptl_lists.comp), and tile_keep() here is its CPU statement,
+(app/techniques/fptl/, app/techniques/fptl/fptl_lists.comp), and tile_keep() here is its CPU statement,
 from which the exactness check computes the lights each tile must keep (app/tile_caps.py).
 """
 from __future__ import annotations

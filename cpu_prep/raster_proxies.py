@@ -1,6 +1,6 @@
 """raster's proxies (Drobot 2017, rasterization based culling): the canonical proxy meshes and
 each visible light's RasterProxy record.  numpy only, no OpenGL: app/techniques/raster.py
-draws them, glsl/raster_proxy.vert places and scales them (docs/raster.md: the design).
+draws them, app/techniques/raster/raster_proxy.vert places and scales them (docs/raster.md: the design).
 
     proxies (built once per shape, placed and scaled per light in raster_proxy.vert):
       sphere   icosphere (80 triangles) circumscribing the point light's sphere

@@ -1,5 +1,5 @@
 """The GPU build's generic steps as frame-graph passes: an exclusive prefix sum and a stable
-LSD radix sort of (key, value) pairs (glsl/build_scan.comp, glsl/build_sort.comp).
+LSD radix sort of (key, value) pairs (app/gpu_build/build_scan.comp, app/gpu_build/build_sort.comp).
 
     scan   src[n] -> dst[n] exclusive sums:  blocks of 1024 | one group over the block sums
            (the grand total into a counter word) | each block adds its sum
@@ -16,8 +16,8 @@ import numpy as np
 
 from ..pipeline.passes import Buffer, Pass
 
-GROUP = 256                 # glsl/build_common.glsl
-SCAN_BLOCK = 4 * GROUP      # glsl/build_scan.comp
+GROUP = 256                 # app/gpu_build/build_common.glsl
+SCAN_BLOCK = 4 * GROUP      # app/gpu_build/build_scan.comp
 DIGIT_BITS = 8
 NO_TOTAL = 0xFFFFFFFF
 U32 = np.dtype(np.uint32)

@@ -1,6 +1,6 @@
 """tree's and hybrid's cells built on the GPU (--build gpu): per cell a light tree with skip
 counts (tree paper 3.1-3.2) or, in the hybrid, listing 2's choice of a list or a tree (3.3),
-as compute passes over the cells' index lists (glsl/build_tree.comp), each buffer bit for
+as compute passes over the cells' index lists (app/gpu_build/build_tree.comp), each buffer bit for
 bit cpu_prep/tree.py's and hybrid.py's (tests/app/gpu_build/test_trees.py).
 
     (lists.py: the cells' lists -> entries[E], gb_list_ranges[cell], the longest list)

@@ -1,5 +1,5 @@
 """zbin's structures built on the GPU (--build gpu): Drobot's Z-bin LUT and the flat tile bit
-arrays as compute passes (glsl/build_zbin.comp), each bit for bit cpu_prep/zbin.py's
+arrays as compute passes (app/gpu_build/build_zbin.comp), each bit for bit cpu_prep/zbin.py's
 (tests/app/gpu_build/test_zbins.py).
 
     (prepare.py: cull, sort, pack -> lights, gb_light_rect, light_depth; the visible count

@@ -1,6 +1,6 @@
 """Modelled GPU milliseconds of a rendered frame: its passes' wave figures (the culling
-passes' from Technique.cull_figures, the shading pass's replayed from its wave_program) at
-each named GPU's wave width, through the cost model.
+passes' from its replay.py's cull_figures, the shading pass's replayed from its
+wave_program) at each named GPU's wave width, through the cost model.
 
     frame_figures(renderer, technique, result)  -> {width: {pass: Figures}}
     modelled(figures)                           -> {gpu key: {"cull", "shade", "bound"}}

@@ -4,8 +4,8 @@ technique's shading pass does, over the technique's own built structure.
 A GPU runs each 8x8 group of a shading pass (glsl/pixel.glsl) as 64 / W waves of W
 consecutive invocations (W = 32: NVIDIA, RDNA wave32; 64: GCN; 8: llvmpipe's native
 subgroup), and the lanes of a wave execute each instruction together, idle ones masked.
-A technique describes its shading pass (Technique.wave_program) as *segments*, one per lane
-and step:
+A technique describes its shading pass (its folder's replay.py: wave_program, found through
+app.techniques.parts) as *segments*, one per lane and step:
 
     segment = (lane, branch, step, head fetch, list of lights)
 

@@ -12,7 +12,7 @@ LIGHT_BYTES = layouts.GPU_LIGHT.itemsize
 
 # Loop kinds (rows of Figures.loops): what one issued iteration of that kind does.  The
 # shading pass's (the kernels below index the first six by number), then the culling
-# passes' (Technique.cull_figures: counted from their fixed loops, analytic()).
+# passes' (a replay.py's cull_figures: counted from their fixed loops, analytic()).
 KINDS = ("cell", "node", "lds_node", "word", "load", "light",
          "depth", "cull_test", "prune", "aabb", "vertex", "fragment", "set_bit", "mask_light")
 CELL, NODE, LDS_NODE, WORD, LOAD, LIGHT = range(6)

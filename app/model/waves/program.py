@@ -1,4 +1,4 @@
-"""A shading pass as the technique describes it (Technique.wave_program): the frame it
+"""A shading pass as the technique describes it (its replay.py's wave_program): the frame it
 reads (FrameData), its lanes, the light lists its steps walk and its segments (Program),
 and the helpers a technique builds its program with (rounds, sampled)."""
 from __future__ import annotations
@@ -84,7 +84,7 @@ class LightList:
 
 
 class Program:
-    """A shading pass as segments (module doc), built by Technique.wave_program.  What is
+    """A shading pass as segments (module doc), built by a replay.py's wave_program.  What is
     the same for every segment of one add() (its branch, head kind and buffer, list) is kept
     once, in the call table; a segment holds its lane, step, head offset and list range."""
 

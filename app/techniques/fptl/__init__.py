@@ -56,7 +56,7 @@ the entries the CPU's tile_keep drops (app/tile_caps.py).
 Shading reads the lists as the chapter stores them: 32 B a tile at 10-bit indices, the
 length the sum of the blocks' 2-bit counts; a list's two other states, spilled and pool
 full, are count patterns no plain list has (an empty block 0 before full blocks:
-glsl/fptl_common.glsl has the format), so no slot and no index value is given up, and only a
+app/techniques/fptl/fptl_common.glsl has the format), so no slot and no index value is given up, and only a
 flagged cell reads its spill heads.  The cells' 16-byte records (coarse, pruned, flags) are
 written for the statistics, the maps and the next scan window, never read by shading.  Stat
 shade_bytes_per_tile: what shading reads per lit tile (list words, spill heads, spill).

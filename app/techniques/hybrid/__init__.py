@@ -5,7 +5,7 @@ tree whose root is a leaf, so one buffer layout serves both.
     ranges[cell] = (first node, node count: 1 = list, >1 = tree; top bit: listing 2 chose a
                     tree) -> nodes[] -> entries[] -> lights[]
 
-The shading pass (glsl/shade_hybrid.comp) takes the paper's three wave paths: a) every lane
+The shading pass (app/techniques/hybrid/shade_hybrid.comp) takes the paper's three wave paths: a) every lane
 a list, b) every lane a tree (from shared memory when the group shares one), c) mixed;
 `specialised=False` runs the one general traversal instead, so the report can set each
 path's wave iterations and node visits against it.  Waves are classified by listing 2's

@@ -1,5 +1,5 @@
 """tiled (Andersson 2009, Harada 2012): 2D screen tiles whose min/max depth is reduced on the
-GPU from the G-buffer; lights culled per tile on the GPU (glsl/tile_cull.comp).
+GPU from the G-buffer; lights culled per tile on the GPU (app/techniques/tiled/tile_cull.comp).
 
     tile_cull:  G-buffer depth + bounds[] -> ranges[tile] = (pool offset, count) -> entries[]
     shade:      entries -> lights[];  count 0xFFFFFFFF = pool overflow, shade every light

@@ -6,7 +6,7 @@
 
 `shared_tree` (on by default): the tree paper's shared-memory tree (3.4, the hybrid's tree
 path), a group whose shading pixels all read one tree of at most SHARED_TREE_NODES nodes
-loads it into shared memory once and traverses it from there (glsl/shade_tree.comp).  With
+loads it into shared memory once and traverses it from there (app/techniques/tree/shade_tree.comp).  With
 8x8 groups in tiles of a multiple of 8 pixels (48) every group lies in one tile and knows
 its tree without a vote; other tile sizes vote (4 barriers a group).  `tree_build`: the
 trees bottom-up (the paper's full trees) or top-down (cpu_prep.tree_topdown).
@@ -48,7 +48,7 @@ class Tree(Technique, register_at=40):
 
 
 def tile_aligned(tile: int) -> bool:
-    """Every 8x8 group of the shading pass lies in one tile (glsl/shade_tree.comp TILE_ALIGNED)."""
+    """Every 8x8 group of the shading pass lies in one tile (app/techniques/tree/shade_tree.comp TILE_ALIGNED)."""
     return tile % WAVE_DIM == 0
 
 

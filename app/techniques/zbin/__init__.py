@@ -26,7 +26,7 @@ The four rows of the slides' "F+ Renderer: Optimization Performance" table are t
 The CPU builds each tile's bits from the lights' conservative screen rectangles; the slides'
 tiles were rasterized light proxies tested against the depth buffer, so by default
 (`tile_depth`) a GPU pass culls them against each tile's min / max scene depth before
-shading (glsl/zbin_tile_depth.comp -> zbin_bits), as tiled's tile_cull does: without it the
+shading (app/techniques/zbin/zbin_tile_depth.comp -> zbin_bits), as tiled's tile_cull does: without it the
 base tile holds every light in front of or behind the tile's surfaces, and "z-binning saves
 44%" would measure the missing depth test, not the slides' 9-15%.  Where the project
 departs from the slides, and why:

@@ -1,4 +1,4 @@
-"""The pack on the GPU (glsl/build_pack.comp, build_light.glsl, build_bounds.glsl): every array
+"""The pack on the GPU (app/gpu_build/build_pack.comp, build_light.glsl, build_bounds.glsl): every array
 of the packed lights (ids, types, float64 spheres and rectangles, GPU rows, float32 bounds and
 depth ranges) equals cpu_prep.lights.pack's bit for bit, for many lights of every shape around
 the eye, those that cross the near plane (listing 1's general projection), wide and narrow

@@ -1,5 +1,5 @@
 """Helpers of the raster tests: the proxies' vertices placed in view space as
-glsl/raster_proxy.vert places them (cpu_prep/raster_proxies.py builds the meshes and the
+app/techniques/raster/raster_proxy.vert places them (cpu_prep/raster_proxies.py builds the meshes and the
 per-light records), so tests can hold a proxy's convexity and containment on the CPU."""
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ def basis(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def proxy_vertices(light, proxy) -> np.ndarray:
     """(V, 3) float64 view-space vertices of one light's proxy (GPU_LIGHT and RASTER_PROXY
-    records), as glsl/raster_proxy.vert places them."""
+    records), as app/techniques/raster/raster_proxy.vert places them."""
     shape = int(proxy["shape"])
     mesh = rp.MESHES[shape].astype(np.float64)
     p = light["pos_radius"][:3].astype(np.float64)
