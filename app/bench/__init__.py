@@ -56,7 +56,8 @@ import argparse
 import sys
 
 
-USAGE = """usage: python -m app.bench [--quick|--full] --out DIR [...]     the sweep and its report
+USAGE = """commands:
+       python -m app.bench [--quick|--full] --out DIR [...]     the sweep and its report
        python -m app.bench cpu --scene S --technique T [...]     the CPU stage alone, no GL
                                                                   (python -m app.bench cpu --help)
        python -m app.bench gpu-build [...]                       CPU and GPU builds as a ratio
