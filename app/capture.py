@@ -202,6 +202,15 @@ def check_against_reference(renderer, technique, opts, result, args) -> None:
     if m is not None:
         print(f"not exact: {m.message()}", file=sys.stderr)
         raise SystemExit(1)
+    if technique.role == "sampler":       # its support is exact; its estimate, unbiased?
+        from . import sampling_check
+        verdict = sampling_check.check(renderer, technique, opts, ref, args.frame, args.frames)
+        if not verdict.passed:
+            print(f"not unbiased: {verdict.message()}", file=sys.stderr)
+            raise SystemExit(1)
+        print(f"exact support: every light affecting a pixel in {ref_t.name} can be drawn "
+              f"there; {verdict.message()}", file=sys.stderr)
+        return
     print(f"exact: {technique.name} equals {ref_t.name} at every pixel", file=sys.stderr)
 
 

@@ -2,8 +2,9 @@
 
     name          id used by capture, the window, the benchmark and the tests
     summary       one line for --list and the report
-    role          "technique"; "reference" (brute: the exactness check's reference) or
-                  "floor" (perfect: the shading floor no technique can beat)
+    role          "technique"; "reference" (brute: the exactness check's reference),
+                  "floor" (perfect: the shading floor no technique can beat) or "sampler"
+                  (a fixed budget of light samples a pixel, unbiased: app.sampling_check)
     Options       its own frozen dataclass of declared options (app.techniques.options)
     views         the window's views it has (app.views): every technique has shaded,
                   heat, diff and split; one with that structure adds tiles, slices, classes
@@ -48,7 +49,7 @@ from ..errors import UserError
 from ..pipeline.passes import Build, FrameInput, Pass, frame_outputs, image_groups
 from .options import TechniqueOptions, cap_policy, stochastic
 
-ROLES = ("technique", "reference", "floor")
+ROLES = ("technique", "reference", "floor", "sampler")
 
 # The one registry: capture, the window, the benchmark, the report and the tests iterate it.
 REGISTRY: dict[str, "Technique"] = {}

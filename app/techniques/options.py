@@ -389,6 +389,27 @@ class FeatureVariantOptions(TechniqueOptions):
                                     also_study=("corridor", "city"))
 
 
+@dataclass(frozen=True)
+class SampleOptions(TechniqueOptions):
+    """The sampling techniques' budget and draw: `--samples S` light samples a shading pixel
+    (each one light evaluation; RIS: S reservoirs), drawn from the pixel's random stream of
+    (`--sample-seed`, `--sample-frame`, pixel): the same three give the same frame bit for bit,
+    and over seeds the frames' mean converges to brute's (app.sampling_check)."""
+
+    samples: int = option(4, "light samples a shading pixel (each an unbiased estimate of the "
+                             "pixel's radiance over all lights, averaged)", lo=1, hi=64,
+                          study=(1, 2, 4, 8, 16, 32, 64))
+    sample_seed: int = option(0, "seed of the pixels' random streams", lo=0, hi=2**31 - 1)
+    sample_frame: int = option(0, "frame of the pixels' random streams (a new draw a frame, the "
+                                  "same for a seed)", lo=0, hi=2**31 - 1)
+
+
+def sample_uniforms(opts) -> dict[str, object]:
+    """The sampling passes' draw (glsl/sampling.glsl)."""
+    return {"u_samples": opts.samples, "u_sample_seed": opts.sample_seed,
+            "u_sample_frame": opts.sample_frame}
+
+
 def stochastic(opts) -> tuple[int, int, int] | None:
     """(budget N, seed, frame) of options with stochastic culling on, else None."""
     if isinstance(opts, StochasticOptions) and opts.stochastic:
@@ -418,4 +439,5 @@ def all_specs(option_classes) -> dict[str, OptionSpec]:
 __all__ = ["option", "choice", "choice_list", "OptionSpec", "TechniqueOptions", "TileOptions", "SliceOptions",
            "ListOptions", "TreeOptions", "WaveOptions", "ScalarizeOptions", "CapOptions", "cap_policy",
            "StochasticOptions", "stochastic", "STOCHASTIC_NAMES", "FeatureVariantOptions",
+           "SampleOptions", "sample_uniforms",
            "all_specs", "replace"]

@@ -1,0 +1,67 @@
+"""sample-list: a fixed budget of S light samples a shading pixel, drawn from the pixel's
+clustered cell list (the 2.5D grid clustered builds, Persson 2013) with probability
+proportional to a cheap bound of each light over the cell, weighted 1/(S p): an unbiased
+estimate of brute's radiance at every pixel, for S light evaluations however many lights the
+cell holds (the sampling side of MegaLights-style renderers: a budget a pixel, not a list).
+
+    ranges[cell] = (first entry, count) -> entries[] -> lights[]   (clustered's lists)
+    sample_cdf[entry]: the cell's cumulative masses, 2^31 a cell (cpu_prep.sampling)
+
+A sample draws u in [0, 2^31) and binary-searches its cell's words (log2 n reads), shades
+that light and adds f / (S p); p = mass / 2^31, from the same words.  Every light of the
+cell has mass >= 1 (a defensive mixture with the uniform distribution), so every light that
+affects the pixel can be drawn: the support pass (figures only, untimed) walks the cell's
+lights of nonzero mass and writes their affecting set's count and hash, which the exactness
+check holds to brute's; the estimate itself is held to brute statistically
+(app.sampling_check).
+"""
+from dataclasses import dataclass
+
+from cpu_prep import sampling
+
+from ..base import Technique, grid_uniforms, prepare_binned, shading_pass, shading_passes
+from ..blocks import list_buffers
+from ..options import SampleOptions, SliceOptions, sample_uniforms
+
+
+class SampleList(Technique, register_at=92):
+    name = "sample-list"
+    summary = "S light samples a pixel from its cluster's list, p ~ a bound (unbiased)"
+    role = "sampler"
+    views = Technique.views + ("tiles", "slices")
+
+    @dataclass(frozen=True)
+    class Options(SliceOptions, SampleOptions):
+        pass
+
+    def build(self, frame, opts):
+        return build_sample_lists(frame, opts)
+
+    def passes(self, build, opts):
+        return [shading_pass(build, "sample_list.comp", LIST_READS, defines=SAMPLE_DEFINES,
+                             uniforms=dict(grid_uniforms(build.grid), **sample_uniforms(opts)))
+                ] + support_passes(build)
+
+
+LIST_READS = ("ranges", "entries", "sample_cdf")
+SAMPLE_DEFINES = {"LIGHTS_DUPLICATED": 0, "SAMPLE_MASS_BITS": sampling.MASS_BITS}
+
+
+def build_sample_lists(frame, opts):
+    """Clustered's lists (no duplicated copies) and the sampling CDF of every cell."""
+    b, offsets, entries = prepare_binned(frame, opts, opts.slices)
+    with b.times.stage("pack"):
+        list_buffers(b, offsets, entries, False)
+    with b.times.stage("sample_cdf"):
+        b.buffers["sample_cdf"] = sampling.list_cdf(offsets, entries, b.lights.gpu, b.grid,
+                                                    frame.camera)
+    return b
+
+
+def support_passes(build) -> list:
+    """The support pass (untimed, figures only): every cell light of nonzero mass evaluated,
+    its affecting set's count and hash written (glsl/sampling.glsl), in the dispatch windows
+    of the longest list; the estimate's outputs and wave statistics kept."""
+    return shading_passes(build, "sample_support.comp", LIST_READS, build.longest_list,
+                          defines=SAMPLE_DEFINES, uniforms=grid_uniforms(build.grid),
+                          name="support", waves_cleared=False, timed=False, figures=True)
