@@ -17,11 +17,9 @@ check holds to brute's; the estimate itself is held to brute statistically
 """
 from dataclasses import dataclass
 
-from cpu_prep import sampling
-
-from ..base import Technique, grid_uniforms, prepare_binned, shading_pass, shading_passes
-from ..blocks import list_buffers
+from ..base import Technique, grid_uniforms, shading_pass
 from ..options import SampleOptions, SliceOptions, sample_uniforms
+from ..sampling import LIST_READS, SAMPLE_DEFINES, build_sample_lists, support_passes
 
 
 class SampleList(Technique, register_at=92):
@@ -41,27 +39,3 @@ class SampleList(Technique, register_at=92):
         return [shading_pass(build, "sample_list.comp", LIST_READS, defines=SAMPLE_DEFINES,
                              uniforms=dict(grid_uniforms(build.grid), **sample_uniforms(opts)))
                 ] + support_passes(build)
-
-
-LIST_READS = ("ranges", "entries", "sample_cdf")
-SAMPLE_DEFINES = {"LIGHTS_DUPLICATED": 0, "SAMPLE_MASS_BITS": sampling.MASS_BITS}
-
-
-def build_sample_lists(frame, opts):
-    """Clustered's lists (no duplicated copies) and the sampling CDF of every cell."""
-    b, offsets, entries = prepare_binned(frame, opts, opts.slices)
-    with b.times.stage("pack"):
-        list_buffers(b, offsets, entries, False)
-    with b.times.stage("sample_cdf"):
-        b.buffers["sample_cdf"] = sampling.list_cdf(offsets, entries, b.lights.gpu, b.grid,
-                                                    frame.camera)
-    return b
-
-
-def support_passes(build) -> list:
-    """The support pass (untimed, figures only): every cell light of nonzero mass evaluated,
-    its affecting set's count and hash written (glsl/sampling.glsl), in the dispatch windows
-    of the longest list; the estimate's outputs and wave statistics kept."""
-    return shading_passes(build, "sample_support.comp", LIST_READS, build.longest_list,
-                          defines=SAMPLE_DEFINES, uniforms=grid_uniforms(build.grid),
-                          name="support", waves_cleared=False, timed=False, figures=True)
