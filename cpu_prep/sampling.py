@@ -47,8 +47,8 @@ def cell_view_boxes(grid: Grid, cam: FrameCamera) -> tuple[np.ndarray, np.ndarra
     y = (2.0 * y - 1.0) * cam.tan_half_y
     depth = np.stack([lo_d, hi_d], 1)                                   # (slices, 2)
     # corners: x edge a, depth b -> x[a] * depth[b]; the box spans their min and max
-    xs = x[:, :, None] * depth.T[None, None, :, :].reshape(1, 1, 2, -1)  # (tx, 2, 2, slices)
-    ys = y[:, :, None] * depth.T[None, None, :, :].reshape(1, 1, 2, -1)
+    xs = x[:, :, None, None] * depth.T[None, None]                      # (tx, 2, 2, slices)
+    ys = y[:, :, None, None] * depth.T[None, None]
     x_lo, x_hi = xs.min((1, 2)), xs.max((1, 2))                         # (tx, slices)
     y_lo, y_hi = ys.min((1, 2)), ys.max((1, 2))                         # (ty, slices)
     shape = (grid.tiles_y, grid.tiles_x, grid.slices)                   # cell id order
