@@ -113,3 +113,53 @@ def list_cdf(offsets, entries, gpu_lights, grid: Grid, cam: FrameCamera) -> np.n
     """The sampling CDF words of a clustered binning (module docstring)."""
     lo, hi = cell_view_boxes(grid, cam)
     return cell_cdf(offsets, entry_bounds(offsets, entries, gpu_lights, lo, hi))
+
+
+# ---- the GPU's draws, bit for bit (glsl/sampling.glsl), for the cost model's replay -------
+
+def _pcg_step(state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(new state, output) of one PCG RXS-M-XS step over uint32 arrays."""
+    state = (state * np.uint32(747796405) + np.uint32(2891336453)).astype(np.uint32)
+    word = (((state >> ((state >> np.uint32(28)) + np.uint32(4))) ^ state)
+            * np.uint32(277803737)).astype(np.uint32)
+    return state, (word >> np.uint32(22)) ^ word
+
+
+def pcg_hash(v) -> np.ndarray:
+    return _pcg_step(np.asarray(v, np.uint32))[1]
+
+
+def pixel_streams(pixels: np.ndarray, seed: int, frame: int) -> np.ndarray:
+    """uint32 states of the pixels' streams (index y * width + x, GL rows: pixel_stream)."""
+    with np.errstate(over="ignore"):
+        key = pcg_hash(np.uint32(seed) ^ pcg_hash(np.uint32((frame + 0x9E3779B9) & 0xFFFFFFFF)))
+        return pcg_hash(np.asarray(pixels, np.uint64).astype(np.uint32) ^ key)
+
+
+def next_random(state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(new states, 32 random bits) of next_random()."""
+    with np.errstate(over="ignore"):
+        return _pcg_step(state)
+
+
+def next_mass(state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    state, bits = next_random(state)
+    return state, bits >> np.uint32(32 - MASS_BITS)
+
+
+def draw_entries(cdf: np.ndarray, first: np.ndarray, count: np.ndarray, u: np.ndarray):
+    """sample_list.comp's draw_entry for arrays of (first, count >= 1, u): (entry, the
+    search's probe positions (iterations, lanes) with -1 past a lane's last)."""
+    lo = np.asarray(first, np.int64).copy()
+    hi = lo + np.asarray(count, np.int64) - 1
+    probes = []
+    while True:
+        active = lo < hi
+        if not active.any():
+            break
+        mid = (lo + hi) >> 1
+        below = u < cdf[np.where(active, mid, 0)]
+        hi = np.where(active & below, mid, hi)
+        lo = np.where(active & ~below, mid + 1, lo)
+        probes.append(np.where(active, mid, -1))
+    return lo, (np.stack(probes) if probes else np.zeros((0, len(lo)), np.int64))

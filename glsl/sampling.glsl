@@ -42,15 +42,22 @@ float next_unit(inout uint state) { return float(next_random(state) >> 8u) * (1.
 // A probability of mass m: m / 2^SAMPLE_MASS_BITS (exact up to float's 24-bit rounding of m).
 float mass_probability(uint m) { return float(m) * exp2(-float(SAMPLE_MASS_BITS)); }
 
-// What light L (of shape `type`) adds to the pixel, zero outside its volume: one evaluation.
-vec3 light_contribution(inout PixelState s, GpuLight L, uint type) {
-    s.evaluated++;
+// What an affecting light adds (pixel.glsl shade_affecting's radiance, without its count).
+// priced: shade
+vec3 affecting_radiance(PixelState s, GpuLight L, uint type) {
     precise vec3 d = s.P - L.pos_radius.xyz;
     precise float d2 = dot(d, d);
-    if (!light_affects_as(L, d, d2, type)) return vec3(0.0);
     vec3 l;
     vec3 arriving = light_radiance_as(L, d, d2, s.N, l, type);
     return arriving * surface_response(s.N, normalize(-s.P), l, s.albedo, s.roughness, s.metallic);
+}
+
+// What light L (of shape `type`) adds to the pixel, zero outside its volume: one evaluation,
+// its affects test the one of every technique (pixel.glsl light_affects_pixel).
+vec3 light_contribution(inout PixelState s, GpuLight L, uint type) {
+    s.evaluated++;
+    if (!light_affects_pixel(s, L, type)) return vec3(0.0);
+    return affecting_radiance(s, L, type);
 }
 
 // One sample's contribution f / p.  SAMPLE_FAULT (the statistical check's negative

@@ -13,6 +13,7 @@ layout(std430, binding = B_SAMPLE_CDF) readonly buffer SampleCdf { uint sample_c
 // its probability from its own word and the one before.
 uint draw_entry(uint first, uint n, uint u, out float p) {
     uint lo = first, hi = first + n - 1u;
+    // priced: word
     while (lo < hi) {
         uint mid = (lo + hi) >> 1u;
         if (u < sample_cdf[mid]) hi = mid; else lo = mid + 1u;
@@ -30,6 +31,7 @@ void main() {
     if (r.y > 0u) {
         uint stream = pixel_stream(s);
         vec3 sum = vec3(0.0);
+        // priced: light
         for (uint k = 0u; k < u_samples; ++k) {
             float p;
             uint e = draw_entry(r.x, r.y, next_mass(stream), p);

@@ -133,7 +133,8 @@ RECORD = Path(__file__).with_name("counts_record.json")
 def test_a_changed_count_comes_with_a_new_model_version(modelled):
     """The counts of every run above are recorded with the model version that priced them:
     a shader edit or a rule change that moves a count must bump cost.MODEL_VERSION (every
-    modelled column in results.csv carries it).  LAB_WRITE_COUNTS=1 rewrites the record."""
+    modelled column in results.csv carries it); a run added (a new technique) is recorded
+    under the same version.  LAB_WRITE_COUNTS=1 rewrites the record."""
     now = {" ".join([name, *(f"{k}={v}" for k, v in opts)]): {p: f.ops for p, f in fig[32].items()}
            for (name, opts), fig in sorted(modelled.items())}
     record = {"model_version": cost.MODEL_VERSION, "rule_version": counts.RULE_VERSION,
@@ -141,9 +142,16 @@ def test_a_changed_count_comes_with_a_new_model_version(modelled):
     if os.environ.get("LAB_WRITE_COUNTS"):
         RECORD.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
     old = json.loads(RECORD.read_text())
-    if old["counts"] != json.loads(json.dumps(now)):
+    now = json.loads(json.dumps(now))
+    moved = sorted(k for k in set(old["counts"]) & set(now) if old["counts"][k] != now[k])
+    if moved:
         assert old["model_version"] != cost.MODEL_VERSION, (
-            "instruction counts changed: bump cost.MODEL_VERSION, then LAB_WRITE_COUNTS=1 "
-            "pytest tests/app/model/test_counts.py")
+            f"instruction counts changed ({', '.join(moved)}): bump cost.MODEL_VERSION, then "
+            f"LAB_WRITE_COUNTS=1 pytest tests/app/model/test_counts.py")
         pytest.fail("counts and model version changed: record them (LAB_WRITE_COUNTS=1)")
+    # a run added or gone (a new technique) moves no count a results row carries: recorded
+    # under the same version
+    assert set(old["counts"]) == set(now), (
+        f"runs added or gone ({', '.join(sorted(set(old['counts']) ^ set(now)))}): record "
+        f"them (LAB_WRITE_COUNTS=1 pytest tests/app/model/test_counts.py)")
     assert old["model_version"] == cost.MODEL_VERSION, "the record is of another model version"
