@@ -391,14 +391,14 @@ class FeatureVariantOptions(TechniqueOptions):
 
 @dataclass(frozen=True)
 class SampleOptions(TechniqueOptions):
-    """The sampling techniques' budget and draw: `--samples S` light samples a shading pixel
+    """The sampling techniques' budget and draw: `--light-samples S` light samples a shading pixel
     (each one light evaluation; RIS: S reservoirs), drawn from the pixel's random stream of
     (`--sample-seed`, `--sample-frame`, pixel): the same three give the same frame bit for bit,
     and over seeds the frames' mean converges to brute's (app.sampling_check)."""
 
-    samples: int = option(4, "light samples a shading pixel (each an unbiased estimate of the "
-                             "pixel's radiance over all lights, averaged)", lo=1, hi=64,
-                          study=(1, 2, 4, 8, 16, 32, 64))
+    # no option study: the benchmark's sampling study sweeps S against culling (app.bench.sampling)
+    light_samples: int = option(4, "light samples a shading pixel (each an unbiased estimate of "
+                                   "the pixel's radiance over all lights, averaged)", lo=1, hi=64)
     sample_seed: int = option(0, "seed of the pixels' random streams", lo=0, hi=2**31 - 1)
     sample_frame: int = option(0, "frame of the pixels' random streams (a new draw a frame, the "
                                   "same for a seed)", lo=0, hi=2**31 - 1)
@@ -406,7 +406,7 @@ class SampleOptions(TechniqueOptions):
 
 def sample_uniforms(opts) -> dict[str, object]:
     """The sampling passes' draw (glsl/sampling.glsl)."""
-    return {"u_samples": opts.samples, "u_sample_seed": opts.sample_seed,
+    return {"u_samples": opts.light_samples, "u_sample_seed": opts.sample_seed,
             "u_sample_frame": opts.sample_frame}
 
 

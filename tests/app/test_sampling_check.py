@@ -75,7 +75,7 @@ def short_lists():
 def test_every_pixel_converges_to_brute(gl, short_lists, name):
     r, ref = short_lists
     t = get(name)
-    opts = t.resolve_options({"samples": 16})
+    opts = t.resolve_options({"light_samples": 16})
     images = sc.seed_images(r, t, opts, 0, 64, 48)
     shading = ref.depth > 0
     lum, want = sc.luminance(images)[:, shading], sc.luminance(ref.image)[shading]

@@ -23,7 +23,7 @@ from ..replay_walks import cell_head, entry_list
 def wave_program(technique, frame, width):
     from ...model import waves
     prog = waves.Program(frame, width)
-    add_sample_lists(prog, frame, frame.opts.samples)
+    add_sample_lists(prog, frame, frame.opts.light_samples)
     return prog
 
 

@@ -36,7 +36,7 @@ def test_a_seed_and_frame_reproduce_the_frame_bit_for_bit(gl, city):
 @pytest.mark.parametrize("samples", [1, 5, 64])
 def test_each_shading_pixel_evaluates_its_samples(gl, city, samples):
     """S evaluations where the pixel's cell lists a light, none elsewhere."""
-    res = _render(city, samples=samples)
+    res = _render(city, light_samples=samples)
     counts = res.build.buffers["ranges"]["offset_count"][:, 1]
     shading = res.depth > 0
     listed = shading & (counts[res.cell] > 0)
