@@ -94,8 +94,13 @@ def exactness_line(figs: dict, reference: str) -> str:
     pixels = next(iter(figs.values()))["pixels"]
     bad = {n: f["differ"] for n, f in others.items() if f["differ"]}
     if not bad:
+        from .techniques import REGISTRY
+        samplers = [n for n in others if n in REGISTRY and REGISTRY[n].role == "sampler"]
+        support = (f" ({', '.join(samplers)}: the lights their draws can reach; their images "
+                   f"are unbiased estimates, held to {reference}'s by capture --check's "
+                   f"statistical check)") if samplers else ""
         return (f"Exact: all {len(others)} techniques give {reference}'s lights (contrib_count and "
-                f"contrib_hash) at every one of {pixels:,} pixels: 0 pixels differ.")
+                f"contrib_hash) at every one of {pixels:,} pixels: 0 pixels differ{support}.")
     return (f"NOT exact: {len(bad)} of {len(others)} techniques differ from {reference} "
             f"(contrib_count or contrib_hash) at some of {pixels:,} pixels: "
             + ", ".join(f"{n} {k:,} px" for n, k in bad.items())
