@@ -42,8 +42,9 @@ and writes a row a configuration (COLUMNS), against brute's frame (the reference
                        techniques and for a sampler's support; a cap's intended loss
 
 The crossover (app.report.sampling.crossover, from these rows alone): on each frame, the
-named cap is the cap policy of least nonzero image_error (the mildest one that loses
-light).  E_S(n), the frame error of sampling at S only the pixels that at most n lights
+named cap is the cap policy of least nonzero image_error that the sampler's median frame
+error reaches at some measured S (the mildest that loses light and whose error sampling
+matches inside the study), else the one of least nonzero image_error.  E_S(n), the frame error of sampling at S only the pixels that at most n lights
 affect (brute's radiance elsewhere), is sqrt(sum over the bins up to n of pixels x err^2 /
 geometry) on the frame error's scale, growing with n to the sampler's whole frame error.
 For each S and seed, n(S) is the largest bin edge `hi` with E_S(n) at most the cap's frame
@@ -51,7 +52,9 @@ image_error (0: not even the first bin; "every bin": the sampler's whole frame i
 it); the sentence gives n's median [min, max] over seeds.  S* is where the sampler's frame
 error equals the cap's: interpolated in log S / log error between the two study values of S
 whose median error brackets it (from the min and max errors over seeds the range), or
-"below S_min" / "beyond S_max".  Culling configurations that estimate
+"below S_min" / "beyond S_max"; S* is also given against every other cap that loses light.
+Close: the measured S nearest S* holds the cap's error inside its min-max over seeds, or
+not (a difference inside that spread is not a finding).  Culling configurations that estimate
 another image (light cutoff levels, stochastic culling: the unbounded reference) are not
 in this study: their target is not the sampler's.
 """

@@ -3,7 +3,8 @@ against brute over evaluations per pixel, frame cost and a visibility-weighted w
 crossover of each sampler against an engine cap, and a table (sampling.png).
 
 The crossover (crossover()) reads only the study's rows: on each frame the named cap is the
-cap policy of least nonzero frame error (the mildest that loses light); for each S and seed,
+cap policy of least nonzero frame error that the sampler's median error reaches at a
+measured S, else the least nonzero (named_cap); for each S and seed,
 n is the largest light-count bin edge such that sampling only the pixels that at most n
 lights affect (brute's radiance elsewhere) keeps the frame error within the cap's; S* is
 where the sampler's whole frame error meets the cap's, interpolated in log S / log error
@@ -37,7 +38,8 @@ EXPLANATION = (
     f"{VISIBILITY_C:g}: visibility itself is not simulated (no shadow ray is traced in this "
     "lab), c only prices it. Frame cost: CPU stage + timed GPU passes, median of the timing "
     "samples (a sampler's: its seed renders). Crossover: the named cap is the cap policy of "
-    "least nonzero frame error on that frame; geometry pixels are binned by how many lights "
+    "least nonzero frame error on that frame that the sampler's median frame error reaches at "
+    "a measured S (else simply the least nonzero); geometry pixels are binned by how many lights "
     "affect them (brute's contrib_count in [2^k, 2^(k+1)), pixels no light affects left out); "
     "E_S(n) is the frame error (RMSE over every geometry pixel / brute's mean radiance) of "
     "sampling at S only the pixels that at most n lights affect, brute's radiance elsewhere; "
@@ -45,7 +47,8 @@ EXPLANATION = (
     "(0: not even the first bin; \"every bin\": the sampler's whole frame is within it), "
     "given as median [min, max] over seeds; S* is the S "
     "where the sampler's median frame error equals the cap's (log-log interpolation between "
-    "the two measured S around it; in brackets from the seeds' min and max errors). Close: "
+    "the two measured S around it; in brackets from the seeds' min and max errors), also "
+    "against each other cap that loses light. Close: "
     "a difference inside the measured spread (the seeds' min-max of an error, the timing "
     "samples' min-max of a cost) is not a finding; the text says *within spread* there.")
 
@@ -61,10 +64,19 @@ def _sampler_curves(rows, scene) -> dict[str, list[dict]]:
             for t in order(rs, "technique")}
 
 
-def named_cap(rows, scene) -> dict | None:
-    """The scene's cap row of least nonzero image_error, None where no cap loses light."""
+def losing_caps(rows, scene) -> list[dict]:
+    """The scene's cap rows of nonzero image_error, mildest first."""
     caps = [r for r in sel(rows, scene=scene, kind="cap") if num(r["image_error"]) > 0]
-    return min(caps, key=lambda r: num(r["image_error"])) if caps else None
+    return sorted(caps, key=lambda r: num(r["image_error"]))
+
+
+def named_cap(rows, scene, curve=()) -> dict | None:
+    """The cap the crossover is against: the mildest that loses light whose error the
+    sampler's median frame error reaches at a measured S (`curve`: its rows), else the
+    mildest that loses light; None where no cap loses light."""
+    caps = losing_caps(rows, scene)
+    best = min((num(r["image_error"]) for r in curve), default=math.inf)
+    return next((r for r in caps if num(r["image_error"]) >= best), caps[0] if caps else None)
 
 
 def bin_reach(row, threshold: float) -> list[tuple[int, bool]]:
@@ -97,28 +109,51 @@ def meet(s, e, threshold: float) -> float:
     return math.inf
 
 
+def _s_star(curve, threshold: float) -> tuple[float, float, float]:
+    s = [int(num(r["samples_per_pixel"])) for r in curve]
+    return tuple(meet(s, [num(r[k]) for r in curve], threshold)
+                 for k in ("image_error", "image_error_min", "image_error_max"))
+
+
+def _closest(curve, threshold: float) -> dict:
+    """The measured S whose median error is nearest the cap's (in log), and whether the
+    cap's error lies inside that S's spread over seeds (then it is no finding)."""
+    r = min(curve, key=lambda r: abs(math.log(max(num(r["image_error"]), 1e-12) / threshold)))
+    lo, hi = num(r["image_error_min"]), num(r["image_error_max"])
+    return dict(s=int(num(r["samples_per_pixel"])), err=num(r["image_error"]), lo=lo, hi=hi,
+                within=lo <= threshold <= hi)
+
+
 def crossover(rows) -> list[dict]:
-    """Per scene and sampler: the named cap, the bin reach of each S over seeds and S*
-    (module docstring); [] entries for a scene without a cap that loses light."""
+    """Per scene and sampler: the named cap, the bin reach of each S over seeds, S* against
+    it and against every other cap that loses light (module docstring); cap None for a
+    scene without a cap that loses light."""
     out = []
     for scene in _scenes(rows):
-        cap = named_cap(rows, scene)
         for tech, curve in _sampler_curves(rows, scene).items():
+            cap = named_cap(rows, scene, curve)
             if cap is None or not curve:
                 out.append(dict(scene=scene, technique=tech, cap=None))
                 continue
             thr = num(cap["image_error"])
-            s = [int(num(r["samples_per_pixel"])) for r in curve]
             reach = []
             for r in curve:
                 per = bin_reach(r, thr)
                 ns = [n for n, _ in per]
                 reach.append(dict(s=int(num(r["samples_per_pixel"])), med=float(np.median(ns)),
                                   lo=min(ns), hi=max(ns), whole=all(w for _, w in per)))
-            star = tuple(meet(s, [num(r[k]) for r in curve], thr)
-                         for k in ("image_error", "image_error_min", "image_error_max"))
+            # the other losing caps, one entry per error as the text prints it (the engines
+            # whose policies drop the same lights here give one image)
+            others: dict[str, list] = {}
+            for r in losing_caps(rows, scene):
+                others.setdefault(f"{num(r['image_error']):.3g}", [num(r["image_error"])]).append(r)
+            same = [r["policy"] for r in others.pop(f"{thr:.3g}")[1:] if r is not cap]
             out.append(dict(scene=scene, technique=tech, cap=cap["config"], cap_error=thr,
-                            reach=reach, s_star=star, row=curve[0]))
+                            same=same, reached=min(num(r["image_error"]) for r in curve) <= thr,
+                            reach=reach, s_star=_s_star(curve, thr), row=curve[0],
+                            closest=_closest(curve, thr),
+                            others=[([r["policy"] for r in g[1:]], g[0], _s_star(curve, g[0])[0])
+                                    for g in others.values()]))
     return out
 
 
@@ -139,14 +174,27 @@ def crossover_sentences(rows) -> list[str]:
         parts = "; ".join(f"S={x['s']}: {x['med']:g} [{x['lo']}, {x['hi']}]"
                           + (" (every bin)" if x["whole"] else "") for x in reach)
         med, best, worst = (_s_text(v, lo_s, hi_s) for v in c["s_star"])
+        near = c["closest"]
+        close = (f"at S={near['s']} its error {near['err']:.3g} [{near['lo']:.3g}, "
+                 f"{near['hi']:.3g}] holds the cap's within its spread over seeds: no finding"
+                 if near["within"] else
+                 f"at S={near['s']} its error {near['err']:.3g} [{near['lo']:.3g}, "
+                 f"{near['hi']:.3g}] is {'below' if near['hi'] < c['cap_error'] else 'above'} "
+                 f"the cap's beyond that spread")
+        rest = "; ".join(f"{'/'.join(names)} ({e:.3g}): {_s_text(v, lo_s, hi_s)}"
+                         for names, e, v in c["others"])
         out.append(
             f"{c['scene']} ({int(num(r0['lights']))} lights, {int(num(r0['width']))}x"
-            f"{int(num(r0['height']))}): against {c['cap']} (the mildest cap that loses light "
-            f"here, frame error {c['cap_error']:.3g}), {c['technique']} sampling only the pixels "
-            f"that at most n lights affect (brute's shading elsewhere) keeps the frame within "
-            f"that error up to n = median [min, max] over "
-            f"{int(num(r0['seeds']))} seeds: {parts}; its frame error equals the cap's at "
-            f"S* = {med} [{best}, {worst}].")
+            f"{int(num(r0['height']))}): against {c['cap']}"
+            + (f" (and {'/'.join(c['same'])}, the same error)" if c["same"] else "")
+            + f" (frame error {c['cap_error']:.3g}: the mildest cap that loses light "
+            + (f"whose error the sampler reaches by S={hi_s}" if c["reached"] else
+               f"here; the sampler reaches no cap's error by S={hi_s}")
+            + f"), {c['technique']} sampling only the pixels that at most n "
+            f"lights affect (brute's shading elsewhere) keeps the frame within that error up to "
+            f"n = median [min, max] over {int(num(r0['seeds']))} seeds: {parts}; its frame "
+            f"error equals the cap's at S* = {med} [{best}, {worst}] ({close})"
+            + (f"; S* against the other caps that lose light: {rest}" if rest else "") + ".")
     return out
 
 
@@ -187,14 +235,17 @@ def _panel(ax, rows, scene, x_of, colors, xlabel) -> None:
     rs = sel(rows, scene=scene)
     errs = [num(r["image_error"]) for r in rs if num(r["image_error"]) > 0]
     floor = min(errs) / 3 if errs else 1e-3
+    labels: dict[tuple, list[str]] = {}         # caps at one point: one label
     for r in (r for r in rs if r["kind"] != "sampler"):
         zero = num(r["image_error"]) == 0
         ax.plot([max(x_of(r), 1e-3)], [floor if zero else num(r["image_error"])],
                 ls="", marker="v" if zero else "^", ms=6, color=colors(r["technique"]),
                 mec="k" if not zero else None)
         if not zero:
-            ax.annotate(r["policy"], (max(x_of(r), 1e-3), num(r["image_error"])), fontsize=6,
-                        xytext=(3, 3), textcoords="offset points")
+            at = (max(x_of(r), 1e-3), num(r["image_error"]))
+            labels.setdefault((f"{at[0]:.2g}", f"{at[1]:.2g}"), [at]).append(r["policy"])
+    for at, *names in labels.values():
+        ax.annotate("/".join(names), at, fontsize=6, xytext=(3, 3), textcoords="offset points")
     for tech, curve in _sampler_curves(rows, scene).items():
         x = [max(x_of(r), 1e-3) for r in curve]
         y = np.array([num(r["image_error"]) for r in curve])
@@ -249,5 +300,5 @@ def sampling_section(rows, out, roles) -> tuple[str | None, list[str], str]:
 
 
 __all__ = ["fig_sampling", "sampling_section", "sampling_table", "crossover",
-           "crossover_sentences", "named_cap", "bin_reach", "meet", "EXPLANATION", "CSV",
+           "crossover_sentences", "named_cap", "losing_caps", "bin_reach", "meet", "EXPLANATION", "CSV",
            "VISIBILITY_C"]

@@ -74,19 +74,36 @@ def test_a_crossover_in_light_count_and_in_s():
     whole = math.sqrt((0.2 ** 2 + 0.6 ** 2 + 1.6 ** 2) * 100 / 400)
     assert med == pytest.approx((whole / 0.3) ** 2, rel=1e-9)
     assert lo < med < hi
+    assert c["closest"]["s"] in (4, 16) and not c["closest"]["within"]
+    (names, err, s9), = c["others"]                     # urp-16's 0.9: below S=1
+    assert names == ["urp-16"] and s9 == 0.0
     text, = sampling.crossover_sentences(_rows(0.3))
     assert "urp-32 (tiled)" in text and "S=4: 3 [3, 3];" in text and "S=16: 7 [7, 7] (every bin)" in text and f"S* = {med:.3g}" in text
 
 
 def test_no_crossover_within_the_measured_s():
-    c, = sampling.crossover(_rows(0.01))
+    rows = [r for r in _rows(0.01) if r["policy"] != "urp-16"]
+    c, = sampling.crossover(rows)
+    assert c["cap"] == "urp-32 (tiled)"                  # reached by no S: the mildest
     assert all(x["hi"] == 0 for x in c["reach"])         # not even the first bin, any seed
     assert all(math.isinf(v) for v in c["s_star"])
-    text, = sampling.crossover_sentences(_rows(0.01))
-    assert "beyond S=64" in text and "S=1: 0 [0, 0]" in text
+    assert not c["closest"]["within"] and c["closest"]["s"] == 64
+    text, = sampling.crossover_sentences(rows)
+    assert "beyond S=64" in text and "S=1: 0 [0, 0]" in text and "above the cap's" in text
     no_cap = [r for r in _rows(0.3) if r["kind"] != "cap" or r["image_error"] == 0]
     text, = sampling.crossover_sentences(no_cap)
     assert "no cap policy loses light" in text
+
+
+def test_a_milder_cap_no_s_reaches_is_passed_over_and_still_reported():
+    c, = sampling.crossover(_rows(0.01))
+    assert c["cap"] == "urp-16 (tiled)" and c["cap_error"] == 0.9
+    (names, err, s_star), = c["others"]
+    assert names == ["urp-32"] and err == 0.01 and math.isinf(s_star)
+    # 0.86 / sqrt(S) = 0.9 below S = 1: the whole frame within at every S, every seed
+    assert c["s_star"][0] == 0.0 and all(x["whole"] for x in c["reach"][1:])
+    text, = sampling.crossover_sentences(_rows(0.01))
+    assert "S* = below S=1" in text and "urp-32 (0.01): beyond S=64" in text
 
 
 def test_meet_interpolates_in_log_log():
