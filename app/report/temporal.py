@@ -99,7 +99,12 @@ def _text(groups: dict, r0) -> list[str]:
         text.append("Stochastic light culling, a new draw every frame: " + "; ".join(
             f"{c}: {figs[c][0]:.3g}%, {int(figs[c][1])} popping pixels" for c in draws) +
             " (its noise: unbiased on average, not steady from frame to frame).")
-    inexact = {c: figs[c] for c in caps + cuts + draws}
+    samplers = [c for c in figs if figs[c][3][0]["kind"] == "sampler"]
+    if samplers:
+        text.append("Samplers, a new draw every frame (sample_frame = the frame): " + "; ".join(
+            f"{c}: {figs[c][0]:.3g}%, {int(figs[c][1])} popping pixels" for c in samplers) +
+            " (their noise from frame to frame; their drawable sets are brute's, so they never pop).")
+    inexact = {c: figs[c] for c in caps + cuts + draws + samplers}
     if inexact:
         calm = min(inexact, key=lambda c: inexact[c][0])
         pop = max(inexact, key=lambda c: inexact[c][1])

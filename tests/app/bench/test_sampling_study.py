@@ -100,3 +100,22 @@ def test_no_scenes_writes_no_file(tmp_path):
 def test_the_study_writes_the_file_the_report_reads():
     from app.report import sampling as report
     assert sampling.CSV == report.CSV
+
+
+def test_the_temporal_series_draws_a_sampler_anew_every_frame(gl):
+    """A still scene and camera: every exact technique's frames do not change (temporal error
+    0), a sampler's do, by its draw alone (sample_frame = the frame), and it never pops."""
+    from app.bench import temporal
+    kinds = {c["config"]: c["kind"] for c in temporal.configurations(())}
+    assert kinds["sample-list"] == "sampler" and kinds["brute"] == "technique"
+    rng = np.random.default_rng(8)
+    scene = make_scene(random_lights(rng, 40, (-10.0, 0.0, -30.0), (10.0, 6.0, 5.0),
+                                     radius=(3.0, 12.0)), size=(64, 36))
+    still = scene.camera_at(0, 64)
+    scene.camera_at = lambda k, n: still
+    rows = temporal.run_temporal(scene, "test", (64, 36), 3, 64, (), log=open("/dev/null", "w"))
+    later = [r for r in rows if r["frame"] > 0]
+    exact = [r for r in later if r["kind"] == "technique"]
+    drawn = [r for r in later if r["kind"] == "sampler"]
+    assert exact and all(r["temporal_error_pct"] == 0 and r["changed_pixels"] == 0 for r in exact)
+    assert drawn and all(r["temporal_error_pct"] > 0 and r["popping_pixels"] == 0 for r in drawn)
