@@ -73,7 +73,6 @@ from . import measure
 from .study import Study
 
 CSV = "sampling.csv"           # read by app.report.sampling (not imported from there: GL)
-KINDS = ("exact", "cap", "sampler")
 
 COLUMNS = ["study", "scene", "lights", "visible", "width", "height", "frame", "config", "kind",
            "technique", "role", "policy", "samples_per_pixel", "seeds", "image_error",
@@ -87,7 +86,7 @@ COLUMNS = ["study", "scene", "lights", "visible", "width", "height", "frame", "c
 @dataclass(frozen=True)
 class SamplingConfig:
     """The study's settings: frame 0 of each scene (scenes () none) at `lights` (the stress
-    scene builds its own count, STRESS_LIGHTS), every sampler at each of `samples` over
+    scene at `stress_lights`), every sampler at each of `samples` over
     `seeds` seeds, each culling configuration `repeat` timing samples."""
     scenes: tuple[str, ...]
     lights: int
@@ -101,7 +100,7 @@ class SamplingConfig:
     stress_lights: int = 100_000
 
 
-def configurations(samples, seeds: int, dropped: dict[str, int]) -> list[dict]:
+def configurations(samples, dropped: dict[str, int]) -> list[dict]:
     """Every configuration of a frame, brute first (the others' errors need its frame);
     `dropped`: {cap policy: visible lights it drops}."""
     from cpu_prep import caps
@@ -121,9 +120,12 @@ def configurations(samples, seeds: int, dropped: dict[str, int]) -> list[dict]:
         out += [dict(config=f"{t.name} S={s}", kind="sampler", technique=t.name,
                      opts=t.Options.make({"samples": int(s)}), policy=caps.NONE, s=int(s))
                 for s in samples]
-    for c in out:
-        c["draws"] = seeds if c["kind"] == "sampler" else 1
     return out
+
+
+def bin_index(counts: np.ndarray) -> np.ndarray:
+    """Each count's bin k, counts in [2^k, 2^(k+1)) (counts >= 1)."""
+    return np.floor(np.log2(np.maximum(counts, 1))).astype(np.int64)
 
 
 def count_bins(counts: np.ndarray) -> list[tuple[int, int]]:
@@ -136,11 +138,11 @@ def bin_errors(image, ref_image, lit_counts: np.ndarray, bins, scale: float) -> 
     """RMSE of radiance over each bin's pixels (lit_counts: brute's contrib_count of the
     geometry pixels, flattened as the images' rows), over `scale`: brute's frame mean."""
     d2 = ((image.astype(np.float64) - ref_image.astype(np.float64)) ** 2).mean(-1)
-    out = []
-    for lo, hi in bins:
-        m = (lit_counts >= lo) & (lit_counts <= hi)
-        out.append(float(np.sqrt(d2[m].mean()) / scale) if m.any() and scale > 0 else 0.0)
-    return out
+    k = bin_index(lit_counts)
+    n = np.bincount(k, minlength=len(bins))
+    sums = np.bincount(k, weights=d2, minlength=len(bins))
+    ok = (n > 0) & (scale > 0)
+    return [float(v) for v in np.where(ok, np.sqrt(sums / np.maximum(n, 1)) / (scale or 1.0), 0.0)]
 
 
 class Frame:
@@ -153,8 +155,8 @@ class Frame:
         self.bins = count_bins(self.counts[self.lit])
         img = ref.image[self.mask].astype(np.float64)
         self.scale = float(img.mean()) if img.size else 0.0
-        self.pixels = [int(((self.counts >= lo) & (self.counts <= hi)).sum())
-                       for lo, hi in self.bins]
+        self.pixels = np.bincount(bin_index(self.counts[self.lit]),
+                                  minlength=len(self.bins)).tolist()
 
     def figures(self, res, flip: bool) -> dict:
         """One render's error figures and per-pixel counts against brute."""
@@ -288,7 +290,7 @@ def sampling_series(c: SamplingConfig, out: Path, log=sys.stderr) -> list[dict]:
         scene = load_scene(name, lights=c.stress_lights if name == "stress" else c.lights,
                            seed=c.seed)
         lights = scene.lights_at(0, 64)
-        configs = configurations(c.samples, c.seeds, dropped_lights(scene, c.size, 0, 64))
+        configs = configurations(c.samples, dropped_lights(scene, c.size, 0, 64))
         with Renderer(scene, tuple(c.size)) as r:
             got = run_frame(r, lights, configs, c, log, name)
         for row in got:
@@ -312,4 +314,4 @@ class SamplingStudy(Study):
 
 
 __all__ = ["SamplingConfig", "SamplingStudy", "sampling_series", "run_frame", "configurations",
-           "count_bins", "bin_errors", "COLUMNS", "CSV"]
+           "count_bins", "bin_index", "bin_errors", "COLUMNS", "CSV"]

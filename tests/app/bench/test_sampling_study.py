@@ -26,7 +26,7 @@ def rows(gl):
     c = sampling.SamplingConfig(("test",), 80, SIZE, S, seeds=SEEDS, repeat=1, flip=False,
                                 model=False)
     keep = {"brute", "tiled", "clustered"}
-    configs = [cfg for cfg in sampling.configurations(S, SEEDS, dropped_lights(scene, SIZE, 0, 64))
+    configs = [cfg for cfg in sampling.configurations(S, dropped_lights(scene, SIZE, 0, 64))
                if cfg["technique"] in keep and cfg["kind"] == "exact" or cfg["policy"] == "urp-16"
                or cfg["technique"] == "sample-list"]
     with Renderer(scene, SIZE) as r:
@@ -88,6 +88,13 @@ def test_the_presets_size_the_study():
     assert "stress" in full.scenes and full.seeds == 8 and max(full.samples) == 64
     assert full.samples == REGISTRY["sample-list"].Options.spec("samples").study
     assert GPU_CHECK.config("sampling").scenes == ()
+
+
+def test_a_count_falls_in_its_power_of_two_bin():
+    counts = np.array([1, 2, 3, 4, 7, 8, 1023, 1024])
+    assert sampling.bin_index(counts).tolist() == [0, 1, 1, 2, 2, 3, 9, 10]
+    bins = sampling.count_bins(counts)
+    assert bins[0] == (1, 1) and bins[-1] == (1024, 2047) and len(bins) == 11
 
 
 def test_no_scenes_writes_no_file(tmp_path):
