@@ -98,6 +98,9 @@ class SamplingConfig:
     model: bool = True             # the modelled columns where a frame has a wave replay
     seed: int = 0                  # the scenes' seed
     stress_lights: int = 100_000
+    # lane iterations a width the wave replay walks, as the rendered study's
+    # (app.bench.sweep.REPLAY_BUDGET, held equal by the tests: sweep imports the presets)
+    replay_budget: int = 4_000_000
 
 
 def configurations(samples, dropped: dict[str, int]) -> list[dict]:
@@ -208,21 +211,20 @@ def run_frame(renderer, frame_lights, configs, c: SamplingConfig, log=sys.stderr
                               int((res.contrib_count != frame.ref.contrib_count).sum() +
                                   (res.contrib_hash != frame.ref.contrib_hash).sum()),
                               st["draws"][0]["exact_pp"])   # a sampler's support: figures on
-                st["model"] = _model(renderer, cfg, res) if c.model else None
+                st["model"] = _model(renderer, cfg, res, c.replay_budget) if c.model else None
         log.write(f"[sampling {where} round {k + 1}/{max(c.repeat, c.seeds)} "
                   f"{time.perf_counter() - t0:6.1f}s]\n")
         log.flush()
     return [_row(cfg, state[cfg["config"]], frame, renderer.size) for cfg in configs]
 
 
-def _model(renderer, cfg, res) -> dict | None:
+def _model(renderer, cfg, res, budget: int) -> dict | None:
     """{gpu key: modelled lighting ms} of the frame the renderer holds, None without a replay."""
     from ..model import predict
     from ..techniques import REGISTRY
-    from .sweep import REPLAY_BUDGET
     try:
         figures = predict.modelled_or_none(renderer, REGISTRY[cfg["technique"]], res, cfg["opts"],
-                                           unbounded=False, budget=REPLAY_BUDGET)
+                                           unbounded=False, budget=budget)
     except (NotImplementedError, KeyError, ValueError):   # a technique the replay lacks
         figures = None
     if figures is None:

@@ -88,6 +88,8 @@ def test_the_presets_size_the_study():
     assert "stress" in full.scenes and full.seeds == 8 and max(full.samples) == 64
     assert full.samples == REGISTRY["sample-list"].Options.spec("samples").study
     assert GPU_CHECK.config("sampling").scenes == ()
+    from app.bench.sweep import REPLAY_BUDGET
+    assert quick.replay_budget == full.replay_budget == REPLAY_BUDGET
 
 
 def test_a_count_falls_in_its_power_of_two_bin():
