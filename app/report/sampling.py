@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from .common import DPI, Colors, log_axes, ms, num, order, panel_style, plt, save, sel
+from .spread import Spread, below
 
 CSV = "sampling.csv"          # the study's file in the run's folder (app.bench.sampling writes it)
 VISIBILITY_C = 8.0            # a shadow test in light evaluations, the work panel's c
@@ -115,13 +116,25 @@ def _s_star(curve, threshold: float) -> tuple[float, float, float]:
                  for k in ("image_error", "image_error_min", "image_error_max"))
 
 
+def cost_spread(row) -> Spread:
+    """A row's frame cost: median, min, max over its timing samples."""
+    return Spread(num(row["frame_cost_ms"]), num(row["frame_cost_min_ms"]),
+                  num(row["frame_cost_max_ms"]), int(num(row["timing_samples"]) or 1))
+
+
+def cost_phrase(mine: Spread, other: Spread) -> str:
+    """"lower" / "higher" beyond the measured spread, else "within spread"."""
+    return "lower beyond spread" if below(mine, other) else \
+        "higher beyond spread" if below(other, mine) else "within spread"
+
+
 def _closest(curve, threshold: float) -> dict:
     """The measured S whose median error is nearest the cap's (in log), and whether the
     cap's error lies inside that S's spread over seeds (then it is no finding)."""
     r = min(curve, key=lambda r: abs(math.log(max(num(r["image_error"]), 1e-12) / threshold)))
     lo, hi = num(r["image_error_min"]), num(r["image_error_max"])
     return dict(s=int(num(r["samples_per_pixel"])), err=num(r["image_error"]), lo=lo, hi=hi,
-                within=lo <= threshold <= hi)
+                within=lo <= threshold <= hi, cost=cost_spread(r))
 
 
 def crossover(rows) -> list[dict]:
@@ -151,7 +164,7 @@ def crossover(rows) -> list[dict]:
             out.append(dict(scene=scene, technique=tech, cap=cap["config"], cap_error=thr,
                             same=same, reached=min(num(r["image_error"]) for r in curve) <= thr,
                             reach=reach, s_star=_s_star(curve, thr), row=curve[0],
-                            closest=_closest(curve, thr),
+                            closest=_closest(curve, thr), cap_cost=cost_spread(cap),
                             others=[([r["policy"] for r in g[1:]], g[0], _s_star(curve, g[0])[0])
                                     for g in others.values()]))
     return out
@@ -181,6 +194,10 @@ def crossover_sentences(rows) -> list[str]:
                  f"at S={near['s']} its error {near['err']:.3g} [{near['lo']:.3g}, "
                  f"{near['hi']:.3g}] is {'below' if near['hi'] < c['cap_error'] else 'above'} "
                  f"the cap's beyond that spread")
+        mine, theirs = near["cost"], c["cap_cost"]
+        close += (f"; its frame cost there {ms(mine.med)} [{ms(mine.lo)}, {ms(mine.hi)}] against "
+                  f"the cap's {ms(theirs.med)} [{ms(theirs.lo)}, {ms(theirs.hi)}]: "
+                  f"{cost_phrase(mine, theirs)}")
         rest = "; ".join(f"{'/'.join(names)} ({e:.3g}): {_s_text(v, lo_s, hi_s)}"
                          for names, e, v in c["others"])
         out.append(
@@ -300,5 +317,5 @@ def sampling_section(rows, out, roles) -> tuple[str | None, list[str], str]:
 
 
 __all__ = ["fig_sampling", "sampling_section", "sampling_table", "crossover",
-           "crossover_sentences", "named_cap", "losing_caps", "bin_reach", "meet", "EXPLANATION", "CSV",
+           "crossover_sentences", "named_cap", "losing_caps", "cost_phrase", "bin_reach", "meet", "EXPLANATION", "CSV",
            "VISIBILITY_C"]

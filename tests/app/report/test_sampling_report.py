@@ -26,7 +26,7 @@ def _row(config, kind, technique, err, s="", seed_bins=None, policy="none", cost
             "seed_errors": json.dumps(whole), "evaluated_pp": float(s or 10.0),
             "evaluated_lit_pp": float(s or 10.0), "shadow_pp": 3.0, "shadow_bound": int(kind == "sampler"),
             "exact_pp": 3.0, "mismatch_count": 0, "frame_cost_ms": cost, "frame_cost_min_ms": cost * 0.9,
-            "frame_cost_max_ms": cost * 1.1, "cpu_total_ms": 1.0, "gpu_lighting_ms": cost - 1.0,
+            "frame_cost_max_ms": cost * 1.1, "timing_samples": 3, "cpu_total_ms": 1.0, "gpu_lighting_ms": cost - 1.0,
             "bins": json.dumps({"lo": LO, "hi": HI, "pixels": PIXELS, "geometry": GEOMETRY,
                                 "err": errs})}
 
@@ -78,6 +78,8 @@ def test_a_crossover_in_light_count_and_in_s():
     (names, err, s9), = c["others"]                     # urp-16's 0.9: below S=1
     assert names == ["urp-16"] and s9 == 0.0
     text, = sampling.crossover_sentences(_rows(0.3))
+    # the nearest S (16: 0.215 against 0.3) costs 18 ms [16.2, 19.8], the cap 9 [8.1, 9.9]
+    assert "against the cap's 9 ms [8.1 ms, 9.9 ms]: higher beyond spread" in text
     assert "urp-32 (tiled)" in text and "S=4: 3 [3, 3];" in text and "S=16: 7 [7, 7] (every bin)" in text and f"S* = {med:.3g}" in text
 
 
@@ -132,3 +134,11 @@ def test_write_report_holds_the_section(tmp_path):
     write_report(tmp_path, [], {}, {})
     md = (tmp_path / "report.md").read_text()
     assert "## Sampling against culling" in md and "(sampling.png)" in md
+
+
+def test_a_cost_inside_the_measured_spread_is_no_finding():
+    from app.report.spread import Spread
+    a, b = Spread(10.0, 9.0, 11.0, 3), Spread(10.5, 10.0, 12.0, 3)
+    assert sampling.cost_phrase(a, b) == "within spread"
+    assert sampling.cost_phrase(Spread(5.0, 4.0, 6.0, 3), b) == "lower beyond spread"
+    assert sampling.cost_phrase(Spread(5.0, 4.0, 6.0, 1), b) == "within spread"   # one sample
