@@ -52,7 +52,8 @@ image_error (0: not even the first bin; "every bin": the sampler's whole frame i
 it); the sentence gives n's median [min, max] over seeds.  S* is where the sampler's frame
 error equals the cap's: interpolated in log S / log error between the two study values of S
 whose median error brackets it (from the min and max errors over seeds the range), or
-"below S_min" / "beyond S_max"; S* is also given against every other cap that loses light.
+"below S_min" / "beyond S_max"; S* is also given against every other cap that loses light, and by image_flip against the
+named cap's.
 Close: the measured S nearest S* holds the cap's error inside its min-max over seeds, or
 not (a difference inside that spread is not a finding).  Culling configurations that estimate
 another image (light cutoff levels, stochastic culling: the unbounded reference) are not

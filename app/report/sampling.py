@@ -49,7 +49,7 @@ EXPLANATION = (
     "given as median [min, max] over seeds; S* is the S "
     "where the sampler's median frame error equals the cap's (log-log interpolation between "
     "the two measured S around it; in brackets from the seeds' min and max errors), also "
-    "against each other cap that loses light. Close: "
+    "against each other cap that loses light, and by FLIP against the named cap's FLIP. Close: "
     "a difference inside the measured spread (the seeds' min-max of an error, the timing "
     "samples' min-max of a cost) is not a finding; the text says *within spread* there.")
 
@@ -110,10 +110,11 @@ def meet(s, e, threshold: float) -> float:
     return math.inf
 
 
-def _s_star(curve, threshold: float) -> tuple[float, float, float]:
+def _s_star(curve, threshold: float, metric: str = "image_error") -> tuple[float, float, float]:
+    """S* of the median error curve, and of the seeds' min and max curves."""
     s = [int(num(r["samples_per_pixel"])) for r in curve]
-    return tuple(meet(s, [num(r[k]) for r in curve], threshold)
-                 for k in ("image_error", "image_error_min", "image_error_max"))
+    return tuple(meet(s, [num(r[metric + k]) for r in curve], threshold)
+                 for k in ("", "_min", "_max"))
 
 
 def cost_spread(row) -> Spread:
@@ -165,6 +166,9 @@ def crossover(rows) -> list[dict]:
                             same=same, reached=min(num(r["image_error"]) for r in curve) <= thr,
                             reach=reach, s_star=_s_star(curve, thr), row=curve[0],
                             closest=_closest(curve, thr), cap_cost=cost_spread(cap),
+                            cap_flip=num(cap["image_flip"]),
+                            flip_star=_s_star(curve, num(cap["image_flip"]), "image_flip")
+                            if num(cap["image_flip"]) > 0 else None,
                             others=[([r["policy"] for r in g[1:]], g[0], _s_star(curve, g[0])[0])
                                     for g in others.values()]))
     return out
@@ -211,6 +215,9 @@ def crossover_sentences(rows) -> list[str]:
             f"lights affect (brute's shading elsewhere) keeps the frame within that error up to "
             f"n = median [min, max] over {int(num(r0['seeds']))} seeds: {parts}; its frame "
             f"error equals the cap's at S* = {med} [{best}, {worst}] ({close})"
+            + (f"; by FLIP (the cap's {c['cap_flip']:.3g}) S* = "
+               + " [".join(_s_text(v, lo_s, hi_s) for v in c["flip_star"][:2])
+               + f", {_s_text(c['flip_star'][2], lo_s, hi_s)}]" if c["flip_star"] else "")
             + (f"; S* against the other caps that lose light: {rest}" if rest else "") + ".")
     return out
 

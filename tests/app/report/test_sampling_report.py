@@ -142,3 +142,19 @@ def test_a_cost_inside_the_measured_spread_is_no_finding():
     assert sampling.cost_phrase(a, b) == "within spread"
     assert sampling.cost_phrase(Spread(5.0, 4.0, 6.0, 3), b) == "lower beyond spread"
     assert sampling.cost_phrase(Spread(5.0, 4.0, 6.0, 1), b) == "within spread"   # one sample
+
+
+def test_the_crossover_by_flip_where_the_cap_has_one():
+    rows = _rows(0.3)
+    for r in rows:
+        if r["policy"] == "urp-32":
+            r["image_flip"] = 0.1
+        if r["kind"] == "sampler":
+            f = 0.2 / math.sqrt(r["samples_per_pixel"])
+            r.update(image_flip=f, image_flip_min=0.9 * f, image_flip_max=1.1 * f)
+    c, = sampling.crossover(rows)
+    med, lo, hi = c["flip_star"]
+    assert med == pytest.approx(4.0) and lo < med < hi      # 0.2 / sqrt(S) = 0.1 at S = 4
+    text, = sampling.crossover_sentences(rows)
+    assert "by FLIP (the cap's 0.1) S* = 4 [" in text
+    assert sampling.crossover(_rows(0.3))[0]["flip_star"] is None      # the cap's FLIP 0
