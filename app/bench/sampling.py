@@ -99,6 +99,10 @@ class SamplingConfig:
     model: bool = True             # the modelled columns where a frame has a wave replay
     seed: int = 0                  # the scenes' seed
     stress_lights: int = 100_000
+    # a culling configuration evaluating more lights a pixel takes fewer timing samples (as
+    # the rendered study's heavy_eval_pp / heavy_repeat: brute on the stress scene)
+    heavy_eval_pp: float = 4096.0
+    heavy_repeat: int = 2
     # lane iterations a width the wave replay walks, as the rendered study's
     # (app.bench.sweep.REPLAY_BUDGET, held equal by the tests: sweep imports the presets)
     replay_budget: int = 4_000_000
@@ -195,7 +199,7 @@ def run_frame(renderer, frame_lights, configs, c: SamplingConfig, log=sys.stderr
     for k in range(max(c.repeat, c.seeds)):
         for cfg in configs:
             st = state[cfg["config"]]
-            wants = c.seeds if cfg["kind"] == "sampler" else c.repeat
+            wants = c.seeds if cfg["kind"] == "sampler" else st.get("wants", c.repeat)
             if k >= wants:
                 continue
             first = k == 0
@@ -207,16 +211,24 @@ def run_frame(renderer, frame_lights, configs, c: SamplingConfig, log=sys.stderr
             frame = frame or Frame(res)          # brute: the first configuration
             st["draws"].append(frame.figures(res, c.flip))
             if first:
-                st["meta"] = (int(res.meta["stats"].get("visible_lights", 0)),
-                              int(res.meta["stats"].get("capped_lights", 0)),
-                              int((res.contrib_count != frame.ref.contrib_count).sum() +
-                                  (res.contrib_hash != frame.ref.contrib_hash).sum()),
-                              st["draws"][0]["exact_pp"])   # a sampler's support: figures on
-                st["model"] = _model(renderer, cfg, res, c.replay_budget) if c.model else None
+                _first(st, renderer, cfg, res, frame, c)
         log.write(f"[sampling {where} round {k + 1}/{max(c.repeat, c.seeds)} "
                   f"{time.perf_counter() - t0:6.1f}s]\n")
         log.flush()
     return [_row(cfg, state[cfg["config"]], frame, renderer.size) for cfg in configs]
+
+
+def _first(st: dict, renderer, cfg, res, frame: Frame, c: SamplingConfig) -> None:
+    """What a configuration's first render alone gives: its light counts, its sets against
+    brute's (a sampler's support: figures on), its model, and fewer samples if heavy."""
+    stats = res.meta["stats"]
+    st["meta"] = (int(stats.get("visible_lights", 0)), int(stats.get("capped_lights", 0)),
+                  int((res.contrib_count != frame.ref.contrib_count).sum() +
+                      (res.contrib_hash != frame.ref.contrib_hash).sum()),
+                  st["draws"][0]["exact_pp"])
+    st["model"] = _model(renderer, cfg, res, c.replay_budget) if c.model else None
+    if st["draws"][0]["evaluated_pp"] > c.heavy_eval_pp:
+        st["wants"] = min(c.repeat, c.heavy_repeat)
 
 
 def _model(renderer, cfg, res, budget: int) -> dict | None:
@@ -277,7 +289,7 @@ def _row(cfg, st, frame: Frame, size) -> dict:
 def sampling_series(c: SamplingConfig, out: Path, log=sys.stderr) -> list[dict]:
     """The study of `c` into out/sampling.csv; none without scenes, samplers or seeds (a stale
     file is removed, so no report shows it)."""
-    from scenes import load_scene
+    from scenes import BUILTIN_SCENES, load_scene
     from ..pipeline.renderer import Renderer
     from ..techniques import REGISTRY
     from .caps import dropped_lights
@@ -290,8 +302,9 @@ def sampling_series(c: SamplingConfig, out: Path, log=sys.stderr) -> list[dict]:
     out.mkdir(parents=True, exist_ok=True)
     rows: list[dict] = []
     for name in c.scenes:
-        scene = load_scene(name, lights=c.stress_lights if name == "stress" else c.lights,
-                           seed=c.seed)
+        builtin = name in BUILTIN_SCENES          # a scene file: its own lights, no seed
+        scene = load_scene(name, lights=(c.stress_lights if name == "stress" else c.lights)
+                           if builtin else None, seed=c.seed if builtin else 0)
         lights = scene.lights_at(0, 64)
         configs = configurations(c.samples, dropped_lights(scene, c.size, 0, 64))
         with Renderer(scene, tuple(c.size)) as r:

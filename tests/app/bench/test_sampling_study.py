@@ -15,6 +15,7 @@ from tests.helpers import make_scene, random_lights
 SIZE = (96, 64)
 S = (1, 4, 16)
 SEEDS = 4
+REPEAT, HEAVY = 3, 60.0
 
 
 @pytest.fixture(scope="module")
@@ -23,8 +24,8 @@ def rows(gl):
     rng = np.random.default_rng(5)
     scene = make_scene(random_lights(rng, 80, (-10.0, 0.0, -30.0), (10.0, 6.0, 5.0),
                                      radius=(3.0, 12.0)), size=SIZE)
-    c = sampling.SamplingConfig(("test",), 80, SIZE, S, seeds=SEEDS, repeat=1, flip=False,
-                                model=False)
+    c = sampling.SamplingConfig(("test",), 80, SIZE, S, seeds=SEEDS, repeat=REPEAT, flip=False,
+                                model=False, heavy_eval_pp=HEAVY, heavy_repeat=1)
     keep = {"brute", "tiled", "clustered"}
     configs = [cfg for cfg in sampling.configurations(S, dropped_lights(scene, SIZE, 0, 64))
                if cfg["technique"] in keep and cfg["kind"] == "exact" or cfg["policy"] == "urp-16"
@@ -128,3 +129,13 @@ def test_the_temporal_series_draws_a_sampler_anew_every_frame(gl):
     drawn = [r for r in later if r["kind"] == "sampler"]
     assert exact and all(r["temporal_error_pct"] == 0 and r["changed_pixels"] == 0 for r in exact)
     assert drawn and all(r["temporal_error_pct"] > 0 and r["popping_pixels"] == 0 for r in drawn)
+
+
+
+def test_a_heavy_configuration_takes_fewer_timing_samples(rows):
+    """brute evaluates every light (80 a pixel, above the fixture's HEAVY): one sample."""
+    brute, = _by(rows, technique="brute")
+    clustered, = _by(rows, technique="clustered")
+    assert brute["evaluated_pp"] > HEAVY > clustered["evaluated_pp"]
+    assert brute["timing_samples"] == 1 and clustered["timing_samples"] == REPEAT
+    assert all(r["timing_samples"] == SEEDS for r in _by(rows, kind="sampler"))
