@@ -52,8 +52,9 @@ def fig_temporal(rows, out, colors, roles) -> tuple[str | None, list[str]]:
         x = [int(r["frame"]) for r in rs]
         kind = rs[0]["kind"]
         style = dict(ls="-" if kind == "technique" else "--" if kind == "cap" else
-                     "-." if kind == "stochastic" else ":",
-                     marker="o", ms=3, lw=1.3, color=cmap(i % 20), label=c)
+                     "-." if kind == "stochastic" else (0, (5, 1, 1, 1, 1, 1))
+                     if kind == "sampler" else ":",
+                     marker="s" if kind == "sampler" else "o", ms=3, lw=1.3, color=cmap(i % 20), label=c)
         axes[0][0].plot(x, [num(r["temporal_error_pct"]) for r in rs], **style)
         axes[0][1].plot(x, [num(r["popping_pixels"]) for r in rs], **style)
     r0 = rows[0]
