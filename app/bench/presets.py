@@ -20,13 +20,16 @@ from .cpu import GROWTH_LIGHTS, GrowthConfig
 from .cpu_series import CpuConfig
 from .gpu_build import GpuBuildConfig
 from .rendered import RenderedConfig
+from .sampling import SamplingConfig
 from .study import Shared
 from .temporal import TemporalConfig
 from .validation import PapersConfig
+from ..techniques.options import SampleOptions
 
-STUDY_ORDER = ("temporal", "rendered", "papers", "cpu", "growth", "gpu_build", "c_reference")
+STUDY_ORDER = ("temporal", "rendered", "sampling", "papers", "cpu", "growth", "gpu_build", "c_reference")
 SCENES = ("arena", "city", "hangar", "gallery", "corridor")
 SHARED = "shared"             # a change of the Shared config, in `changed`
+SAMPLE_STUDY = SampleOptions.spec("samples").study     # the declared study values of S
 
 
 @dataclass(frozen=True)
@@ -79,6 +82,11 @@ def _quick() -> Preset:
                                     cutoffs=(256, 1024, 4096, 16384, 65536),
                                     cutoff_scenes=("arena", "city"), cutoff_lights=2048,
                                     heat_scene="city", caps_scenes=("arena",), caps_lights=2048)),
+        # samplers against culling on one frame: 2 scenes x (16 culling configurations x 3
+        # samples + S in 1, 4, 16, 64 x 4 seeds) at 160x90 and the caps' 2,048 lights:
+        # ~45 s on 2 loaded cores, most of it brute's and tiled's 300-1,900 lights a pixel
+        ("sampling", SamplingConfig(("arena", "city"), 2048, (160, 90), (1, 4, 16, 64), seeds=4,
+                                    repeat=3, seed=s.seed)),
         # figure 7 along 16 frames of each path at 65,536 lights only (96 rows, ~1.7 s each
         # on 2 loaded cores, ~170 s; at two counts ~330 s), every 32nd 8x8 group replayed;
         # raster's rows of Drobot's tables only in --full (the cluster rasterizer's MARK /
@@ -107,6 +115,9 @@ def _full() -> Preset:
                                     cutoff_scenes=("arena", "city"), cutoff_lights=16384,
                                     heat_scene="city", caps_scenes=("arena",),
                                     caps_lights=16384)),
+        # every builtin scene and the stress scene (its own 100,000 lights), every declared S
+        ("sampling", SamplingConfig(SCENES + ("stress",), 16384, (480, 270), SAMPLE_STUDY, seeds=8,
+                                    repeat=5, seed=s.seed)),
         ("papers", PapersConfig(s, frames=16, sample=2)),
         ("cpu", CpuConfig(s, scene="arena", lights=(1024, 2048, 4096, 8192, 16384, 32768, 65536),
                           size=(1920, 1080), repeat=9)),
@@ -128,6 +139,7 @@ GPU_CHECK = FULL.changed(
     "gpu-check", shared=dict(scenes=("arena", "city"), lights=(8192, 32768, 65536), frames=2,
                              option_studies=False),
     temporal=dict(frames=0), rendered=dict(cutoffs=(), cutoff_scenes=(), caps_scenes=()),
+    sampling=dict(scenes=()),
     papers=dict(size=None), cpu=dict(lights=()), growth=dict(lights=(), frames=2),
     gpu_build=dict(lights=()), c_reference=dict(lights=()))
 
@@ -159,12 +171,14 @@ def preset_from_args(args) -> Preset:
                               caps_scenes=scenes[:1] if rendered.caps_scenes else (),
                               also_studies=False)
         ch["papers"]["size"] = None
+        ch["sampling"]["scenes"] = scenes[:len(preset.config("sampling").scenes)]
         for study in ("cpu", "growth", "gpu_build", "c_reference"):
             ch[study]["scene"] = scenes[0]
     if args.lights:
         lights = int_list(args.lights, "--lights")
         ch[SHARED].update(lights=lights, study_lights=max(lights))
         ch["rendered"].update(cutoff_lights=min(lights), caps_lights=min(lights))
+        ch["sampling"]["lights"] = min(lights)
     if args.frames is not None:
         if args.frames < 1:
             raise UserError("--frames must be >= 1")
@@ -176,6 +190,7 @@ def preset_from_args(args) -> Preset:
         ch["rendered"].update(study_repeat=args.repeat,
                               heavy_repeat=min(rendered.heavy_repeat, args.repeat))
         ch["gpu_build"]["repeat"] = ch["c_reference"]["repeat"] = args.repeat
+        ch["sampling"]["repeat"] = args.repeat
     if args.cpu_lights:
         ch["cpu"]["lights"] = int_list(args.cpu_lights, "--cpu-lights")
     if args.cpu_size:

@@ -4,7 +4,11 @@ Consecutive frames 0..F-1 of the scene's camera path (a loop of `loop` frames, s
 moves a little each frame) with its lights bouncing (scenes.motion, `--motion bounce`), each
 frame rendered by
 
-    every technique at its defaults            exact: the lab's guarantee
+    every technique at its defaults            exact: the lab's guarantee (a sampler,
+                                               role "sampler": an unbiased estimate,
+                                               a new draw every frame, sample_frame = the
+                                               frame index; its temporal error is its noise
+                                               from frame to frame, kind "sampler")
     each cap policy (cpu_prep.caps)            on the first technique that takes one: a
                                                view policy drops the same lights whatever
                                                the structure (exact against brute without
@@ -63,8 +67,8 @@ def configurations(cutoffs, budgets=STOCHASTIC_BUDGETS) -> list[dict]:
     from ..techniques import REGISTRY, with_role
     from ..techniques.options import CapOptions
     ref = with_role("reference")
-    out = [dict(config=n, kind="technique", technique=n, opts=t.Options(), policy=caps.NONE,
-                cutoff=0) for n, t in REGISTRY.items()]
+    out = [dict(config=n, kind="sampler" if t.role == "sampler" else "technique", technique=n,
+                opts=t.Options(), policy=caps.NONE, cutoff=0) for n, t in REGISTRY.items()]
     for p in (n for n in caps.NAMES if n != caps.NONE):
         capped = next((t for t in REGISTRY.values() if issubclass(t.Options, CapOptions)
                        and (t.Options.tile_caps or not caps.per_tile(p))), None)
@@ -100,7 +104,8 @@ def run_temporal(scene, scene_name: str, size, frames: int, loop: int, cutoffs,
                 lights = cutoff_lights(lights, 1.0 / c["cutoff"])
             elif c["cutoff"] < 0:
                 lights, defines = unbounded_lights(lights, scene), {"UNBOUNDED_FALLOFF": 1}
-            opts = c["opts"].with_(stochastic_frame=k) if c["kind"] == "stochastic" else c["opts"]
+            opts = c["opts"].with_(stochastic_frame=k) if c["kind"] == "stochastic" else \
+                c["opts"].with_(sample_frame=k) if c["kind"] == "sampler" else c["opts"]
             return r.render(REGISTRY[c["technique"]], k, opts, frames=loop, lights=lights,
                             readback=readback, defines=defines)
         warm = {(c["technique"], c["kind"]): c for c in configs}   # each program variant once

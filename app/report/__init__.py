@@ -15,7 +15,8 @@ finding), aggregate (path means, Pareto front), accuracy, path, cpu, options, ma
 temporal (one figure each; temporal reads DIR/temporal.csv, app.bench.temporal), tables, gpu (the modelled GPU cost, its Pareto fronts, which figure to
 believe), validation (the model beside the papers' measurements), tradeoff (the lead
 figure: image and temporal error against frame cost over cutoffs, cap policies and
-stochastic culling).
+stochastic culling), sampling (samplers against culling on one frame; reads
+DIR/sampling.csv, app.bench.sampling).
 """
 from __future__ import annotations
 
@@ -39,6 +40,7 @@ from .path import fig_path, fig_path_cpu
 from .temporal import CSV as TEMPORAL_CSV, EXPLANATION as TEMPORAL_EXPLANATION, fig_temporal
 from .tables import floor_table, summary_table
 from .tradeoff import EXPLANATION as TRADEOFF_EXPLANATION, fig_tradeoff
+from .sampling import CSV as SAMPLING_CSV, sampling_section
 from .model import model_section
 from .validation import validation
 
@@ -66,6 +68,9 @@ def write_report(out: Path, rows: list[dict], maps: dict, info: dict) -> list[st
     trows = read_csv(out / TEMPORAL_CSV) if (out / TEMPORAL_CSV).exists() else []
     section("The whole accuracy trade-off: image error against frame cost",
             *fig_tradeoff(rows, trows, out, colors, roles), TRADEOFF_EXPLANATION)
+    srows = read_csv(out / SAMPLING_CSV) if (out / SAMPLING_CSV).exists() else []
+    section("Sampling against culling on one frame: error against evaluations and frame cost",
+            *sampling_section(srows, out, roles))
     section("What accuracy costs: culling waste vs frame cost", *fig_accuracy(rows, out, colors, roles))
     section("Modelled GPU cost at 1920x1080, per scene and GPU (app/model)",
             *fig_gpu_scenes(rows, out, colors, roles))

@@ -89,7 +89,7 @@ def _finding(sc, n, cands: dict, floor: Spread | None, sub, roles) -> str:
 def fig_path_cpu(trows, out, colors, roles) -> tuple[str | None, list[str]]:
     """The CPU stage's rebuild, every frame, along the moving path of the temporal series
     (app.bench.temporal): each technique's CPU ms per frame, and the sentence that says it."""
-    rows = [r for r in trows if r.get("kind") == "technique"]
+    rows = [r for r in trows if r.get("kind") in ("technique", "sampler")]
     if not rows:
         return None, []
     fig, ax = plt().subplots(1, 1, dpi=DPI, figsize=(7.0, 3.2))

@@ -52,8 +52,9 @@ def fig_temporal(rows, out, colors, roles) -> tuple[str | None, list[str]]:
         x = [int(r["frame"]) for r in rs]
         kind = rs[0]["kind"]
         style = dict(ls="-" if kind == "technique" else "--" if kind == "cap" else
-                     "-." if kind == "stochastic" else ":",
-                     marker="o", ms=3, lw=1.3, color=cmap(i % 20), label=c)
+                     "-." if kind == "stochastic" else (0, (5, 1, 1, 1, 1, 1))
+                     if kind == "sampler" else ":",
+                     marker="s" if kind == "sampler" else "o", ms=3, lw=1.3, color=cmap(i % 20), label=c)
         axes[0][0].plot(x, [num(r["temporal_error_pct"]) for r in rs], **style)
         axes[0][1].plot(x, [num(r["popping_pixels"]) for r in rs], **style)
     r0 = rows[0]
@@ -99,7 +100,12 @@ def _text(groups: dict, r0) -> list[str]:
         text.append("Stochastic light culling, a new draw every frame: " + "; ".join(
             f"{c}: {figs[c][0]:.3g}%, {int(figs[c][1])} popping pixels" for c in draws) +
             " (its noise: unbiased on average, not steady from frame to frame).")
-    inexact = {c: figs[c] for c in caps + cuts + draws}
+    samplers = [c for c in figs if figs[c][3][0]["kind"] == "sampler"]
+    if samplers:
+        text.append("Samplers, a new draw every frame (sample_frame = the frame): " + "; ".join(
+            f"{c}: {figs[c][0]:.3g}%, {int(figs[c][1])} popping pixels" for c in samplers) +
+            " (their noise from frame to frame; their drawable sets are brute's, so they never pop).")
+    inexact = {c: figs[c] for c in caps + cuts + draws + samplers}
     if inexact:
         calm = min(inexact, key=lambda c: inexact[c][0])
         pop = max(inexact, key=lambda c: inexact[c][1])
