@@ -24,12 +24,11 @@ from .sampling import SamplingConfig
 from .study import Shared
 from .temporal import TemporalConfig
 from .validation import PapersConfig
-from ..techniques.options import SampleOptions
 
 STUDY_ORDER = ("temporal", "rendered", "sampling", "papers", "cpu", "growth", "gpu_build", "c_reference")
 SCENES = ("arena", "city", "hangar", "gallery", "corridor")
 SHARED = "shared"             # a change of the Shared config, in `changed`
-SAMPLE_STUDY = SampleOptions.spec("samples").study     # the declared study values of S
+SAMPLE_STUDY = (1, 2, 4, 8, 16, 32, 64)        # the full preset's light samples S a pixel
 
 
 @dataclass(frozen=True)

@@ -126,7 +126,7 @@ def configurations(samples, dropped: dict[str, int]) -> list[dict]:
                             opts=t.Options.make({"cap_policy": p}), policy=p, s=0))
     for t in (t for t in REGISTRY.values() if t.role == "sampler"):
         out += [dict(config=f"{t.name} S={s}", kind="sampler", technique=t.name,
-                     opts=t.Options.make({"samples": int(s)}), policy=caps.NONE, s=int(s))
+                     opts=t.Options.make({"light_samples": int(s)}), policy=caps.NONE, s=int(s))
                 for s in samples]
     return out
 
