@@ -69,6 +69,9 @@ class SampleRis(Technique, register_at=93):
     name = "sample-ris"
     summary = "RIS: M candidates a reservoir from the cluster's CDF, one kept ~ p-hat (ReSTIR DI)"
     role = "sampler"
+    paper = ("Bitterli et al. 2020, \"Spatiotemporal reservoir resampling for real-time ray "
+             "tracing with dynamic direct lighting\" (its RIS and spatial passes); Talbot et al. "
+             "2005, \"Importance resampling for global illumination\"")
     views = Technique.views + ("tiles", "slices")
     glsl = {"ris_structs.glsl": structs_glsl()}
 
