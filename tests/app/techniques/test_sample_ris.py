@@ -172,3 +172,40 @@ def test_spatial_reuse_options():
     with pytest.raises(UserError, match="reuse-neighbours"):
         opts(reuse_neighbours=3)                    # ignored without spatial reuse
     assert opts(spatial_reuse="biased", reuse_neighbours=3).reuse_neighbours == 3
+
+
+@pytest.mark.parametrize("o", [dict(samples=2, candidates=1), dict(samples=3, candidates=8,
+                                                                  sample_seed=5)])
+def test_replay_draws_the_shaders_lights(arena, o):
+    """The cost model's replay (sample_ris/replay.py): per pixel the shader's evaluations,
+    and the light each last-round reservoir kept is one of the replay's draws for it (M = 1:
+    the draw itself), so its uint32 streams and CDF search are the shader's."""
+    from app.model import waves
+    from app.techniques import parts
+    from app.techniques.blocks import cell_ranges
+    from app.techniques.sample_ris import NO_LIGHT, replay
+    r, _ = arena
+    res = r.render(TECH, 0, o)
+    fr = waves.frame_data(r, res, opts(**o))
+    for width in (32, 64):
+        rp = waves.replay(parts.wave_program(TECH, fr, width))
+        assert np.array_equal(rp.evaluated, np.ascontiguousarray(res.evaluated[::-1]).ravel())
+    ranges = cell_ranges(fr.build)
+    lanes = np.nonzero(fr.shading)[0]
+    lanes = lanes[ranges[fr.cell[lanes], 1] > 0]
+    e = replay.drawn_entries(fr.build.buffers["sample_cdf"], ranges, fr.cell[lanes], lanes, fr.opts)
+    drawn = np.asarray(fr.build.buffers["entries"], np.int64)[e[:, -1, :]]
+    kept = r.read("ris_reservoirs").view(RESERVOIR)["light"][lanes].astype(np.int64)
+    has = kept != NO_LIGHT
+    assert has.sum() > 100
+    assert (drawn[has] == kept[has, None]).any(1).all()
+
+
+def test_replay_refuses_spatial_reuse(arena):
+    from app.model import waves
+    from app.techniques import parts
+    r, _ = arena
+    o = dict(spatial_reuse="unbiased")
+    fr = waves.frame_data(r, r.render(TECH, 0, o), opts(**o))
+    with pytest.raises(NotImplementedError, match="spatial reuse off only"):
+        parts.wave_program(TECH, fr, 64)
