@@ -18,7 +18,9 @@ Per shading pixel and reservoir (S = --samples, averaged), one round of passes:
 
 A pixel whose cell holds no light adds nothing (no light there affects it: clustered's lists
 are exact).  One reservoir a pixel at a time, S rounds: the reservoir buffers stay one
-record a pixel (32 bytes) at any S, as the paper's one-reservoir frame does.  `evaluated`
+record a pixel (32 bytes) at any S, as the paper's one-reservoir frame does (past the
+storage-block limit, llvmpipe's 128 MiB at about 4.2 M pixels, the renderer refuses the
+buffer in one line).  `evaluated`
 counts the target's evaluations: M a reservoir, plus the spatial pass's p-hat of each
 neighbour's sample here and, unbiased, of the kept sample at each neighbour; the shade costs
 none (it reuses f(y), kept with p-hat(y): this lab's lights cast no shadows, so the

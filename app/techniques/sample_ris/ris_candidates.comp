@@ -46,6 +46,9 @@ Reservoir resample(inout PixelState s, uint first, uint n) {
 }
 
 void main() {
+#if defined(CELLS_ONLY) && CELLS_ONLY
+    return;                       // a modelled frame records cells only (ris_shade.comp)
+#endif
     PixelState s = load_pixel();
     uvec2 range = s.shading ? ranges[cell_of(s)].offset_count : uvec2(0u);
     Reservoir r = range.y > 0u ? resample(s, range.x, range.y) : empty_reservoir();

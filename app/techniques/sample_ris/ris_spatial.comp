@@ -71,6 +71,9 @@ Reservoir combine(inout PixelState s, Reservoir own) {
 }
 
 void main() {
+#if defined(CELLS_ONLY) && CELLS_ONLY
+    return;                       // a modelled frame records cells only (ris_shade.comp)
+#endif
     PixelState s = load_pixel();
     if (!s.inside) return;
     uint i = pixel_index(s.pixel);
