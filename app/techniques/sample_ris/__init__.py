@@ -6,15 +6,17 @@ from (app/techniques/sampling.py, cpu_prep.sampling).
 
 Per shading pixel and reservoir (S = --samples, averaged), one round of passes:
 
-    candidates  M (--candidates) lights drawn from the pixel's cell by the source pdf p (the
-                cell's CDF words), each weighted w = p-hat / p with p-hat the luminance of its
-                unshadowed contribution at the pixel; one kept by weighted reservoir sampling
-                (Algorithms 2 and 3), W = (1 / p-hat(y)) (1 / M) sum w     -> ris_reservoirs
+    shade       the candidates (ris_candidates.comp): M (--candidates) lights drawn from the
+                pixel's cell by the source pdf p (the cell's CDF words), each weighted
+                w = p-hat / p with p-hat the luminance of its unshadowed contribution at the
+                pixel; one kept by weighted reservoir sampling (Algorithms 2 and 3),
+                W = (1 / p-hat(y)) (1 / M) sum w                           -> ris_reservoirs
     spatial     (--spatial-reuse biased | unbiased) k neighbours' reservoirs within a radius,
                 the paper's normal and depth test, combined by Algorithm 4 (1 / M: biased
                 where a neighbour cannot draw what this pixel can, i.e. darker) or 6
                 (1 / Z: unbiased)                                           -> ris_reused
-    shade       f(y) W added to the pixel's sum; the last round stores the mean (frame outputs)
+    resolve     the final shading: f(y) W added to the pixel's sum; the last round stores
+                the mean (the frame outputs, store_estimate)
 
 A pixel whose cell holds no light adds nothing (no light there affects it: clustered's lists
 are exact).  One reservoir a pixel at a time, S rounds: the reservoir buffers stay one
@@ -22,8 +24,8 @@ record a pixel (32 bytes) at any S, as the paper's one-reservoir frame does (pas
 storage-block limit, llvmpipe's 128 MiB at about 4.2 M pixels, the renderer refuses the
 buffer in one line).  `evaluated`
 counts the target's evaluations: M a reservoir, plus the spatial pass's p-hat of each
-neighbour's sample here and, unbiased, of the kept sample at each neighbour; the shade costs
-none (it reuses f(y), kept with p-hat(y): this lab's lights cast no shadows, so the
+neighbour's sample here and, unbiased, of the kept sample at each neighbour; the resolve
+costs none (it reuses f(y), kept with p-hat(y): this lab's lights cast no shadows, so the
 contribution is the target's own vector; a renderer with shadows traces one ray there).
 
 Departures from the paper: S independent rounds of one reservoir each (the paper keeps one
@@ -107,7 +109,8 @@ class SampleRis(Technique, register_at=93):
 
 
 def reservoir_round(build, opts, k: int) -> list:
-    """Reservoir k's passes: candidates, spatial reuse (if on), its shade."""
+    """Reservoir k's passes: its candidates ("shade": the pass that evaluates lights, the one
+    the cost model's replay stands for), spatial reuse (if on), its resolve."""
     w, h = build.frame.size
     sampled = dict(sample_uniforms(opts), u_reservoir=k)
     grid = dict(grid_uniforms(build.grid), **sampled)
@@ -118,7 +121,7 @@ def reservoir_round(build, opts, k: int) -> list:
         return Pass(name, shader, reads=("lights",) + reads, writes=writes,
                     groups=image_groups(w, h), uniforms=uniforms, sources=sources,
                     defines=SAMPLE_DEFINES if "ranges" in reads else UNLISTED)
-    steps = [step("candidates", "ris_candidates.comp", LIST_READS, dict(bound, ris_out=record),
+    steps = [step("shade", "ris_candidates.comp", LIST_READS, dict(bound, ris_out=record),
                   dict(grid, u_candidates=opts.candidates), {"ris_out": RESERVOIRS})]
     last = RESERVOIRS
     if opts.spatial_reuse:
@@ -128,6 +131,6 @@ def reservoir_round(build, opts, k: int) -> list:
                                u_reuse_radius=float(opts.reuse_radius), u_unbiased=unbiased),
                           {"ris_in": RESERVOIRS, "ris_out": REUSED}))
         last = REUSED
-    steps.append(step("shade", "ris_shade.comp", ("ris_in",),
+    steps.append(step("resolve", "ris_resolve.comp", ("ris_in",),
                       frame_outputs(w, h, waves_cleared=k == 0), grid, {"ris_in": last}))
     return steps

@@ -1,14 +1,15 @@
-"""sample-ris: what the GPU cost model needs (app.model): its candidates passes as the wave
-replay's segments, with the lights the GPU draws reproduced bit for bit in numpy uint32
-arithmetic (glsl/sampling.glsl's PCG streams, ris.glsl's rounds, ris_candidates.comp's
-search of the cell's CDF words): the draws never depend on a float, so the same integers
-give the same lights.
+"""sample-ris: what the GPU cost model needs (app.model): its candidates passes (named
+"shade": the passes that evaluate lights) as the wave replay's segments, with the lights
+the GPU draws reproduced bit for bit in numpy uint32 arithmetic (glsl/sampling.glsl's PCG
+streams, ris.glsl's rounds, ris_candidates.comp's search of the cell's CDF words): the
+draws never depend on a float, so the same integers give the same lights.
 
 Per shading lane and round k of S: one step (k) whose head is the lane's cell record and
 whose list is its M drawn lights in draw order (entries[e] then lights[entries[e]], as the
-shader fetches them).  The CDF search's log2 n word reads and the shade pass (one record
-read, no evaluation) are not modelled; spatial reuse (its neighbours' G-buffer reads and
-evaluations) is not replayed: wave_program refuses it.
+shader fetches them).  Not modelled: the CDF search's log2 n word reads, the resolve pass
+(one record read, no evaluation) and the S - 1 further launches of every wave (the model
+prices a shading pass's fixed work once a wave); spatial reuse (its neighbours' G-buffer
+reads and evaluations) is not replayed: wave_program refuses it.
 """
 from __future__ import annotations
 

@@ -43,7 +43,7 @@ float unbiased_z(inout PixelState s, Reservoir own, uint light, uint stream) {
         uint m = ris_in[pixel_index(n.pixel)].M;
         if (m == 0u) continue;
         s.evaluated++;
-        if (luminance(light_contribution(n, L, L.id_type.y)) > 0.0) z += float(m);
+        if (luminance(target_contribution(n, L)) > 0.0) z += float(m);
     }
     return z;
 }
@@ -61,7 +61,7 @@ Reservoir combine(inout PixelState s, Reservoir own) {
         m += float(r.M);
         if (r.light == RIS_NO_LIGHT) continue;
         GpuLight L = lights[r.light];
-        vec3 f = light_contribution(s, L, L.id_type.y);
+        vec3 f = target_contribution(s, L);
         if (accept(wsum, luminance(f) * r.W * float(r.M), stream)) keep(o, r.light, f);
     }
     o.M = uint(m);
@@ -72,7 +72,7 @@ Reservoir combine(inout PixelState s, Reservoir own) {
 
 void main() {
 #if defined(CELLS_ONLY) && CELLS_ONLY
-    return;                       // a modelled frame records cells only (ris_shade.comp)
+    return;                       // a modelled frame records cells only (ris_resolve.comp)
 #endif
     PixelState s = load_pixel();
     if (!s.inside) return;

@@ -209,3 +209,14 @@ def test_replay_refuses_spatial_reuse(arena):
     fr = waves.frame_data(r, r.render(TECH, 0, o), opts(**o))
     with pytest.raises(NotImplementedError, match="spatial reuse off only"):
         parts.wave_program(TECH, fr, 64)
+
+
+def test_the_cost_model_prices_its_replay(gl):
+    """Its candidates pass (named shade) carries the priced marks of what the replay issues:
+    the light loop, the affects test and the shading of every shape."""
+    from app.model import predict
+    scene = load_scene("corridor", lights=96, seed=3)          # all four shapes
+    with Renderer(scene, (48, 32)) as r:
+        figures = predict.frame_figures(r, TECH, r.render(TECH, 0), {})
+    assert {"cell", "light", "test:spot", "shade:box"} <= set(figures[32]["shade"].ops)
+    assert all(v["shade"] > 0 for v in predict.modelled(figures).values())

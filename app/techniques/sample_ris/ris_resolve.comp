@@ -1,7 +1,7 @@
 #version 430
-// sample-ris, its shading pass (one a round): the round's reservoir's estimate f(y) W added
-// to the pixel's sum (carried over from the rounds before in the frame outputs), the S
-// rounds' mean stored at the last.  f(y) is the kept f, from the evaluation that computed
+// sample-ris, its resolve pass, the final shading (one a round): the round's reservoir's
+// estimate f(y) W added to the pixel's sum (carried over from the rounds before in the frame
+// outputs), the S rounds' mean stored at the last.  f(y) is the kept f, from the evaluation that computed
 // p-hat(y) at this pixel: this lab's lights cast no shadows, so the shade is the target's own
 // vector and costs no evaluation (a renderer with shadows traces the kept light's ray here).
 #include "generated.glsl"
