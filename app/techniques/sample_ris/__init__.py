@@ -22,11 +22,14 @@ A pixel whose cell holds no light adds nothing (no light there affects it: clust
 are exact).  One reservoir a pixel at a time, S rounds: the reservoir buffers stay one
 record a pixel (32 bytes) at any S, as the paper's one-reservoir frame does (past the
 storage-block limit, llvmpipe's 128 MiB at about 4.2 M pixels, the renderer refuses the
-buffer in one line).  `evaluated`
-counts the target's evaluations: M a reservoir, plus the spatial pass's p-hat of each
-neighbour's sample here and, unbiased, of the kept sample at each neighbour; the resolve
-costs none (it reuses f(y), kept with p-hat(y): this lab's lights cast no shadows, so the
-contribution is the target's own vector; a renderer with shadows traces one ray there).
+buffer in one line).  The candidates pass is named "shade": it is the pass that evaluates
+lights, the one the cost model's replay (replay.py) stands for.
+
+`evaluated` counts the target's evaluations: M a reservoir, plus the spatial pass's p-hat
+of each neighbour's sample here and, unbiased, of the kept sample at each neighbour; the
+resolve costs none (it reuses f(y), kept with p-hat(y): this lab's lights cast no shadows,
+so the contribution is the target's own vector; a renderer with shadows traces one ray
+there).
 
 Departures from the paper: S independent rounds of one reservoir each (the paper keeps one
 reservoir a pixel; S > 1 here averages S such estimates, as sample-list's S samples); a
