@@ -8,12 +8,9 @@
 // Needs sampling.glsl (the pixel's stream).
 #include "ris_structs.glsl"
 
-#ifdef B_RIS_IN
+// (a pass binds those of the two it declares; the renderer drops the other's block)
 layout(std430, binding = B_RIS_IN) readonly buffer RisIn { Reservoir ris_in[]; };
-#endif
-#ifdef B_RIS_OUT
 layout(std430, binding = B_RIS_OUT) writeonly buffer RisOut { Reservoir ris_out[]; };
-#endif
 
 uniform uint u_reservoir;      // this round's reservoir, 0 .. S - 1
 
