@@ -90,8 +90,10 @@ class SampleRis(Technique, register_at=93):
                                     "reservoirs (biased: Algorithm 4, 1/M, darker where a "
                                     "neighbour cannot draw this pixel's lights; unbiased: "
                                     "Algorithm 6, 1/Z)", study=True)
+        # no study of k or the radius: a study sets one option over the defaults, where
+        # spatial reuse is off and both are ignored (Options.ignored)
         reuse_neighbours: int = option(5, "neighbours a reservoir combines (k; the paper: 5)",
-                                       lo=1, hi=32, study=(1, 3, 5, 10))
+                                       lo=1, hi=32)
         reuse_radius: float = option(30.0, "radius of the neighbours' disk, pixels (the paper: "
                                            "30)", lo=1.0, hi=512.0)
 

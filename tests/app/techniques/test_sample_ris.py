@@ -220,3 +220,11 @@ def test_the_cost_model_prices_its_replay(gl):
         figures = predict.frame_figures(r, TECH, r.render(TECH, 0), {})
     assert {"cell", "light", "test:spot", "shade:box"} <= set(figures[32]["shade"].ops)
     assert all(v["shade"] > 0 for v in predict.modelled(figures).values())
+
+
+def test_every_study_value_runs_over_the_defaults():
+    """A benchmark study sets one option over the defaults (app.bench.plan): each studied
+    value must make valid options there."""
+    for spec in TECH.Options.specs():
+        for v in spec.study:
+            TECH.Options().with_(**{spec.name: v})
