@@ -1,5 +1,5 @@
 #version 430
-// sample-ris, spatial reuse (Bitterli et al. 2020, section 4): each pixel's reservoir
+// sample-ris, spatial reuse (Bitterli et al. 2020, its spatial pass): each pixel's reservoir
 // combined with those of k neighbours drawn uniformly in a disk of u_reuse_radius pixels,
 // neighbours whose normal or depth differs too much skipped (the paper's heuristic),
 //   biased    Algorithm 4: W = (1 / p-hat_q(y)) (1 / sum M) wsum
