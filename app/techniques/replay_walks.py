@@ -1,5 +1,5 @@
 """The wave replay's walks several techniques' replay modules share (app.model.waves
-programs): every light, a cell's record, a cell's index list."""
+programs): every light, a cell's record, a cell's index list, draws by a cell's CDF words."""
 from __future__ import annotations
 
 import numpy as np
@@ -39,3 +39,35 @@ def entry_list(prog, entries, duplicated: bool = False, entry_buf: str = "entrie
     if duplicated:
         return prog.add_list(entries, slot=k, light_buf="dup_lights")
     return prog.add_list(entries, entry_off=4 * k, entry_buf=entry_buf)
+
+
+def add_cdf_draws(prog, lanes, first, count, masses, lid: int, step0: int = 0) -> int:
+    """Draws by a cell's CDF words (glsl/sample_cdf.glsl draw_entry), `masses` (D, lanes) the
+    GPU's u of each draw in order: per draw its search probes (kind word, a lane whose search
+    ended earlier masked: the d-th draw's j-th probe of every lane together), then the drawn
+    light (kind light, one position of list `lid`, the entries' positions), from step0 on;
+    returns the step after the last."""
+    from cpu_prep import sampling
+    cdf = prog.frame.build.buffers["sample_cdf"]
+    searched = [sampling.draw_entries(cdf, first, count, u) for u in masses]
+    depth = max((len(p) for _, p in searched), default=0)     # the frame's longest search
+    for d, (entry, probes) in enumerate(searched):
+        base = step0 + d * (depth + 1)
+        for j, probe in enumerate(probes):
+            on = probe >= 0
+            prog.add(lanes[on], step=base + j, head=("word", "sample_cdf", 4 * probe[on], 4, False))
+        prog.add(lanes, step=base + depth, lights=(lid, entry, 1, False))
+    return step0 + len(searched) * (depth + 1)
+
+
+def listed_lanes(prog, frame, step: int = 0):
+    """(lanes, first, count): the shading lanes the replay walks, each with its cell record
+    fetched at `step`, less those whose cell lists no light (they draw nothing)."""
+    ranges = frame.build.buffers["ranges"]["offset_count"].astype(np.int64)
+    lanes = np.nonzero(frame.shading)[0]
+    if frame.live is not None:
+        lanes = lanes[frame.live[lanes]]
+    prog.add(lanes, step=step, head=cell_head(prog, lanes))
+    first, count = ranges[frame.cell[lanes], 0], ranges[frame.cell[lanes], 1]
+    keep = count > 0
+    return lanes[keep], first[keep], count[keep]

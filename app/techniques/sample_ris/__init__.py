@@ -4,7 +4,7 @@
 dynamic direct lighting"), over the cluster lists and integer CDF that sample-list draws
 from (app/techniques/sampling.py, cpu_prep.sampling).
 
-Per shading pixel and reservoir (S = --samples, averaged), one round of passes:
+Per shading pixel and reservoir (S = --light-samples, averaged), one round of passes:
 
     shade       the candidates (ris_candidates.comp): M (--candidates) lights drawn from the
                 pixel's cell by the source pdf p (the cell's CDF words), each weighted
@@ -108,7 +108,7 @@ class SampleRis(Technique, register_at=93):
 
     def passes(self, build, opts):
         steps = []
-        for k in range(opts.samples):
+        for k in range(opts.light_samples):
             steps += reservoir_round(build, opts, k)
         return steps + support_passes(build)
 

@@ -18,24 +18,8 @@ uniform uint u_reservoir;      // this round's reservoir, 0 .. S - 1
 // of app.sampling_check, which judges the estimate's luminance).
 float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 
-// What an affecting light L adds to the pixel, unshadowed (pixel.glsl shade_affecting's
-// radiance, without its counters).
-// priced: shade
-vec3 affecting_contribution(PixelState s, GpuLight L, uint type) {
-    precise vec3 d = s.P - L.pos_radius.xyz;
-    precise float d2 = dot(d, d);
-    vec3 l;
-    vec3 arriving = light_radiance_as(L, d, d2, s.N, l, type);
-    return arriving * surface_response(s.N, normalize(-s.P), l, s.albedo, s.roughness, s.metallic);
-}
-
-// One target evaluation: f of light L at the pixel, zero outside its volume (sampling.glsl's
-// light_contribution, as the cost model's priced test and shade steps).
-vec3 target_contribution(inout PixelState s, GpuLight L) {
-    uint type = L.id_type.y;
-    s.evaluated++;
-    return light_affects_pixel(s, L, type) ? affecting_contribution(s, L, type) : vec3(0.0);
-}
+// One target evaluation: f of light L at the pixel, unshadowed, zero outside its volume.
+vec3 target_contribution(inout PixelState s, GpuLight L) { return light_contribution(s, L, L.id_type.y); }
 
 uint pixel_index(ivec2 p) { return uint(p.y) * uint(u_size.x) + uint(p.x); }
 

@@ -97,8 +97,9 @@ def test_exactness_waste_and_cost(sweep):
             assert r["waste"] == 1.0 or r["exact_pp"] == 0, where
             assert r["setup_ms"] > 0, where          # its lists: untimed set-up ...
             assert set(p.split("=")[0] for p in r["gpu_passes"].split(";")) == {"gbuffer", "shade"}
-        if r["error_ref"] == ref:
-            assert r["image_error"] < 1e-5, where
+        if r["error_ref"] == ref:      # exact: brute's image; a sampler: its noise
+            sampler = REGISTRY[r["technique"]].role == "sampler"
+            assert (r["image_error"] > 1e-3) if sampler else (r["image_error"] < 1e-5), where
         assert r["gpu_shade_ms"] > 0 and r["samples"] >= 1, where
         # ... never part of the cost: CPU stage + every timed pass but the G-buffer (1 sample)
         assert r["frame_cost_ms"] == pytest.approx(

@@ -12,7 +12,7 @@ from app.exactness import check as exact
 from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY
 from app.techniques.sample_ris import RESERVOIR, SPATIAL
-from cpu_prep import layouts
+from cpu_prep import layouts, sampling
 from scenes import load_scene
 from tests.app.techniques.hard_frames import Frame, concat, scene_of, street_camera, unit, view_space
 from tests.helpers import floor_and_boxes, random_lights
@@ -106,7 +106,7 @@ def test_biased_reuse_is_consistent(arena):
     """Its error against brute falls as S grows (the variance goes, a bias stays); the check
     sees its bias with enough seeds."""
     r, ref = arena
-    err = {s: np.mean([rmse(r.render(TECH, 0, opts(spatial_reuse="biased", samples=s,
+    err = {s: np.mean([rmse(r.render(TECH, 0, opts(spatial_reuse="biased", light_samples=s,
                                                     sample_seed=k)).image, ref)
                        for k in range(3)]) for s in (1, 16)}
     assert err[16] < 0.6 * err[1], err
@@ -131,7 +131,7 @@ def _cell_counts(res) -> np.ndarray:
 def test_evaluated_is_s_times_m_without_reuse(arena, s, m):
     """(On 64 of the arena's lights: some cells empty.)"""
     r, ref = arena
-    res = r.render(TECH, 0, opts(samples=s, candidates=m), lights=FEW)
+    res = r.render(TECH, 0, opts(light_samples=s, candidates=m), lights=FEW)
     shading, lit = ref.depth > 0, _cell_counts(res) > 0
     assert (shading & lit).any() and (shading & ~lit).any(), "both kinds of pixel"
     assert (res.evaluated[shading & lit] == s * m).all()
@@ -146,7 +146,7 @@ def test_spatial_reuse_counts_its_evaluations(arena):
     s, m, k = 2, 4, 5
     lit = (ref.depth > 0) & (_cell_counts(r.render(TECH, 0, opts())) > 0)
     for spatial, most in (("biased", k), ("unbiased", 2 * k)):
-        ev = r.render(TECH, 0, opts(samples=s, candidates=m, spatial_reuse=spatial,
+        ev = r.render(TECH, 0, opts(light_samples=s, candidates=m, spatial_reuse=spatial,
                                     reuse_neighbours=k)).evaluated[lit].astype(np.int64)
         assert ev.min() >= s * m and ev.max() <= s * (m + most), spatial
         assert (ev > s * m).mean() > 0.05, spatial
@@ -174,7 +174,7 @@ def test_spatial_reuse_options():
     assert opts(spatial_reuse="biased", reuse_neighbours=3).reuse_neighbours == 3
 
 
-@pytest.mark.parametrize("o", [dict(samples=2, candidates=1), dict(samples=3, candidates=8,
+@pytest.mark.parametrize("o", [dict(light_samples=2, candidates=1), dict(light_samples=3, candidates=8,
                                                                   sample_seed=5)])
 def test_replay_draws_the_shaders_lights(arena, o):
     """The cost model's replay (sample_ris/replay.py): per pixel the shader's evaluations,
@@ -193,8 +193,11 @@ def test_replay_draws_the_shaders_lights(arena, o):
     ranges = cell_ranges(fr.build)
     lanes = np.nonzero(fr.shading)[0]
     lanes = lanes[ranges[fr.cell[lanes], 1] > 0]
-    e = replay.drawn_entries(fr.build.buffers["sample_cdf"], ranges, fr.cell[lanes], lanes, fr.opts)
-    drawn = np.asarray(fr.build.buffers["entries"], np.int64)[e[:, -1, :]]
+    first, count = ranges[fr.cell[lanes], 0], ranges[fr.cell[lanes], 1]
+    last = replay.round_masses(lanes, fr.opts, fr.opts.light_samples - 1)
+    e = np.stack([sampling.draw_entries(fr.build.buffers["sample_cdf"], first, count, u)[0]
+                  for u in last], 1)
+    drawn = np.asarray(fr.build.buffers["entries"], np.int64)[e]
     kept = r.read("ris_reservoirs").view(RESERVOIR)["light"][lanes].astype(np.int64)
     has = kept != NO_LIGHT
     assert has.sum() > 100
