@@ -1,0 +1,144 @@
+"""The light trees' sampling bounds (app/techniques/sample_tree): what a stochastic descent
+of a tile's tree (cpu_prep.tree, O'Donnell & Chajdas 2017) reads besides the nodes, in the
+manner of Stochastic Lightcuts (Yuksel 2019) with a cut of one node, the root.
+
+    sample_nodes[node]: SAMPLE_NODE, beside nodes[node] (the same index)
+        box_lo_power  xyz the least view-space light centre of the node's subtree, w its power
+        box_hi        xyz the greatest centre (w unused)
+        pieces        x first, y count of its depth pieces (zw unused)
+    depth_pieces[piece] = (lo, hi): the union of the subtree's leaf depth intervals as
+                          disjoint closed intervals sorted by lo
+
+A subtree's power is the sum of its lights' brightest channel of colour x intensity (the
+bound cpu_prep.sampling uses per list entry): over the distance d from a pixel to the box of
+the subtree's light centres, power / (d^2 + 1) bounds the sum of its lights' I / (d_i^2 + 1)
+(the light model's falloff under an attenuation window of at most 1).  Yuksel's importance
+also bounds the orientation; this one keeps the distance alone.
+
+Depth pieces: tree.glsl's traversal reaches a leaf exactly when the pixel's depth lies in
+the leaf's [min_depth, max_depth] (every ancestor's interval is the min/max of its children's,
+so it holds the leaf's).  A node's own interval is only their hull: a depth between two
+leaves' intervals hits it and none of its leaves, and a descent that entered it would end
+with no light.  So the descent asks of a child whether the depth lies in one of its pieces,
+compared as node_hit compares (depth >= lo && depth <= hi on the same float32 bounds): it
+enters exactly the subtrees that hold a leaf the traversal reaches, and never ends empty.
+"""
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from .layouts import NODE_BITS, NODE_FIRST_LIGHT, NODE_MAX_DEPTH, NODE_MIN_DEPTH
+from .limits import NODE_COUNT_BITS
+
+SAMPLE_NODE = np.dtype([
+    ("box_lo_power", np.float32, 4),
+    ("box_hi", np.float32, 4),
+    ("pieces", np.uint32, 4),
+])
+assert SAMPLE_NODE.itemsize == 48
+
+# Share of the uniform choice between two enterable children (defensive mixture, as
+# cpu_prep.sampling.DEFENSIVE for a list): every light the traversal reaches keeps p > 0,
+# also under a child of zero power, and no child's weight 1/p passes 2 / NODE_DEFENSIVE.
+NODE_DEFENSIVE = 0.02
+# A leaf of more lights draws one uniformly (p = 1/n) instead of by their bounds: the bound
+# pass reads every light of the leaf twice a sample, and leaves grow past lights_per_leaf
+# only where a tile's lights pass max_leaves x lights_per_leaf (or 65,535 a leaf); this
+# keeps a sample's loops short under a driver's loop limit (docs/platform.md).
+LEAF_SCAN = 64
+
+
+def light_power(gpu_lights: np.ndarray) -> np.ndarray:
+    """(N,) float64: each light's brightest channel of colour x intensity (at least 0)."""
+    return np.maximum(gpu_lights["color_cos_inner"][:, :3].max(1).astype(np.float64), 0.0)
+
+
+@numba.njit(cache=True, nogil=True)
+def _bounds(nf, nu, entries, centre, power, lo, hi, pw, p_off, p_lo, p_hi, p_n, depth):
+    """Every node, children before parents (depth-first order reversed): its centre box,
+    power and depth pieces (in scratch p_lo/p_hi at p_off[node], p_n[node] of them); then
+    parents before children: each node's level below its tree's root."""
+    n = nf.shape[0]
+    count_mask = (1 << NODE_COUNT_BITS) - 1
+    for i in range(n - 1, -1, -1):
+        bits = np.int64(nu[i, NODE_BITS])
+        o = p_off[i]
+        if bits & 1:
+            first, cnt = np.int64(nu[i, NODE_FIRST_LIGHT]), (bits >> 1) & count_mask
+            s = 0.0
+            for a in range(3):
+                lo[i, a], hi[i, a] = np.inf, -np.inf
+            for e in range(first, first + cnt):
+                j = entries[e]
+                s += power[j]
+                for a in range(3):
+                    lo[i, a] = min(lo[i, a], centre[j, a])
+                    hi[i, a] = max(hi[i, a], centre[j, a])
+            pw[i] = s
+            a_lo, a_hi = nf[i, NODE_MIN_DEPTH], nf[i, NODE_MAX_DEPTH]
+            p_n[i] = 0
+            if a_lo <= a_hi:                  # an empty leaf (lo inf, hi -inf) has none
+                p_lo[o], p_hi[o], p_n[i] = a_lo, a_hi, 1
+            continue
+        left = i + 1
+        right = left + (np.int64(nu[left, NODE_BITS]) >> (1 + NODE_COUNT_BITS))
+        pw[i] = pw[left] + pw[right]
+        for a in range(3):
+            lo[i, a] = min(lo[left, a], lo[right, a])
+            hi[i, a] = max(hi[left, a], hi[right, a])
+        p_n[i] = _merge(p_lo, p_hi, p_off[left], p_n[left], p_off[right], p_n[right], o)
+    for i in range(n):                    # a root's level is 0; children follow their parent
+        bits = np.int64(nu[i, NODE_BITS])
+        if not bits & 1:
+            left = i + 1
+            right = left + (np.int64(nu[left, NODE_BITS]) >> (1 + NODE_COUNT_BITS))
+            depth[left] = depth[i] + 1
+            depth[right] = depth[i] + 1
+
+
+@numba.njit(inline="always")
+def _merge(p_lo, p_hi, a, na, b, nb, out):
+    """Two sorted lists of disjoint closed intervals merged at `out`, touching or overlapping
+    ones joined (their union holds the same floats); returns the count written."""
+    i, j, m = 0, 0, 0
+    while i < na or j < nb:
+        if j >= nb or (i < na and p_lo[a + i] <= p_lo[b + j]):
+            x, y = p_lo[a + i], p_hi[a + i]
+            i += 1
+        else:
+            x, y = p_lo[b + j], p_hi[b + j]
+            j += 1
+        if m > 0 and x <= p_hi[out + m - 1]:
+            p_hi[out + m - 1] = max(p_hi[out + m - 1], y)
+        else:
+            p_lo[out + m], p_hi[out + m] = x, y
+            m += 1
+    return m
+
+
+def sample_nodes(nodes: np.ndarray, entries: np.ndarray, gpu_lights: np.ndarray):
+    """(sample_nodes SAMPLE_NODE, depth_pieces (P, 2) float32, levels (nodes,) int64) of a
+    frame's trees (module docstring); levels: each node's depth below its root."""
+    n = len(nodes)
+    flat = nodes.view(np.uint32).reshape(n, -1)
+    nf, nu = flat.view(np.float32), flat
+    skip = (nu[:, NODE_BITS].astype(np.int64) >> (1 + NODE_COUNT_BITS))
+    room = (skip + 1) // 2                    # a full binary subtree's leaves: pieces at most
+    p_off = np.concatenate([[0], np.cumsum(room)[:-1]]).astype(np.int64) if n else np.zeros(0, np.int64)
+    total = int(room.sum())
+    p_lo, p_hi = np.empty(total, np.float32), np.empty(total, np.float32)
+    p_n = np.zeros(n, np.int64)
+    lo, hi = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
+    pw, levels = np.zeros(n), np.zeros(n, np.int64)
+    centre = np.ascontiguousarray(gpu_lights["pos_radius"][:, :3])
+    _bounds(nf, nu, np.asarray(entries, np.int64), centre, light_power(gpu_lights), lo, hi, pw,
+            p_off, p_lo, p_hi, p_n, levels)
+    out = np.zeros(n, SAMPLE_NODE)
+    out["box_lo_power"][:, :3], out["box_lo_power"][:, 3] = lo, pw
+    out["box_hi"][:, :3] = hi
+    first = np.concatenate([[0], np.cumsum(p_n)[:-1]]) if n else np.zeros(0, np.int64)
+    out["pieces"][:, 0], out["pieces"][:, 1] = first, p_n
+    keep = np.repeat(p_off, p_n) + (np.arange(int(p_n.sum())) - np.repeat(first, p_n))
+    pieces = np.stack([p_lo[keep], p_hi[keep]], 1).astype(np.float32)
+    return out, pieces.reshape(-1, 2), levels
