@@ -22,8 +22,8 @@ The support pass (figures only, untimed) is tree.glsl's exact traversal: every l
 leaf the depth test reaches, i.e. every light a descent reaches with p > 0, evaluated; its
 count and hash are held to brute's (the exactness check), the estimate to brute's
 statistically (app.sampling_check).  `evaluated` is S where the pixel's tree reaches a leaf
-(else 0); `nodes` counts the node records the descents read (the root, then both children
-at each inner node).
+(else 0); `nodes` counts the node records read: the root's once a pixel (is any leaf
+reached?), then per descent the root and both children at each inner node.
 """
 from dataclasses import dataclass
 
