@@ -4,7 +4,7 @@ manner of Stochastic Lightcuts (Yuksel 2019) with a cut of one node, the root.
 
     sample_nodes[node]: SAMPLE_NODE, beside nodes[node] (the same index)
         box_lo_power  xyz the least view-space light centre of the node's subtree, w its power
-        box_hi        xyz the greatest centre (w unused)
+        box_hi        xyz the greatest centre, w the longest reach of its lights
         pieces        x first, y count of its depth pieces (zw unused)
     depth_pieces[piece] = (lo, hi): the union of the subtree's leaf depth intervals as
                           disjoint closed intervals sorted by lo
@@ -12,8 +12,10 @@ manner of Stochastic Lightcuts (Yuksel 2019) with a cut of one node, the root.
 A subtree's power is the sum of its lights' brightest channel of colour x intensity (the
 bound cpu_prep.sampling uses per list entry): over the distance d from a pixel to the box of
 the subtree's light centres, power / (d^2 + 1) bounds the sum of its lights' I / (d_i^2 + 1)
-(the light model's falloff under an attenuation window of at most 1).  Yuksel's importance
-also bounds the orientation; this one keeps the distance alone.
+(the light model's falloff under an attenuation window of at most 1), and where d passes
+the subtree's longest reach (light_reach) no light of it can reach the pixel: importance 0
+(the descent's defensive share still keeps p > 0 there).  Yuksel's importance also bounds
+the orientation; this one keeps the distance alone.
 
 Depth pieces: tree.glsl's traversal reaches a leaf exactly when the pixel's depth lies in
 the leaf's [min_depth, max_depth] (every ancestor's interval is the min/max of its children's,
@@ -27,6 +29,8 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+
+from scenes.model import LIGHT_TYPES
 
 from .layouts import NODE_BITS, NODE_FIRST_LIGHT, NODE_MAX_DEPTH, NODE_MIN_DEPTH
 from .limits import NODE_COUNT_BITS
@@ -49,15 +53,25 @@ NODE_DEFENSIVE = 0.02
 LEAF_SCAN = 64
 
 
+def light_reach(gpu_lights: np.ndarray) -> np.ndarray:
+    """(N,) float32: how far from its centre each light can affect a point, as the shader's
+    light_reach computes it: a box its half diagonal (its radius is ignored), any other
+    shape its radius plus half its capsule segment (0 but for capsules)."""
+    box = gpu_lights["id_type"][:, 1] == LIGHT_TYPES.index("box")
+    ext = gpu_lights["extent_length"]
+    return np.where(box, np.sqrt((ext[:, :3].astype(np.float64) ** 2).sum(1)),
+                    gpu_lights["pos_radius"][:, 3] + 0.5 * ext[:, 3].astype(np.float64)).astype(np.float32)
+
+
 def light_power(gpu_lights: np.ndarray) -> np.ndarray:
     """(N,) float64: each light's brightest channel of colour x intensity (at least 0)."""
     return np.maximum(gpu_lights["color_cos_inner"][:, :3].max(1).astype(np.float64), 0.0)
 
 
 @numba.njit(cache=True, nogil=True)
-def _bounds(nf, nu, entries, centre, power, lo, hi, pw, p_off, p_lo, p_hi, p_n, depth):
+def _bounds(nf, nu, entries, centre, power, reach, lo, hi, pw, far, p_off, p_lo, p_hi, p_n, depth):
     """Every node, children before parents (depth-first order reversed): its centre box,
-    power and depth pieces (in scratch p_lo/p_hi at p_off[node], p_n[node] of them); then
+    power, longest reach and depth pieces (in scratch p_lo/p_hi at p_off[node], p_n[node] of them); then
     parents before children: each node's level below its tree's root."""
     n = nf.shape[0]
     count_mask = (1 << NODE_COUNT_BITS) - 1
@@ -66,16 +80,17 @@ def _bounds(nf, nu, entries, centre, power, lo, hi, pw, p_off, p_lo, p_hi, p_n, 
         o = p_off[i]
         if bits & 1:
             first, cnt = np.int64(nu[i, NODE_FIRST_LIGHT]), (bits >> 1) & count_mask
-            s = 0.0
+            s, f = 0.0, np.float32(0.0)
             for a in range(3):
                 lo[i, a], hi[i, a] = np.inf, -np.inf
             for e in range(first, first + cnt):
                 j = entries[e]
                 s += power[j]
+                f = max(f, reach[j])
                 for a in range(3):
                     lo[i, a] = min(lo[i, a], centre[j, a])
                     hi[i, a] = max(hi[i, a], centre[j, a])
-            pw[i] = s
+            pw[i], far[i] = s, f
             a_lo, a_hi = nf[i, NODE_MIN_DEPTH], nf[i, NODE_MAX_DEPTH]
             p_n[i] = 0
             if a_lo <= a_hi:                  # an empty leaf (lo inf, hi -inf) has none
@@ -84,6 +99,7 @@ def _bounds(nf, nu, entries, centre, power, lo, hi, pw, p_off, p_lo, p_hi, p_n, 
         left = i + 1
         right = left + (np.int64(nu[left, NODE_BITS]) >> (1 + NODE_COUNT_BITS))
         pw[i] = pw[left] + pw[right]
+        far[i] = max(far[left], far[right])
         for a in range(3):
             lo[i, a] = min(lo[left, a], lo[right, a])
             hi[i, a] = max(hi[left, a], hi[right, a])
@@ -130,13 +146,14 @@ def sample_nodes(nodes: np.ndarray, entries: np.ndarray, gpu_lights: np.ndarray)
     p_lo, p_hi = np.empty(total, np.float32), np.empty(total, np.float32)
     p_n = np.zeros(n, np.int64)
     lo, hi = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
-    pw, levels = np.zeros(n), np.zeros(n, np.int64)
+    pw, levels, far = np.zeros(n), np.zeros(n, np.int64), np.zeros(n, np.float32)
     centre = np.ascontiguousarray(gpu_lights["pos_radius"][:, :3])
-    _bounds(nf, nu, np.asarray(entries, np.int64), centre, light_power(gpu_lights), lo, hi, pw,
+    _bounds(nf, nu, np.asarray(entries, np.int64), centre, light_power(gpu_lights),
+            light_reach(gpu_lights), lo, hi, pw, far,
             p_off, p_lo, p_hi, p_n, levels)
     out = np.zeros(n, SAMPLE_NODE)
     out["box_lo_power"][:, :3], out["box_lo_power"][:, 3] = lo, pw
-    out["box_hi"][:, :3] = hi
+    out["box_hi"][:, :3], out["box_hi"][:, 3] = hi, far
     first = np.concatenate([[0], np.cumsum(p_n)[:-1]]) if n else np.zeros(0, np.int64)
     out["pieces"][:, 0], out["pieces"][:, 1] = first, p_n
     keep = np.repeat(p_off, p_n) + (np.arange(int(p_n.sum())) - np.repeat(first, p_n))

@@ -1,4 +1,4 @@
-"""cpu_prep.sample_tree: each node's power, light-centre box and depth pieces equal their
+"""cpu_prep.sample_tree: each node's power, light-centre box, reach and depth pieces equal their
 brute-force values over its subtree, and a depth lies in a node's pieces exactly where the
 tree's traversal (listing 3) reaches a leaf of that subtree: a descent that enters a node
 always finds a light, and enters every subtree the traversal reaches."""
@@ -46,8 +46,14 @@ CASES = [(s, lpl, L, b) for s, lpl, L in [(1, 6, 64), (2, 1, 8), (3, 3, 16)]
 
 
 @pytest.mark.parametrize("seed,lpl,max_leaves,build", CASES)
-def test_node_powers_and_boxes_are_the_sums_and_bounds_of_their_subtrees(seed, lpl, max_leaves, build):
-    _, _, nodes, entries, gpu = _frame(seed, lpl, max_leaves, build)
+def test_node_powers_boxes_and_reach_are_the_sums_and_bounds_of_their_subtrees(seed, lpl, max_leaves, build):
+    rng, _, nodes, entries, gpu = _frame(seed, lpl, max_leaves, build)
+    gpu["pos_radius"][:, 3] = rng.uniform(0.1, 5, len(gpu))
+    capsule, box = rng.random(len(gpu)) < 0.2, rng.random(len(gpu)) < 0.2
+    gpu["id_type"][capsule, 1], gpu["extent_length"][capsule, 3] = 2, 3.0
+    gpu["id_type"][box, 1], gpu["extent_length"][box, :3] = 3, [1.0, 2.0, 2.0]
+    reach = np.where(box, 3.0, gpu["pos_radius"][:, 3] + np.where(capsule & ~box, 1.5, 0.0))
+    assert np.allclose(st.light_reach(gpu), reach, rtol=1e-6)
     got, _, _ = st.sample_nodes(nodes, entries, gpu)
     power = st.light_power(gpu)
     centre = gpu["pos_radius"][:, :3]
@@ -58,6 +64,7 @@ def test_node_powers_and_boxes_are_the_sums_and_bounds_of_their_subtrees(seed, l
         if len(ids):
             assert np.array_equal(got["box_lo_power"][i, :3], centre[ids].min(0)), i
             assert np.array_equal(got["box_hi"][i, :3], centre[ids].max(0)), i
+            assert got["box_hi"][i, 3] == st.light_reach(gpu)[ids].max(), i
     assert np.allclose(power, gpu["color_cos_inner"][:, :3].max(1))
 
 

@@ -25,18 +25,31 @@ bool node_enterable(uint i, float depth) {
     return lo > r.x && depth <= depth_pieces[lo - 1u].y;
 }
 
-// power / (d^2 + 1), d the distance from P to the node's box of light centres.
+// Whether a squared distance d2 is within `reach` (a relative margin: a miss here only
+// leaves the defensive share, never p = 0).
+bool within_reach(float d2, float reach) { return d2 <= reach * reach * 1.0001; }
+
+// power / (d^2 + 1), d the distance from P to the node's box of light centres; 0 past the
+// longest reach of its lights (cpu_prep.sample_tree).
 float node_importance(uint i, vec3 P) {
     SampleNode b = sample_nodes[i];
     vec3 gap = max(b.box_lo_power.xyz - P, 0.0) + max(P - b.box_hi.xyz, 0.0);
-    return b.box_lo_power.w / (dot(gap, gap) + 1.0);
+    float d2 = dot(gap, gap);
+    return within_reach(d2, b.box_hi.w) ? b.box_lo_power.w / (d2 + 1.0) : 0.0;
 }
 
-// I / (d^2 + 1): the light's brightest channel over its centre's distance.
+// How far from its centre L can affect a point (cpu_prep.sample_tree.light_reach).
+float light_reach(GpuLight L) {
+    return L.id_type.y == LIGHT_BOX ? length(L.extent_length.xyz)
+                                    : L.pos_radius.w + 0.5 * L.extent_length.w;
+}
+
+// I / (d^2 + 1): the light's brightest channel over its centre's distance; 0 past its reach.
 float light_bound(PixelState s, GpuLight L) {
     vec3 d = s.P - L.pos_radius.xyz;
     vec3 c = L.color_cos_inner.rgb;
-    return max(max(c.r, c.g), max(c.b, 0.0)) / (dot(d, d) + 1.0);
+    float d2 = dot(d, d);
+    return within_reach(d2, light_reach(L)) ? max(max(c.r, c.g), max(c.b, 0.0)) / (d2 + 1.0) : 0.0;
 }
 
 // From the root (enterable) down to a leaf; p *= each choice's probability.
