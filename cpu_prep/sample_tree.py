@@ -32,7 +32,7 @@ import numpy as np
 
 from scenes.model import LIGHT_TYPES
 
-from .layouts import NODE_BITS, NODE_FIRST_LIGHT, NODE_MAX_DEPTH, NODE_MIN_DEPTH
+from .layouts import NODE_BITS, NODE_FIRST_LIGHT, NODE_MAX_DEPTH, NODE_MIN_DEPTH, NODE_WORDS
 from .limits import NODE_COUNT_BITS
 
 SAMPLE_NODE = np.dtype([
@@ -137,7 +137,7 @@ def sample_nodes(nodes: np.ndarray, entries: np.ndarray, gpu_lights: np.ndarray)
     """(sample_nodes SAMPLE_NODE, depth_pieces (P, 2) float32, levels (nodes,) int64) of a
     frame's trees (module docstring); levels: each node's depth below its root."""
     n = len(nodes)
-    flat = nodes.view(np.uint32).reshape(n, -1)
+    flat = nodes.view(np.uint32).reshape(n, NODE_WORDS)
     nf, nu = flat.view(np.float32), flat
     skip = (nu[:, NODE_BITS].astype(np.int64) >> (1 + NODE_COUNT_BITS))
     room = (skip + 1) // 2                    # a full binary subtree's leaves: pieces at most

@@ -97,3 +97,9 @@ def test_a_depth_is_in_a_nodes_pieces_exactly_where_the_traversal_reaches_its_le
                 hull = nodes["min_depth"][i] <= z <= nodes["max_depth"][i]
                 gaps += hull and not inside
     assert gaps > 0, "no depth fell between leaves: the pieces' case is untested"
+
+
+def test_a_frame_without_trees_has_no_bounds():
+    got, pieces, levels = st.sample_nodes(np.zeros(0, layouts.TREE_NODE), np.zeros(0, np.uint32),
+                                          np.zeros(0, layouts.GPU_LIGHT))
+    assert len(got) == len(levels) == 0 and pieces.shape == (0, 2)
