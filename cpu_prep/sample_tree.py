@@ -47,10 +47,11 @@ assert SAMPLE_NODE.itemsize == 48
 # also under a child of zero power, and no child's weight 1/p passes 2 / NODE_DEFENSIVE.
 NODE_DEFENSIVE = 0.02
 # A leaf of more lights draws one uniformly (p = 1/n) instead of by their bounds: the bound
-# pass reads every light of the leaf twice a sample, and leaves grow past lights_per_leaf
+# passes read every light of the leaf twice a sample, and leaves grow past lights_per_leaf
 # only where a tile's lights pass max_leaves x lights_per_leaf (or 65,535 a leaf); this
-# keeps a sample's loops short under a driver's loop limit (docs/platform.md).
-LEAF_SCAN = 64
+# keeps a sample's loops short under a driver's loop limit (docs/platform.md): 64 samples of
+# two passes over 256 lights are 32,768 iterations of the 65,535.
+LEAF_SCAN = 256
 
 
 def light_reach(gpu_lights: np.ndarray) -> np.ndarray:

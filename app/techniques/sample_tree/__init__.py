@@ -66,7 +66,8 @@ class SampleTree(Technique, register_at=94):
                                                     b.lights.gpu)
         b.buffers["sample_nodes"], b.buffers["depth_pieces"] = nodes, pieces
         b.stats["depth_pieces"] = len(pieces)
-        check_loops(frame, opts, levels, nodes["pieces"][:, 1])
+        leaf, count, _ = layouts.unpack_node_bits(b.buffers["nodes"]["bits"])
+        check_loops(frame, opts, levels, nodes["pieces"][:, 1], count[leaf])
         return b
 
     def passes(self, build, opts):
@@ -81,19 +82,21 @@ class SampleTree(Technique, register_at=94):
                                    name="support", waves_cleared=False, timed=False, figures=True)
 
 
-def sample_loop_bound(samples: int, levels, piece_counts) -> int:
+def sample_loop_bound(samples: int, levels, piece_counts, leaf_counts) -> int:
     """The most loop iterations one invocation of sample_tree.comp runs: per sample, per
     level its two children's piece searches (log2 + 1 each) and the step, and the leaf's two
-    passes over at most LEAF_SCAN lights."""
+    passes over its lights (none past LEAF_SCAN: those draw uniformly)."""
     deepest = int(np.max(levels, initial=0))
     search = int(np.ceil(np.log2(max(int(np.max(piece_counts, initial=1)), 1) + 1))) + 1
-    return samples * (deepest * (2 * search + 1) + 2 * st.LEAF_SCAN + 1)
+    counts = np.asarray(leaf_counts)
+    scan = int(counts[counts <= st.LEAF_SCAN].max(initial=0))
+    return samples * (deepest * (2 * search + 1) + 2 * scan + 1)
 
 
-def check_loops(frame, opts, levels, piece_counts) -> None:
+def check_loops(frame, opts, levels, piece_counts, leaf_counts) -> None:
     """A frame whose descents could pass the driver's loop limit is refused with one line
     (the sampling pass is one dispatch: a sample cannot be split over windows)."""
-    bound = sample_loop_bound(opts.samples, levels, piece_counts)
+    bound = sample_loop_bound(opts.samples, levels, piece_counts, leaf_counts)
     if frame.loop_budget is not None and bound > frame.loop_budget:
         raise UserError(f"sample-tree: {opts.samples} descents of trees {int(np.max(levels))} "
                         f"levels deep may loop {bound} times a pixel, past this driver's loop "

@@ -120,7 +120,8 @@ def test_each_pixel_whose_tree_reaches_a_light_evaluates_its_samples(gl, arena, 
 def test_a_frame_whose_descents_could_pass_the_loop_limit_is_refused():
     opts = get(NAME).resolve_options({"samples": 64})
     limited, unlimited = SimpleNamespace(loop_budget=65535), SimpleNamespace(loop_budget=None)
-    check_loops(limited, opts, np.array([16]), np.array([1]))           # 64 x (16 x 5 + 129)
+    leaves = np.array([6, 256, 70_000])             # 70,000: drawn uniformly, no bound pass
+    check_loops(limited, opts, np.array([16]), np.array([1]), leaves)   # 64 x (16 x 5 + 513)
     with pytest.raises(UserError, match="loop limit"):
-        check_loops(limited, opts, np.array([64]), np.array([1 << 14]))
-    check_loops(unlimited, opts, np.array([64]), np.array([1 << 14]))   # no limit to pass
+        check_loops(limited, opts, np.array([64]), np.array([1 << 14]), leaves)
+    check_loops(unlimited, opts, np.array([64]), np.array([1 << 14]), leaves)   # no limit
