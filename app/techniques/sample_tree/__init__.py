@@ -96,8 +96,9 @@ def sample_loop_bound(samples: int, levels, piece_counts, leaf_counts) -> int:
 def check_loops(frame, opts, levels, piece_counts, leaf_counts) -> None:
     """A frame whose descents could pass the driver's loop limit is refused with one line
     (the sampling pass is one dispatch: a sample cannot be split over windows)."""
-    bound = sample_loop_bound(opts.samples, levels, piece_counts, leaf_counts)
+    samples = sample_uniforms(opts)["u_samples"]
+    bound = sample_loop_bound(samples, levels, piece_counts, leaf_counts)
     if frame.loop_budget is not None and bound > frame.loop_budget:
-        raise UserError(f"sample-tree: {opts.samples} descents of trees {int(np.max(levels))} "
+        raise UserError(f"sample-tree: {samples} descents of trees {int(np.max(levels))} "
                         f"levels deep may loop {bound} times a pixel, past this driver's loop "
                         f"limit ({frame.loop_budget}): fewer --samples or --max-leaves")
