@@ -12,10 +12,13 @@ A descent starts at the root and, at each inner node, takes a child that can hol
 reaching the pixel (its depth in one of the child's depth pieces: the depth test of
 tree.glsl's traversal on the same float32 bounds; any other child gets p = 0) with p
 proportional to its importance, power / (d^2 + 1) for d the distance from the pixel to the
-child's box of light centres, mixed with the uniform choice (NODE_DEFENSIVE).  At the leaf
-it takes one light proportional to I / (d^2 + 1) (d: pixel to light centre) mixed with the
-uniform choice (cpu_prep.sampling.DEFENSIVE), so every leaf light keeps p > 0; p is the
-product of the choices and the sample adds f / (S p).  Yuksel descends with one random
+child's box of light centres (0 past its lights' longest reach), mixed with the uniform
+choice (NODE_DEFENSIVE).  At the leaf it takes one light proportional to I / (d^2 + 1)
+(d: pixel to light centre; 0 past the light's reach) mixed with the uniform choice
+(cpu_prep.sampling.DEFENSIVE), so every leaf light keeps p > 0; a leaf of more than
+LEAF_SCAN lights (a tile past max_leaves x lights_per_leaf) draws uniformly, keeping a
+sample's loops in a driver's loop limit.  p is the product of the choices and the sample
+adds f / (S p).  Yuksel descends with one random
 number rescaled at each node; here each choice draws its own from the pixel's stream.
 
 The support pass (figures only, untimed) is tree.glsl's exact traversal: every light of a
