@@ -34,6 +34,7 @@ from scenes.model import LIGHT_TYPES
 
 from .layouts import NODE_BITS, NODE_FIRST_LIGHT, NODE_MAX_DEPTH, NODE_MIN_DEPTH, NODE_WORDS
 from .limits import NODE_COUNT_BITS
+from .sampling import DEFENSIVE
 
 SAMPLE_NODE = np.dtype([
     ("box_lo_power", np.float32, 4),
@@ -160,3 +161,128 @@ def sample_nodes(nodes: np.ndarray, entries: np.ndarray, gpu_lights: np.ndarray)
     keep = np.repeat(p_off, p_n) + (np.arange(int(p_n.sum())) - np.repeat(first, p_n))
     pieces = np.stack([p_lo[keep], p_hi[keep]], 1).astype(np.float32)
     return out, pieces.reshape(-1, 2), levels
+
+
+# ---- the GPU's draws again, for the cost model's replay (sample_tree.comp) ---------------
+# float32 throughout, in the shader's order of operations; a comparison the GPU's rounding
+# (a fused multiply-add, say) decides the other way moves one draw of ~2^-24 odds.
+
+_F = np.float32
+
+
+def _pcg(state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(new state, output) of glsl/sampling.glsl's next_random over uint32 arrays."""
+    with np.errstate(over="ignore"):
+        state = (state * np.uint32(747796405) + np.uint32(2891336453)).astype(np.uint32)
+        word = (((state >> ((state >> np.uint32(28)) + np.uint32(4))) ^ state)
+                * np.uint32(277803737)).astype(np.uint32)
+    return state, (word >> np.uint32(22)) ^ word
+
+
+def pixel_streams(pixels, seed: int, frame: int) -> np.ndarray:
+    """uint32 states of pixel_stream() for pixel indices y * width + x (GL rows)."""
+    key = _pcg(np.uint32(seed) ^ _pcg(np.array([(frame + 0x9E3779B9) & 0xFFFFFFFF], np.uint32))[1])[1]
+    return _pcg(np.asarray(pixels, np.int64).astype(np.uint32) ^ key)[1]
+
+
+def next_unit(state: np.ndarray, draw: np.ndarray) -> np.ndarray:
+    """next_unit() for the lanes `draw` (bool): their state advanced in place; u (float32)."""
+    new, bits = _pcg(state)
+    state[draw] = new[draw]
+    return (bits >> np.uint32(8)).astype(_F) * _F(1.0 / 16777216.0)
+
+
+def enterable(sample: np.ndarray, pieces: np.ndarray, node: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """node_enterable(): the depth in one of the node's pieces (numpy's search is the same
+    test: the last piece whose lo <= depth, then depth <= its hi)."""
+    first = sample["pieces"][node, 0].astype(np.int64)
+    count = sample["pieces"][node, 1].astype(np.int64)
+    lo, hi = first.copy(), first + count
+    while (lo < hi).any():
+        act = lo < hi
+        mid = (lo + hi) >> 1
+        up = act & (depth >= pieces[np.where(act, mid, 0), 0])
+        lo, hi = np.where(up, mid + 1, lo), np.where(act & ~up, mid, hi)
+    k = np.maximum(lo - 1, 0)
+    return (lo > first) & (depth <= pieces[k, 1] if len(pieces) else False)
+
+
+def _within(d2, reach):
+    return d2 <= reach * reach * _F(1.0001)
+
+
+def _dot(v):
+    return v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2]
+
+
+def importance(sample: np.ndarray, node: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """node_importance() per lane (float32)."""
+    b = sample[node]
+    gap = np.maximum(b["box_lo_power"][:, :3] - P, _F(0)) + np.maximum(P - b["box_hi"][:, :3], _F(0))
+    d2 = _dot(gap)
+    return np.where(_within(d2, b["box_hi"][:, 3]), b["box_lo_power"][:, 3] / (d2 + _F(1)), _F(0))
+
+
+def light_bounds(gpu_lights: np.ndarray, slot: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """light_bound() of the lights `slot` at the lanes' positions P (float32)."""
+    L = gpu_lights[slot]
+    d2 = _dot(P - L["pos_radius"][:, :3])
+    c = L["color_cos_inner"]
+    box = L["id_type"][:, 1] == LIGHT_TYPES.index("box")
+    ext = L["extent_length"]
+    reach = np.where(box, np.sqrt(_dot(ext[:, :3])), L["pos_radius"][:, 3] + _F(0.5) * ext[:, 3])
+    power = np.maximum(np.maximum(c[:, 0], c[:, 1]), np.maximum(c[:, 2], _F(0)))
+    return np.where(_within(d2, reach), power / (d2 + _F(1)), _F(0))
+
+
+def descend(nodes, sample, pieces, base, P, depth, state):
+    """descend_to_leaf() for lanes at the roots `base` (each enterable): (the leaf reached,
+    per level (lanes still descending, left child, right child)); `state` advanced."""
+    bits = nodes["bits"].astype(np.int64)
+    is_leaf, skip = (bits & 1) == 1, bits >> (1 + NODE_COUNT_BITS)
+    d = _F(NODE_DEFENSIVE)
+    keep, even = _F(1) - d, _F(0.5) * d
+    i, levels = np.asarray(base, np.int64).copy(), []
+    while True:
+        act = ~is_leaf[i]
+        if not act.any():
+            return i, levels
+        left = np.where(act, i + 1, i)
+        right = np.where(act, left + skip[left], i)
+        el = act & enterable(sample, pieces, left, depth)
+        er = act & enterable(sample, pieces, right, depth)
+        wl, wr = importance(sample, left, P), importance(sample, right, P)
+        total = wl + wr
+        share = np.where(total > 0, wl / np.where(total > 0, total, _F(1)), _F(0.5))
+        both = el & er
+        u = next_unit(state, both)
+        go_left = np.where(both, u < keep * share + even, el)
+        levels.append((act, left, right))
+        i = np.where(act, np.where(go_left, left, right), i)
+
+
+def draw_leaf(nodes, entries, gpu_lights, leaf, P, state):
+    """draw_leaf_light() for lanes at the leaves `leaf`: the entry each draws."""
+    first = nodes["first_light"][leaf].astype(np.int64)
+    count = (nodes["bits"][leaf].astype(np.int64) >> 1) & ((1 << NODE_COUNT_BITS) - 1)
+    draw = count > 1
+    u = next_unit(state, draw)
+    scan = draw & (count <= LEAF_SCAN)
+    longest = int(count[scan].max(initial=0))
+    bound = lambda k: light_bounds(gpu_lights, entries[np.minimum(first + k, len(entries) - 1)], P)
+    total = np.zeros(len(leaf), _F)
+    for k in range(longest):                     # the sum in the shader's order
+        m = scan & (k < count)
+        total = np.where(m, total + bound(k), total)
+    uniform = np.where(total > 0, _F(DEFENSIVE), _F(1))
+    by_uniform = u < uniform
+    e = first + np.minimum((u / uniform * count.astype(_F)).astype(np.int64), count - 1)
+    t = (u - uniform) / (_F(1) - np.where(by_uniform, _F(0), uniform)) * total
+    chosen, found = first + count - 1, np.zeros(len(leaf), bool)
+    for k in range(longest):
+        m = scan & ~by_uniform & (k < count) & ~found
+        w = bound(k)
+        hit = m & (t < w)
+        chosen, found = np.where(hit, first + k, chosen), found | hit
+        t = np.where(m & ~hit, t - w, t)
+    return np.where(draw, np.where(by_uniform, e, chosen), first)

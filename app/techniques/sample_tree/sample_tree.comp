@@ -57,6 +57,7 @@ uint descend_to_leaf(inout PixelState s, uint base, inout uint stream, inout flo
     uint i = base;
     s.nodes++;
     TreeNode n = nodes[i];
+    // priced: node
     while (!node_is_leaf(n.bits)) {
         uint l = i + 1u;
         TreeNode nl = nodes[l];
@@ -115,6 +116,7 @@ void main() {
     if (r.y > 0u && node_enterable(r.x, s.depth)) {
         uint stream = pixel_stream(s);
         vec3 sum = vec3(0.0);
+        // priced: light
         for (uint k = 0u; k < u_samples; ++k) {
             float p = 1.0;
             uint leaf = descend_to_leaf(s, r.x, stream, p);

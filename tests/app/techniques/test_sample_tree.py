@@ -125,3 +125,26 @@ def test_a_frame_whose_descents_could_pass_the_loop_limit_is_refused():
     with pytest.raises(UserError, match="loop limit"):
         check_loops(limited, opts, np.array([64]), np.array([1 << 14]), leaves)
     check_loops(unlimited, opts, np.array([64]), np.array([1 << 14]), leaves)   # no limit
+
+
+@pytest.mark.parametrize("opts", [{}, dict(tree_build=1, lights_per_leaf=1, samples=9, sample_seed=5)],
+                         ids=["full-trees", "topdown-draw-dependent"])
+def test_its_wave_replay_makes_the_shaders_draws_again(gl, arena, opts):
+    """The replay's lights evaluated and nodes read equal the shader's counters at every
+    pixel; in unbalanced (top-down) trees a descent's length is its draws', so another seed
+    in the replay misses them."""
+    from app.model import waves
+    from app.techniques import parts
+    r, _ = arena
+    t = get(NAME)
+    res = r.render(t, 0, t.resolve_options(opts))
+    order = lambda a: np.ascontiguousarray(a[::-1]).ravel()         # GL rows
+    ev, nodes = order(res.evaluated), order(res.nodes)
+    fr = waves.frame_data(r, res, t.resolve_options(opts))
+    rp = waves.replay(parts.wave_program(t, fr, 64))
+    assert np.array_equal(rp.evaluated, ev) and np.array_equal(rp.nodes, nodes)
+    assert ((rp.contrib > 0) & (order(res.contrib_count) == 0)).sum() == 0   # draws in the support
+    if opts:
+        assert len(np.unique(nodes[nodes > 0])) > 4
+        other = waves.frame_data(r, res, t.resolve_options(dict(opts, sample_seed=6)))
+        assert (waves.replay(parts.wave_program(t, other, 64)).nodes != nodes).sum() > 100
