@@ -148,3 +148,18 @@ def test_its_wave_replay_makes_the_shaders_draws_again(gl, arena, opts):
         assert len(np.unique(nodes[nodes > 0])) > 4
         other = waves.frame_data(r, res, t.resolve_options(dict(opts, sample_seed=6)))
         assert (waves.replay(parts.wave_program(t, other, 64)).nodes != nodes).sum() > 100
+
+
+def test_its_replay_draws_the_lights_the_shader_shaded(gl, arena):
+    """One sample unweighted (SAMPLE_FAULT 1: the image is the drawn light's f): wherever it
+    lit the pixel, the replay's drawn light affects it; another seed's draws miss ~200."""
+    from app.model import waves
+    from app.techniques import parts
+    r, _ = arena
+    t = get(NAME)
+    opts = t.resolve_options({"samples": 1, "lights_per_leaf": 32})
+    res = r.render(t, 0, opts, defines={"SAMPLE_FAULT": 1})
+    lit = np.ascontiguousarray(res.image[::-1]).reshape(-1, 3).max(1) > 0
+    hits = lambda o: waves.replay(parts.wave_program(t, waves.frame_data(r, res, o), 64)).contrib > 0
+    assert lit.sum() > 300 and not (lit & ~hits(opts)).any()
+    assert (lit & ~hits(opts.with_(sample_seed=99))).sum() > 50
