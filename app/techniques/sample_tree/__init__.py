@@ -104,4 +104,4 @@ def check_loops(frame, opts, levels, piece_counts, leaf_counts) -> None:
     if frame.loop_budget is not None and bound > frame.loop_budget:
         raise UserError(f"sample-tree: {samples} descents of trees {int(np.max(levels))} "
                         f"levels deep may loop {bound} times a pixel, past this driver's loop "
-                        f"limit ({frame.loop_budget}): fewer --samples or --max-leaves")
+                        f"limit ({frame.loop_budget}): fewer samples or a smaller leaf cap")
