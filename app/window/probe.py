@@ -321,7 +321,8 @@ def code_version(root: Path = ROOT) -> str:
     h = hashlib.sha1()
     for pattern in COST_SOURCES:
         for p in sorted(root.glob(pattern)):
-            h.update(str(p.relative_to(root)).encode() + p.read_bytes())
+            if p.is_file() and p.suffix != ".pyc":      # not a folder's __pycache__
+                h.update(str(p.relative_to(root)).encode() + p.read_bytes())
     return h.hexdigest()[:16]
 
 

@@ -48,14 +48,23 @@ def draw(seed, budget=BUDGET, frame=0):
     return {"stochastic": budget, "stochastic_seed": seed, "stochastic_frame": frame}
 
 
+CULLING = [n for n, t in REGISTRY.items() if t.role != "sampler"]
+
+
 def test_every_technique_takes_it_brute_included():
-    assert all(issubclass(t.Options, StochasticOptions) for t in REGISTRY.values())
+    """Every culling technique; a sampler estimates brute's frame by draws of its own and
+    refuses the option in one line."""
+    assert all(issubclass(REGISTRY[n].Options, StochasticOptions) for n in CULLING)
+    for n, t in REGISTRY.items():
+        if n not in CULLING:
+            with pytest.raises(UserError, match="is not an option of this technique"):
+                t.resolve_options({"stochastic": 16})
 
 
 @pytest.mark.parametrize("seed", [1, 9])
 @pytest.mark.parametrize("mode", list(MODES))
 def test_every_technique_is_exact_against_brute_under_the_same_draw(renderer, seed, mode):
-    names = [n for n in REGISTRY if mode == "default" or n == "brute" or takes(n, *MODES[mode])]
+    names = [n for n in CULLING if mode == "default" or n == "brute" or takes(n, *MODES[mode])]
     res = render_on(renderer, dict(draw(seed), **MODES[mode]), names)
     assert len(res) > 1 and (res["brute"].contrib_count > 0).mean() > 0.3
     assert_exact(res, f"seed {seed}")
