@@ -201,6 +201,12 @@ def render_on(renderer, opts: dict | None = None, techniques=None, reference=Non
     return out
 
 
+# the builtin scenes' draw the exactness tests hold every technique to (test_exactness,
+# test_tree_options share its reference frames); the extremes of light count are the hard
+# cases' and the loop budget's (65,536-70,000 lights) and the stress scene's (20,000)
+BUILTIN_LIGHTS = 4096
+
+
 @lru_cache(maxsize=None)
 def builtin_reference(name: str, lights: int, seed: int, distribution: str,
                       size: tuple[int, int]):
@@ -209,7 +215,7 @@ def builtin_reference(name: str, lights: int, seed: int, distribution: str,
     option set on the builtin scenes share it (the reference takes none of their options),
     and tests/conftest.py schedules the tests of one scene on one worker (SHARED_REFERENCE).
     Every draw asked stays cached (the suite asks for 15, two distributions of each builtin
-    scene and arena's 4,096 lights: a few MB each): an evicted one is a brute frame of 8,192
+    scene and arena's 4,096 lights: a few MB each): an evicted one is a brute frame of 4,096
     lights rendered again."""
     from app.pipeline.renderer import Renderer
     from scenes import load_scene

@@ -160,7 +160,7 @@ def preset_from_args(args) -> Preset:
     ch: dict[str, dict] = {k: {} for k in (SHARED, *STUDY_ORDER)}
     rendered = preset.config("rendered")
     if args.size:
-        ch[SHARED]["size"] = ch["gpu_build"]["size"] = tuple(args.size)
+        ch[SHARED]["size"] = ch["gpu_build"]["size"] = ch["sampling"]["size"] = tuple(args.size)
     if args.scenes:
         scenes = tuple(s.strip() for s in args.scenes.split(",") if s.strip())
         if not scenes:

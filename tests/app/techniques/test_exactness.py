@@ -1,6 +1,6 @@
 """The exactness check: every registered technique gives brute's contrib_count and
 contrib_hash at every pixel, on every builtin scene with both light distributions at
-8,192 lights, along the camera path, under every option, and on randomized scenes."""
+4,096 lights, along the camera path, under every option, and on randomized scenes."""
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
@@ -9,16 +9,16 @@ from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY, with_role
 from scenes import BUILTIN_SCENES, load_scene
 from scenes.model import Camera
-from tests.helpers import (assert_exact, assume_lit, builtin_reference, make_scene, random_lights,
-                           render_all, render_on, takes)
+from tests.helpers import (BUILTIN_LIGHTS, assert_exact, assume_lit, builtin_reference, make_scene,
+                           random_lights, render_all, render_on, takes)
 
-SIZE = (160, 90)         # 10 x 6 tiles of 16 px; brute at 8,192 lights ~5 s here
+SIZE = (160, 90)         # 10 x 6 tiles of 16 px
 
 
 @pytest.mark.parametrize("distribution", ["uniform", "geometry"])
 @pytest.mark.parametrize("name", list(BUILTIN_SCENES))
 def test_builtin_scenes_are_exact(gl, name, distribution):
-    scene, ref = builtin_reference(name, 8192, 1, distribution, SIZE)
+    scene, ref = builtin_reference(name, BUILTIN_LIGHTS, 1, distribution, SIZE)
     with Renderer(scene) as r:
         results = render_on(r, None, _techniques(), reference=ref)
     assert_exact(results, f"{name}/{distribution}")

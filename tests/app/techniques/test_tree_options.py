@@ -17,7 +17,7 @@ from app.techniques.blocks import SHARED_TREE_NODES
 from app.techniques.tree import group_tiles
 from scenes import BUILTIN_SCENES, load_scene
 from tests.app.model.replay_check import check, gl_order
-from tests.helpers import assert_exact, builtin_reference, render_on
+from tests.helpers import BUILTIN_LIGHTS, assert_exact, builtin_reference, render_on
 
 SIZE = (72, 48)                  # 9 x 6 groups, as test_waves: whole groups and 4-row halves
 LIGHTS = 1536
@@ -109,7 +109,7 @@ def test_options_exact_on_every_scene(gl, name):
     rendered once for both: tests.helpers.builtin_reference)."""
     brute = with_role("reference").name
     assert not set().union(*EXACT_OPTIONS.values()) & set(REGISTRY[brute].Options.names())
-    scene, ref = builtin_reference(name, 8192, 1, "uniform", (160, 90))    # test_exactness's
+    scene, ref = builtin_reference(name, BUILTIN_LIGHTS, 1, "uniform", (160, 90))    # test_exactness's
     with Renderer(scene) as r:
         for key, opts in EXACT_OPTIONS.items():
             got = render_on(r, opts, ["tree", "hybrid"], reference=ref)
