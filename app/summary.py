@@ -89,22 +89,27 @@ def figures(dumps: dict) -> dict:
     return out
 
 
-def exactness_line(figs: dict, reference: str) -> str:
+def exactness_line(figs: dict, reference: str, short: bool = False) -> str:
+    """The exactness line; `short`: without what a sampler's lights are (the picture says it
+    in its footnote)."""
     others = {n: f for n, f in figs.items() if n != reference}
     pixels = next(iter(figs.values()))["pixels"]
     bad = {n: f["differ"] for n, f in others.items() if f["differ"]}
     if not bad:
         from .techniques import REGISTRY
         samplers = [n for n in others if n in REGISTRY and REGISTRY[n].role == "sampler"]
-        support = (f" ({', '.join(samplers)}: the lights their draws can reach; their images "
-                   f"are unbiased estimates, held to {reference}'s by capture --check's "
-                   f"statistical check)") if samplers else ""
+        support = _sampler_note(samplers, reference) if samplers and not short else ""
         return (f"Exact: all {len(others)} techniques give {reference}'s lights (contrib_count and "
                 f"contrib_hash) at every one of {pixels:,} pixels: 0 pixels differ{support}.")
     return (f"NOT exact: {len(bad)} of {len(others)} techniques differ from {reference} "
             f"(contrib_count or contrib_hash) at some of {pixels:,} pixels: "
             + ", ".join(f"{n} {k:,} px" for n, k in bad.items())
             + f"; python -m app.capture ... --check DIR names the first differing pixel.")
+
+
+def _sampler_note(samplers, reference: str) -> str:
+    return (f" ({', '.join(samplers)}: the lights their draws can reach; their images are "
+            f"unbiased estimates, held to {reference}'s by capture --check's statistical check)")
 
 
 def _title(dumps: dict) -> str:
@@ -167,14 +172,17 @@ def draw(dumps: dict, figs: dict, reference: str, path: Path) -> None:
     ticks = images.heat_ticks(vmax)
     bar.set_ticks(ticks, labels=[images.fmt_tick(v) for v in ticks])
     bar.set_label("lights evaluated per pixel (log scale)", fontsize=9)
-    line = exactness_line(figs, reference)
+    line = exactness_line(figs, reference, short=True)
+    from .techniques import REGISTRY
+    samplers = [n for n in figs if n in REGISTRY and REGISTRY[n].role == "sampler"]
     fig.suptitle(f"Lights each technique evaluates per pixel: {_title(dumps)}", fontsize=13, y=0.985)
     fig.text(0.45, 0.935, line, ha="center", va="top", fontsize=10, weight="bold",
              color="darkgreen" if line.startswith("Exact") else "red")
     fig.text(0.01, 0.012, "Colour: lights the shading loop evaluates at the pixel (one scale for all); "
              "black: sky; darkest grey: none evaluated.  'Nx what lights it': evaluated / lights "
              "that affect the pixel (culling waste; 1 is perfect).\n"
-             f"'= {reference}': contrib_count and contrib_hash equal {reference}'s at every pixel.  "
+             f"'= {reference}': contrib_count and contrib_hash equal {reference}'s at every pixel"
+             + (_sampler_note(samplers, reference) if samplers else "") + ".\n"
              "One frame on this machine; the quick benchmark report measures costs.",
              fontsize=8, color="dimgray", va="bottom")
     fig.savefig(path)
