@@ -327,3 +327,14 @@ def path_file(tmp_path, n=3) -> Path:
     p.write_text(json.dumps({"format": "many-light-lab camera path", "version": 1,
                              "scene": "arena", "size": [320, 180], "keys": keys}))
     return p
+
+
+@contextmanager
+def with_brute(name: str, lights: int, seed: int, size: tuple[int, int]):
+    """(renderer, brute's frame 0) of a builtin scene's draw at `size`, the renderer open."""
+    from app.pipeline.renderer import Renderer
+    from scenes import load_scene
+    scene = load_scene(name, lights=lights, seed=seed)
+    scene.resolution = tuple(size)
+    with Renderer(scene) as r:
+        yield r, r.render(with_role("reference"), 0)

@@ -8,8 +8,7 @@ import pytest
 from app import sampling_check as sc
 from app.pipeline.renderer import Renderer
 from app.techniques import REGISTRY, get
-from scenes import load_scene
-from tests.helpers import make_scene, random_lights
+from tests.helpers import make_scene, random_lights, with_brute
 
 SAMPLERS = [n for n, t in REGISTRY.items() if t.role == "sampler"]
 
@@ -45,10 +44,8 @@ def test_judge_needs_a_spread():
 
 @pytest.fixture(scope="module")
 def arena():
-    scene = load_scene("arena", lights=2048, seed=3)
-    scene.resolution = (128, 72)
-    with Renderer(scene) as r:
-        yield r, r.render(get("brute"), 0)
+    with with_brute("arena", 2048, 3, (128, 72)) as got:
+        yield got
 
 
 @pytest.mark.parametrize("name", SAMPLERS)

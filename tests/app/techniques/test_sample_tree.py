@@ -9,24 +9,20 @@ import numpy as np
 import pytest
 
 from app import sampling_check as sc
-from app.pipeline.renderer import Renderer
 from app.techniques import get
 from app.errors import UserError
 from app.techniques.sample_tree import check_loops
-from scenes import load_scene
 from scenes.model import LIGHT_POINT, LIGHT_SPOT, make_lights
 from tests.app.techniques.hard_frames import Frame, axis_camera, concat, scene_of, unit, wall
-from tests.helpers import assert_exact, floor_and_boxes, random_lights
+from tests.helpers import assert_exact, floor_and_boxes, random_lights, with_brute
 
 NAME = "sample-tree"
 
 
 @pytest.fixture(scope="module")
 def arena():
-    scene = load_scene("arena", lights=2048, seed=3)
-    scene.resolution = (128, 72)
-    with Renderer(scene) as r:
-        yield r, r.render(get("brute"), 0)
+    with with_brute("arena", 2048, 3, (128, 72)) as got:
+        yield got
 
 
 def _render(r, **opts):
