@@ -319,7 +319,7 @@ class CapOptions(TechniqueOptions):
 
 @dataclass(frozen=True)
 class StochasticOptions(TechniqueOptions):
-    """`--stochastic N` (every technique, brute included) is Tokuyoshi & Harada's stochastic
+    """`--stochastic N` (every culling technique, brute included; a sampler draws its own) is Tokuyoshi & Harada's stochastic
     light culling ("Stochastic Light Culling", JCGT 2016) at budget t = 1/N of the brightest
     light's peak: each point, spot and capsule light draws its range by Russian roulette
     once a frame, r = sqrt(1/(alpha xi) - 1) with alpha = t I_max / I (at xi = 1 the cutoff
