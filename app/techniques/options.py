@@ -319,8 +319,9 @@ class CapOptions(TechniqueOptions):
 
 @dataclass(frozen=True)
 class StochasticOptions(TechniqueOptions):
-    """`--stochastic N` (every culling technique, brute included; a sampler draws its own) is Tokuyoshi & Harada's stochastic
-    light culling ("Stochastic Light Culling", JCGT 2016) at budget t = 1/N of the brightest
+    """`--stochastic N` (every culling technique, brute included; a sampler draws its own) is
+    Tokuyoshi & Harada's stochastic light culling ("Stochastic Light Culling", JCGT 2016) at
+    budget t = 1/N of the brightest
     light's peak: each point, spot and capsule light draws its range by Russian roulette
     once a frame, r = sqrt(1/(alpha xi) - 1) with alpha = t I_max / I (at xi = 1 the cutoff
     study's radius at t, longer below), one xi per light shared by every pixel, hashed from
