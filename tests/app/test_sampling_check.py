@@ -83,3 +83,28 @@ def test_every_pixel_converges_to_brute(gl, short_lists, name):
     rmse = lambda k: np.sqrt(np.mean((lum[:k].mean(0) - want) ** 2))
     ratio = rmse(4) / rmse(16)
     assert 1.4 < ratio < 2.9, ratio
+
+
+def test_a_failing_check_is_judged_again_over_more_seeds(rng, monkeypatch):
+    """A rare draw all K seeds missed (a dark block) passes over ESCALATE x K seeds, the K
+    included; a bias in every seed fails there too."""
+    ref = rng.uniform(0.1, 1.0, (64, 64, 3))
+    reference = type("Frame", (), {"image": ref, "depth": np.ones((64, 64))})()
+    technique = type("T", (), {"name": "x"})()
+
+    def run(dark_after):
+        calls = []
+
+        def images(renderer, technique, opts, frame, frames, seeds, defines=None, first=0):
+            calls.append((first, seeds))
+            out = _noisy(rng, ref, seeds)
+            out[first + np.arange(seeds) < dark_after, :16, :16] *= 0.5
+            return out
+        monkeypatch.setattr(sc, "seed_images", images)
+        return sc.check(None, technique, None, reference, seeds=16), calls
+
+    v, calls = run(dark_after=16)
+    assert v.passed and v.seeds == 16 * sc.ESCALATE, v.message()
+    assert calls == [(0, 16), (16, 16 * (sc.ESCALATE - 1))]
+    v, _ = run(dark_after=10 ** 6)
+    assert not v.passed and v.seeds == 16 * sc.ESCALATE
