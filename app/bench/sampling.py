@@ -22,10 +22,11 @@ and writes a row a configuration (COLUMNS), against brute's frame (the reference
     evaluated_lit_pp   the same over pixels some light affects (brute's contrib_count > 0):
                        S for sample-list, whose cell there holds that light
     shadow_pp          shadow tests a geometry pixel: a culling configuration tests each
-                       light that affects the pixel (its own contrib_count); a sampler at
-                       most each draw at a pixel some light affects (its evaluations
-                       there; shadow_bound 1: the shader does not count which draws hit an
-                       affecting light, and a draw that adds nothing needs no test)
+                       light that affects the pixel (its own contrib_count); a sampler each
+                       draw that hits a light affecting the pixel, counted by its wave
+                       replay (the GPU's draws made again on the CPU, the first seed's);
+                       without a replay (sample-ris with spatial reuse) at most each draw
+                       at a pixel some light affects (shadow_bound 1: an upper bound)
     frame cost         cpu_total_ms, gpu_lighting_ms, frame_cost_ms (+ _min / _max) over
                        the timing samples as the rendered study measures them (measure.
                        timing_cells): a sampler's K seed renders, another's `repeat`;
@@ -231,20 +232,20 @@ def _first(st: dict, renderer, cfg, res, frame: Frame, c: SamplingConfig) -> Non
         st["wants"] = min(c.repeat, c.heavy_repeat)
 
 
-def _model(renderer, cfg, res, budget: int) -> dict | None:
-    """{gpu key: modelled lighting ms} of the frame the renderer holds, None without a replay."""
+def _model(renderer, cfg, res, budget: int) -> tuple[dict, float] | None:
+    """({gpu key: modelled lighting ms}, the replay's affecting draws a geometry pixel) of the
+    frame the renderer holds, None without a replay."""
     from ..model import predict
     from ..techniques import REGISTRY
+    work = int(res.evaluated.sum(dtype=np.int64)) + int(res.nodes.sum(dtype=np.int64))
     try:
-        figures = predict.modelled_or_none(renderer, REGISTRY[cfg["technique"]], res, cfg["opts"],
-                                           unbounded=False, budget=budget)
+        figures, means = predict.modelled_frame(renderer, REGISTRY[cfg["technique"]], res,
+                                                cfg["opts"], sample=max(1, -(-work // budget)))
     except (NotImplementedError, KeyError, ValueError):   # a technique the replay lacks
-        figures = None
-    if figures is None:
         return None
     cells = measure.model_cells(figures)
-    return {k[len("model_"):-len("_lighting_ms")]: v for k, v in cells.items()
-            if k.startswith("model_") and k.endswith("_lighting_ms")}
+    return ({k[len("model_"):-len("_lighting_ms")]: v for k, v in cells.items()
+             if k.startswith("model_") and k.endswith("_lighting_ms")}, means["exact_pp"])
 
 
 def _spread(values) -> tuple[float, float, float]:
@@ -268,8 +269,7 @@ def _row(cfg, st, frame: Frame, size) -> dict:
            "image_flip": flip[0], "image_flip_min": flip[1], "image_flip_max": flip[2],
            "seed_errors": json.dumps([round(d["error"], 6) for d in draws]),
            "evaluated_pp": mean("evaluated_pp"), "evaluated_lit_pp": mean("evaluated_lit_pp"),
-           "shadow_pp": mean("lit_evaluations_pp") if sampler else exact_pp,
-           "shadow_bound": int(sampler), "exact_pp": exact_pp,
+           "shadow_pp": exact_pp, "shadow_bound": 0, "exact_pp": exact_pp,
            "visible": visible, "capped_lights": capped, "mismatch_count": mismatch,
            "cpu_total_ms": t["cpu_total_ms"], "gpu_lighting_ms": t["gpu_lighting_ms"],
            "frame_cost_ms": t["frame_cost_ms"], "frame_cost_min_ms": t["frame_cost_min_ms"],
@@ -277,7 +277,10 @@ def _row(cfg, st, frame: Frame, size) -> dict:
            "bins": json.dumps({"lo": [b[0] for b in frame.bins], "hi": [b[1] for b in frame.bins],
                                "pixels": frame.pixels, "geometry": int(frame.mask.sum()),
                                "err": [[round(e, 7) for e in d["bins"]] for d in draws]})}
-    model = st["model"]
+    model, hits = st["model"] or (None, None)
+    if sampler:     # its affecting draws (the replay's), else the bound: its lit evaluations
+        bound = hits is None
+        row.update(shadow_pp=mean("lit_evaluations_pp") if bound else hits, shadow_bound=int(bound))
     if model:       # the first modelled GPU's figures (model_gpus names them all, in order)
         row["model_gpus"] = json.dumps(model)
         key = next(iter(model))

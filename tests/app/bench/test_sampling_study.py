@@ -74,6 +74,27 @@ def test_sample_list_evaluates_s_lights_where_a_light_affects(rows):
         assert r["shadow_bound"] == 1 and 0 < r["shadow_pp"] <= r["evaluated_pp"]
 
 
+def test_a_replayed_sampler_counts_its_affecting_draws(gl):
+    """With the model on, a sampler's shadow tests are its draws that hit an affecting light
+    (its replay's), fewer than its draws at lit pixels; a culling technique's its own
+    contrib_count."""
+    from app.pipeline.renderer import Renderer
+    rng = np.random.default_rng(7)
+    scene = make_scene(random_lights(rng, 60, (-10.0, 0.0, -30.0), (10.0, 6.0, 5.0),
+                                     radius=(2.0, 8.0)), size=SIZE)
+    c = sampling.SamplingConfig(("test",), 60, SIZE, (4,), seeds=2, repeat=1, flip=False,
+                                model=True, heavy_eval_pp=HEAVY, heavy_repeat=1)
+    configs = [cfg for cfg in sampling.configurations((4,), {})
+               if cfg["technique"] in ("sample-list", "clustered")]
+    with Renderer(scene, SIZE) as r:
+        got = sampling.run_frame(r, scene.lights_at(0, 64), configs, c, log=open("/dev/null", "w"))
+    sampler, = _by(got, kind="sampler")
+    exact, = _by(got, technique="clustered")
+    assert sampler["shadow_bound"] == 0 and sampler["model_lighting_ms"] > 0
+    assert 0 < sampler["shadow_pp"] < sampler["evaluated_pp"]
+    assert exact["shadow_pp"] == exact["exact_pp"] and exact["shadow_bound"] == 0
+
+
 def test_the_bins_add_up_to_the_frame_error(rows):
     for r in _by(rows, kind="sampler") + _by(rows, kind="cap"):
         b = json.loads(r["bins"])
