@@ -21,7 +21,7 @@ from cpu_prep.camera import frame_camera
 from hypothesis import HealthCheck, given, settings, strategies as st
 from scenes import BUILTIN_SCENES, load_scene
 from scenes.model import Camera, make_lights
-from tests.helpers import assert_exact, assume_lit, make_scene, options, random_lights
+from tests.helpers import BUILTIN_LIGHTS, assert_exact, assume_lit, make_scene, options, random_lights
 
 ROOT = Path(__file__).resolve().parents[3]
 ZBIN = REGISTRY["zbin"]
@@ -134,7 +134,7 @@ def test_every_variant_is_exact_and_counts_its_loops(gl, hangar, native):
 def test_every_variant_is_exact_on_builtin_scenes(gl, name, distribution):
     """test_exactness.py renders the default variant on every builtin scene; here all four
     (and the scalarized ones on the native wave too), at a smaller size."""
-    scene = load_scene(name, lights=8192, seed=1, distribution=distribution)
+    scene = load_scene(name, lights=BUILTIN_LIGHTS, seed=1, distribution=distribution)
     with Renderer(scene, (96, 54)) as r:
         ref = r.render(REGISTRY["brute"])
         assert ref.contrib_count.sum() > 0
