@@ -310,9 +310,12 @@ def fig_sampling(rows, out, roles) -> tuple[str | None, list[str]]:
                        "min-max over seeds)")]
     axes[0][-1].legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     text = crossover_sentences(rows)
+    bound = any(num(r["shadow_bound"]) == 1 for r in rows)
     text.append(f"Visibility is not simulated: the right-hand panels price each shadow test at "
-                f"c = {VISIBILITY_C:g} light evaluations (the left-hand ones at c = 0), a "
-                f"sampler's tests an upper bound.")
+                f"c = {VISIBILITY_C:g} light evaluations (the left-hand ones at c = 0); a "
+                f"sampler's tests are its draws that hit an affecting light"
+                + (" (an upper bound where marked <= in the table: no replay)" if bound else "")
+                + ".")
     return save(fig, out, "sampling.png"), text
 
 
