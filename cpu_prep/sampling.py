@@ -148,7 +148,7 @@ def next_mass(state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def draw_entries(cdf: np.ndarray, first: np.ndarray, count: np.ndarray, u: np.ndarray):
-    """sample_list.comp's draw_entry for arrays of (first, count >= 1, u): (entry, the
+    """glsl/sample_cdf.glsl's draw_entry for arrays of (first, count >= 1, u): (entry, the
     search's probe positions (iterations, lanes) with -1 past a lane's last)."""
     lo = np.asarray(first, np.int64).copy()
     hi = lo + np.asarray(count, np.int64) - 1

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from cpu_prep import layouts
+from cpu_prep import layouts, sampling
+
+from .blocks import cell_ranges
 
 
 def add_all_lights(prog, lanes, step=0, branch=0) -> None:
@@ -47,7 +49,6 @@ def add_cdf_draws(prog, lanes, first, count, masses, lid: int, step0: int = 0) -
     ended earlier masked: the d-th draw's j-th probe of every lane together), then the drawn
     light (kind light, one position of list `lid`, the entries' positions), from step0 on;
     returns the step after the last."""
-    from cpu_prep import sampling
     cdf = prog.frame.build.buffers["sample_cdf"]
     searched = [sampling.draw_entries(cdf, first, count, u) for u in masses]
     depth = max((len(p) for _, p in searched), default=0)     # the frame's longest search
@@ -63,7 +64,7 @@ def add_cdf_draws(prog, lanes, first, count, masses, lid: int, step0: int = 0) -
 def listed_lanes(prog, frame, step: int = 0):
     """(lanes, first, count): the shading lanes the replay walks, each with its cell record
     fetched at `step`, less those whose cell lists no light (they draw nothing)."""
-    ranges = frame.build.buffers["ranges"]["offset_count"].astype(np.int64)
+    ranges = cell_ranges(frame.build)
     lanes = np.nonzero(frame.shading)[0]
     if frame.live is not None:
         lanes = lanes[frame.live[lanes]]

@@ -1,7 +1,7 @@
 """sample-ris: what the GPU cost model needs (app.model): its candidates passes (named
 "shade": the passes that evaluate lights) as the wave replay's segments, with the lights
 the GPU draws reproduced bit for bit in numpy uint32 arithmetic (glsl/sampling.glsl's PCG
-streams, ris.glsl's rounds, ris_candidates.comp's search of the cell's CDF words): the
+streams, ris.glsl's rounds, glsl/sample_cdf.glsl's search of the cell's CDF words): the
 draws never depend on a float, so the same integers give the same lights.
 
 Per round k of S (a dispatch each), per shading lane: its cell record, then its M draws,
