@@ -129,7 +129,8 @@ def run(args, argv) -> None:
                       "motion": scene.motion.to_dict() if scene.motion else None})
 
 
-def run_path(scene, scene_name, path, size, order, written, options, repeat, log=sys.stderr) -> list[dict]:
+def run_path(scene, scene_name, path, size, order, written, options, repeat, log=None) -> list[dict]:
+    log = log or sys.stderr      # the stream at the call, not at import (pytest swaps it)
     from cpu_prep.camera import frame_camera
     from ..pipeline.renderer import Renderer
     from ..techniques import REGISTRY

@@ -181,10 +181,11 @@ class Frame:
                 "exact_pp": float(res.contrib_count[self.mask].astype(np.float64).sum() / n)}
 
 
-def run_frame(renderer, frame_lights, configs, c: SamplingConfig, log=sys.stderr,
+def run_frame(renderer, frame_lights, configs, c: SamplingConfig, log=None,
               where: str = "") -> list[dict]:
     """The configurations' rows on one frame (frame 0, `frame_lights`): a warm-up render of
     each technique, then interleaved rounds (module docstring)."""
+    log = log or sys.stderr      # the stream at the call, not at import (pytest swaps it)
     from ..techniques import REGISTRY
     t0 = time.perf_counter()
 
@@ -289,9 +290,10 @@ def _row(cfg, st, frame: Frame, size) -> dict:
     return row
 
 
-def sampling_series(c: SamplingConfig, out: Path, log=sys.stderr) -> list[dict]:
+def sampling_series(c: SamplingConfig, out: Path, log=None) -> list[dict]:
     """The study of `c` into out/sampling.csv; none without scenes, samplers or seeds (a stale
     file is removed, so no report shows it)."""
+    log = log or sys.stderr      # the stream at the call, not at import (pytest swaps it)
     from scenes import BUILTIN_SCENES, load_scene
     from ..pipeline.renderer import Renderer
     from ..techniques import REGISTRY

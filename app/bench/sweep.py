@@ -58,7 +58,8 @@ class Sweep:
     """What the studies share (the preset's Shared config, the log, the progress line, the
     scenes loaded) and the rendered study's measuring; `rendered`: that study's config
     (render_jobs sets it; the preset's until then)."""
-    def __init__(self, preset: Preset, log=sys.stderr, motion: str | None = None):
+    def __init__(self, preset: Preset, log=None, motion: str | None = None):
+        log = log or sys.stderr      # the stream at the call, not at import (pytest swaps it)
         self.name = preset.name
         self.shared = preset.shared
         self.rendered = preset.config("rendered")
@@ -303,11 +304,12 @@ def compared_groups(jobs: list[Job]) -> list[list[Job]]:
     return [list(g) for _, g in groupby(jobs, key=lambda j: (j.study, j.scene, j.lights, j.frame))]
 
 
-def run_sweep(preset: Preset, out: Path, command: str, log=sys.stderr,
+def run_sweep(preset: Preset, out: Path, command: str, log=None,
               motion: str | None = None) -> list[dict]:
     """Run the preset's studies, write out/results.csv, maps.npz, run.json and the report
     (`motion`: --motion, the lights' motion; None: each scene's own); end with where the
     time went, a line a study and the report's (also run.json's study_s and report_s)."""
+    log = log or sys.stderr      # the stream at the call, not at import (pytest swaps it)
     from .. import report
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -86,8 +86,9 @@ def configurations(cutoffs, budgets=STOCHASTIC_BUDGETS) -> list[dict]:
 
 
 def run_temporal(scene, scene_name: str, size, frames: int, loop: int, cutoffs,
-                 log=sys.stderr) -> list[dict]:
+                 log=None) -> list[dict]:
     """The series' rows: one per configuration and frame (frame 0 has no temporal figures)."""
+    log = log or sys.stderr      # the stream at the call, not at import (pytest swaps it)
     from ..pipeline.renderer import Renderer
     from ..techniques import REGISTRY, with_role
     ref_name = with_role("reference").name
@@ -171,9 +172,10 @@ def temporal_figures(f, f_prev, ref, ref_prev, exact, exact_prev, covered) -> di
             "popping_pixels": int((changed & steady & covered).sum())}
 
 
-def temporal_series(c: "TemporalConfig", out: Path, log=sys.stderr) -> list[dict]:
+def temporal_series(c: "TemporalConfig", out: Path, log=None) -> list[dict]:
     """The series of `c` into out/temporal.csv; none when it has fewer than two frames (a
     stale file is removed, so no report shows it)."""
+    log = log or sys.stderr      # the stream at the call, not at import (pytest swaps it)
     from scenes import load_scene
     from scenes.motion import with_motion
     out = Path(out)
