@@ -3,7 +3,7 @@ culling)."""
 from .builtin import BUILTIN_SCENES
 from .gltf import load_gltf
 from .loader import SceneError, load_scene, scene_from_dict
-from .model import LIGHT_DTYPE, Camera, Mesh, Scene, make_lights
+from .model import LIGHT_DTYPE, Camera, Fog, Mesh, Scene, make_lights
 
 __all__ = ["load_scene", "scene_from_dict", "load_gltf", "SceneError", "BUILTIN_SCENES", "Scene",
-           "Camera", "Mesh", "LIGHT_DTYPE", "make_lights"]
+           "Camera", "Fog", "Mesh", "LIGHT_DTYPE", "make_lights"]

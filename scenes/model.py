@@ -82,6 +82,13 @@ class Mesh:
     albedo: tuple[float, float, float] = (0.8, 0.8, 0.8)
     roughness: float = 0.0
     metallic: float = 0.0
+    # 1: opaque (the G-buffer).  Below 1 the mesh is a transparent surface: shaded after the
+    # opaque pass in layers, back to front, and composited over it with this alpha.
+    opacity: float = 1.0
+
+    @property
+    def transparent(self) -> bool:
+        return self.opacity < 1.0
 
     def __setattr__(self, name, value):
         if name == "roughness" and 0.0 < value < MIN_ROUGHNESS:    # set at init or later
@@ -91,6 +98,17 @@ class Mesh:
     @property
     def material(self) -> tuple:
         return tuple(self.albedo) + (float(self.roughness), float(self.metallic))
+
+
+@dataclass(frozen=True)
+class Fog:
+    """A homogeneous participating medium from the near plane to view depth `far`:
+    extinction `density` (1/m), single-scattering `albedo` (scattering = albedo * density),
+    Henyey-Greenstein `anisotropy` g (0: isotropic)."""
+    density: float
+    albedo: tuple[float, float, float] = (0.9, 0.9, 0.9)
+    far: float = 100.0
+    anisotropy: float = 0.0
 
 
 @dataclass
@@ -106,6 +124,14 @@ class Scene:
     max_depth: float | None = None
     # How the lights move along the path (scenes.motion.Motion; None: they stand still).
     motion: object | None = None
+    # A homogeneous medium lit by the lights (Fog; None: clear air, no fog pass).
+    fog: Fog | None = None
+
+    def opaque_meshes(self) -> list[Mesh]:
+        return [m for m in self.meshes if not m.transparent]
+
+    def transparent_meshes(self) -> list[Mesh]:
+        return [m for m in self.meshes if m.transparent]
 
     def lights_at(self, frame: int, frames: int = 64) -> np.ndarray:
         """The lights of frame `frame` of a `frames`-long loop: `self.lights` moved by
