@@ -9,7 +9,8 @@
 #
 # Set-up: scripts/setup.sh's (.venv and the project), or, on a machine that cannot reach
 # PyPI, wheels carried in .whl/ (README "A real GPU" lists them) and the EGL loader's Debian
-# packages in .gl/, unpacked first.  On a software rasterizer it stops with one line: its
+# packages in .gl/, unpacked first; or LAB_PYTHON, a Python that already imports the
+# project's packages (e.g. the machine's own, with a site unpacked on its PYTHONPATH).  On a software rasterizer it stops with one line: its
 # times would say nothing about a GPU (LAB_GPU_CHECK_SOFTWARE=1 runs it anyway, for a try).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -23,7 +24,10 @@ nv_egl=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
 if [ -z "${__EGL_VENDOR_LIBRARY_FILENAMES:-}" ] && [ -f "$nv_egl" ]; then
     export __EGL_VENDOR_LIBRARY_FILENAMES="$nv_egl"
 fi
-if compgen -G ".whl/*.whl" > /dev/null; then
+if [ -n "${LAB_PYTHON:-}" ]; then
+    export PYTHONPATH="$PWD${PYTHONPATH:+:$PYTHONPATH}"
+    py="$LAB_PYTHON"
+elif compgen -G ".whl/*.whl" > /dev/null; then
     python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
         --target /tmp/lab-site .whl/*.whl
     export PYTHONPATH="/tmp/lab-site:$PWD${PYTHONPATH:+:$PYTHONPATH}"

@@ -161,18 +161,19 @@ gl_integers = rawgl.get_integers
 class PassTimer:
     """Times GPU passes by name; ms() returns the last frame's figures."""
 
-    def __init__(self, ctx: moderngl.Context):
+    def __init__(self, ctx: moderngl.Context, use_queries: bool | None = None):
         self.ctx = ctx
-        self.use_queries = not limits().software
+        self.use_queries = not limits().software if use_queries is None else use_queries
+        # one GL_TIME_ELAPSED query, reused: its result is read (blocking) before the next pass
+        # begins it again, and moderngl's Query has no release of its own
+        self._query = ctx.query(time=True) if self.use_queries else None
         self._ms: dict[str, float] = {}
 
     def run(self, name: str, fn) -> None:
         if self.use_queries:
-            q = self.ctx.query(time=True)
-            with q:
+            with self._query:
                 fn()
-            self._ms[name] = self._ms.get(name, 0.0) + q.elapsed / 1e6
-            q.release()
+            self._ms[name] = self._ms.get(name, 0.0) + self._query.elapsed / 1e6
         else:
             self.ctx.finish()
             t0 = time.perf_counter()
