@@ -343,7 +343,7 @@ def add_args(p) -> None:
     g.add_argument("--full", action="store_true", help="1920x1080, 8192..65536 lights, whole path")
     g.add_argument("--gpu-check", action="store_true",
                    help="for a real GPU (scripts/gpu_check.sh): 1920x1080, every technique, arena "
-                        "and city at 8192, 32768 and 65536 lights, measured against modelled")
+                        "and city at 8192 and 65536 lights, one path frame, measured against modelled")
     p.add_argument("--out", help="output folder (results.csv, report.md, PNGs; required)")
     p.add_argument("--size", type=cli.parse_size, help="override the preset's WxH")
     p.add_argument("--scenes", help="override: comma-separated builtin names or scene files")

@@ -117,7 +117,8 @@ def _head(rows, info, roles) -> list[str]:
         f"- command: `{info.get('command', '')}` (preset `{info.get('preset', '')}`)",
         f"- machine: {info.get('cpu', '?')}, {info.get('cores', '?')} cores; "
         f"{info.get('system', '')}, Python {info.get('python', '')}",
-        f"- GL: {info.get('gl_renderer', '?')} ({info.get('gl_version', '')})",
+        f"- GL: {info.get('gl_renderer', '?')} ({info.get('gl_version', '')})" +
+        (f"; clocks at the end of the run: {info['gpu_clocks']}" if info.get("gpu_clocks") else ""),
         f"- CPU stage: {info.get('cpu_threads', '?')} numba thread(s) (the paper's figure 4 is "
         f"single threaded)",
         f"- run time: {info.get('elapsed_s', 0):.0f} s; {len(rows)} rows in results.csv",

@@ -13,6 +13,7 @@ import numpy as np
 from ..model import cost
 from ..results import PAPER_PREFIX
 from .aggregate import aggregate_path, pareto
+from . import gpu_record
 from .common import DPI, gmean, log_axes, num, order, panel_style, plt, save, sel, side_legend
 
 SCENES = PAPER_PREFIX + "scenes"
@@ -22,8 +23,7 @@ def gpus_in(rows) -> list:
     return [g for g in cost.GPUS if any(f"model_{g.key}_lighting_ms" in r for r in rows[:1])]
 
 
-def lighting(r, g) -> float:
-    return num(r.get(f"model_{g.key}_lighting_ms"))
+lighting = gpu_record.lighting
 
 
 def fig_gpu_scenes(rows, out, colors, roles) -> tuple[str | None, list[str]]:
@@ -120,17 +120,20 @@ def believe_text(rows, info, roles) -> list[str]:
     gpus = gpus_in(rows)
     names = ", ".join(g.name for g in gpus)
     software = info.get("software", True)
+    rec = gpu_record.record()
     out = ["**Which number to believe for which question.**", "",
            "- *Which structure culls best, and how much data it needs*: the hardware-neutral "
            "figures (lights evaluated per affecting light, nodes, bytes). They are exact, the "
            "same on any machine, and checked pixel by pixel against the reference.",
            f"- *What a technique costs on a GPU*: the **modelled** GPU milliseconds (model "
            f"v{cost.MODEL_VERSION}: {names}; app/model/cost.py, from public specifications, "
-           f"never fitted). Read them as a ranking and as ratios on one GPU; the absolute "
-           f"scale is an estimate whose error has no known sign: it ignores occupancy and "
+           f"never fitted). Read them as a ranking on one GPU, and only where two techniques "
+           f"are far apart; the absolute scale is an estimate: it ignores occupancy and "
            f"latency (reading low), and charges every pixel's G-buffer and colour at full DRAM "
            f"bandwidth (a floor that reads high: EpicCitadel's 0.38 ms in the tree paper is "
-           f"below it). The validation section says, by one rule, where they agree with the "
+           f"below it). " + (f"Held to a real GPU: {rec.sentence()}. " if rec else
+                            "No real GPU has measured it yet. ") +
+           f"The validation section says, by one rule, where they agree with the "
            f"papers' measurements, and which rows sit on a floor.",
            "- *What it costs on this machine's software rasterizer*: the llvmpipe "
            "milliseconds (gpu_*_ms). They are measured, but on a CPU that pays every wave "
@@ -145,29 +148,29 @@ def believe_text(rows, info, roles) -> list[str]:
 
 def fig_measured(rows, out, colors, info) -> tuple[str | None, list[str], str]:
     """A real GPU's measured lighting ms against the model of that GPU (or, for a GPU the
-    model does not name, its closest kind), per technique; on a software rasterizer: says so."""
+    model does not name, its closest kind), per technique; on a software rasterizer: says so,
+    and cites the committed real-GPU record where there is one."""
     if info.get("software", True):
-        return None, ["No real GPU in this run (GL: " + str(info.get("gl_renderer", "?")) + "): "
-                      "there is nothing to hold the model to yet.  On a machine with a GPU, "
-                      "`bash scripts/gpu_check.sh` measures every technique there and writes this "
-                      "section with its figures."], ""
-    g = cost.match(str(info.get("gl_renderer", "")))
-    named = g is not None
-    rendered = [r for r in sel(rows, study="path") if not math.isnan(num(r.get("gpu_lighting_ms")))]
-    if g is None:                      # compare with the model of its kind
-        g = next((x for x in cost.GPUS if x.key == "h200"), cost.GPUS[0])
+        rec = gpu_record.record()
+        held = (f"In {rec.sentence()}." if rec else "No real GPU has measured the model yet.")
+        return None, ["No real GPU in this run (GL: " + str(info.get("gl_renderer", "?")) +
+                      "). " + held + "  On a machine with a GPU, `bash scripts/gpu_check.sh` "
+                      "measures every technique there and writes this section with its "
+                      "figures."], ""
+    g, named = gpu_record.model_of(str(info.get("gl_renderer", "")))
+    rendered = gpu_record.measured_rows(rows)
     if not rendered:
         return None, [], ""
     fig, ax = plt().subplots(dpi=DPI, figsize=(6.5, 5.2))
     lines = ["| technique | measured lighting ms (median over rows) | modelled | measured / modelled |",
              "|---|---|---|---|"]
+    ratios = gpu_record.ratios(rendered, g)
     for t in order(rendered, "technique"):
         tr = sel(rendered, technique=t)
         m = np.array([num(r["gpu_lighting_ms"]) for r in tr])
         p = np.array([lighting(r, g) for r in tr])
         ax.scatter(p, m, color=colors(t), label=t, s=14)
-        lines.append(f"| {t} | {np.median(m):.3g} | {np.median(p):.3g} | "
-                     f"{gmean(m / np.maximum(p, 1e-9)):.2f}x |")
+        lines.append(f"| {t} | {np.median(m):.3g} | {np.median(p):.3g} | {ratios[t]:.2f}x |")
     lo = min(ax.get_xlim()[0], ax.get_ylim()[0])
     hi = max(ax.get_xlim()[1], ax.get_ylim()[1])
     ax.plot([lo, hi], [lo, hi], color="0.5", ls=":", lw=1, label="measured = modelled")
@@ -175,29 +178,19 @@ def fig_measured(rows, out, colors, info) -> tuple[str | None, list[str], str]:
     panel_style(ax, f"{info.get('gl_renderer')} against the model of {g.name}",
                 "modelled lighting ms", "measured lighting ms (GL timer queries)")
     side_legend(ax, *ax.get_legend_handles_labels())
-    agree = _rank_agreement(rendered, g)
+    same, frames, alike, pairs = gpu_record.rank_agreement(rendered, g)
+    low, high = min(ratios.values()), max(ratios.values())
+    tie = f"{gpu_record.TIE:.0%}"
     text = [f"Measured on **{info.get('gl_renderer')}** (GL timer queries, every timed pass) "
             f"against model v{cost.MODEL_VERSION} of {g.name}" +
             ("" if named else " (the model does not name this GPU: the nearest it has)") + ".",
-            f"In {agree[0]} of {agree[1]} frames the modelled order of the techniques equals "
-            f"the measured one, up to ties within 10%."]
+            f"In {same} of {frames} frames the modelled order of the techniques equals the "
+            f"measured one, up to ties within {tie}; of the technique pairs a frame's "
+            f"measurement sets more than {tie} apart, the model orders {alike} of {pairs} "
+            f"alike (or within {tie}).",
+            f"Measured / modelled, per technique: {low:.3g}x to {high:.3g}x (geometric mean "
+            f"{gmean(np.array(list(ratios.values()))):.3g}x): the model's absolute times are " +
+            ("within 2x of this GPU's." if 0.5 <= low and high <= 2 else
+             "not this GPU's; read its ms as a ranking at most, as far as the pairs above "
+             "bear it out.")]
     return save(fig, out, "measured_vs_modelled.png"), text, "\n".join(lines)
-
-
-def _rank_agreement(rows, g) -> tuple[int, int]:
-    """(frames whose techniques the model orders as measured, frames): pairs within 10% on
-    either side count as ties."""
-    frames = {}
-    for r in rows:
-        frames.setdefault((r["scene"], r["lights"], r["frame"]), []).append(r)
-    same = 0
-    for group in frames.values():
-        ok = True
-        for a in group:
-            for b in group:
-                ma, mb = num(a["gpu_lighting_ms"]), num(b["gpu_lighting_ms"])
-                pa, pb = lighting(a, g), lighting(b, g)
-                if ma < 0.9 * mb and pa > 1.1 * pb:
-                    ok = False
-        same += ok
-    return same, len(frames)

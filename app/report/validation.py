@@ -18,6 +18,7 @@ import numpy as np
 
 from ..model import cost
 from ..results import PAPER_PREFIX
+from . import gpu_record
 from .common import DPI, gmean, num, panel_style, plt, save, sel, side_legend
 
 NEAR = 0.10          # the model's resolution: gaps within it are not told apart
@@ -28,11 +29,19 @@ RULE = (f"**The verdict rule** (every claim below): a paper's claim that A costs
         f"and the paper's own gap both lie within {NEAR:.0%} (a paper that gives only an "
         f"ordering is not known to exceed it); otherwise it **disagrees**.  The rule is "
         f"symmetric: the same {NEAR:.0%} either side.  {NEAR:.0%} is the resolution the model "
-        f"claims, not a measured error: no GPU has measured this model yet "
-        f"(scripts/gpu_check.sh would), it ignores occupancy and latency (which would make it "
+        f"claims, not a measured error: it ignores occupancy and latency (which make it "
         f"read low) and charges every pixel's G-buffer read and colour write at full DRAM "
         f"bandwidth (a floor that reads high where the paper's GPU cached or compressed "
-        f"them: EpicCitadel below), so the sign of its error is not known either.")
+        f"them: EpicCitadel below).")
+
+
+def rule() -> str:
+    """RULE, with what the committed real-GPU record says of the model, where there is one."""
+    rec = gpu_record.record()
+    if rec is None:
+        return RULE + "  No GPU has measured this model yet (scripts/gpu_check.sh would)."
+    return (RULE + f"  Measured: {rec.sentence()}; the verdicts below are the model's, at a "
+            f"resolution that record does not bear out (docs/gpu_check.md).")
 
 Ms = Callable[[dict, str, str], float]
 
@@ -95,7 +104,7 @@ def validation(rows, out, colors) -> tuple[str | None, list[str], str]:
     if not any(r["study"].startswith(PAPER_PREFIX) for r in rows):
         return None, [], ""
     png, text = _fig7(rows, out, colors)
-    tables = [RULE, _zbin_table(rows), _hangar(rows), _cluster_raster(rows), _fptl(rows),
+    tables = [rule(), _zbin_table(rows), _hangar(rows), _cluster_raster(rows), _fptl(rows),
               "Drobot's tile-rasterizer table (3 full-screen lights: atomic 100%, +MSAA 18%, "
               "+compaction 25%, both 7%) is in the raster section: its gains come from "
               "atomics contending for one address, which the model does not simulate (it "
