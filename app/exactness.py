@@ -136,8 +136,24 @@ def check(result, reference, renderer=None, technique=None, reference_technique=
     if cap is not None:
         return _check_capped(result, reference, cap, renderer, technique, reference_technique,
                              render_args, out_dir)
-    return _compare(result, reference, renderer, technique, reference_technique, render_args,
-                    out_dir)
+    m = _compare(result, reference, renderer, technique, reference_technique, render_args,
+                 out_dir)
+    return m if m is not None else _layers_mismatch(result, reference)
+
+
+def _layers_mismatch(result, reference) -> Mismatch | None:
+    """check()'s part for the transparent layers (app.transparent): every layer's count and
+    hash equal to the reference's at every pixel, else the Mismatch naming the layer."""
+    from .transparent import layer_difference
+    diff = layer_difference(result, reference)
+    if diff is None:
+        return None
+    where, mask, counts = diff
+    first = (0, 0) if mask is None else tuple(int(v) for v in np.argwhere(mask)[0][::-1])
+    return Mismatch(result.meta.get("technique", "?"),
+                    f"{reference.meta.get('technique', '?')} on its {where}",
+                    1 if mask is None else int(mask.sum()), 1 if mask is None else int(mask.size),
+                    first, counts)
 
 
 def _compare(result, reference, renderer, technique, reference_technique, render_args,
