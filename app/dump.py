@@ -9,7 +9,7 @@ import numpy as np
 
 FIELDS = ("image", "depth", "evaluated", "contrib_count", "contrib_hash")
 # a scene with transparent surfaces adds, per layer (L, H, W): contrib_count_t, contrib_hash_t,
-# evaluated_t uint32 (0 where the layer has no fragment), depth_t float32 (app/transparent.py)
+# evaluated_t uint32 (0 where the layer has no fragment), depth_t float32 (app/pipeline/transparent.py)
 LAYER_FIELDS = ("contrib_count_t", "contrib_hash_t", "depth_t", "evaluated_t")
 
 

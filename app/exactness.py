@@ -142,9 +142,9 @@ def check(result, reference, renderer=None, technique=None, reference_technique=
 
 
 def _layers_mismatch(result, reference) -> Mismatch | None:
-    """check()'s part for the transparent layers (app.transparent): every layer's count and
+    """check()'s part for the transparent layers (app/pipeline/transparent.py): every layer's count and
     hash equal to the reference's at every pixel, else the Mismatch naming the layer."""
-    from .transparent import layer_difference
+    from .pipeline.transparent import layer_difference
     diff = layer_difference(result, reference)
     if diff is None:
         return None

@@ -1,5 +1,5 @@
 #version 430
-// Composite one transparent layer over the frame's colour (app/transparent.py), layers in
+// Composite one transparent layer over the frame's colour (app/pipeline/transparent.py), layers in
 // turn from the back: colour = opacity * layer + (1 - opacity) * colour where the layer has a
 // fragment (opacity 0 where it has none: the colour stays as it was).
 layout(local_size_x = 8, local_size_y = 8) in;

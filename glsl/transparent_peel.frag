@@ -1,5 +1,5 @@
 #version 430
-// One transparent layer by depth peeling (app/transparent.py): of the transparent fragments
+// One transparent layer by depth peeling (app/pipeline/transparent.py): of the transparent fragments
 // strictly in front of the opaque surface (u_opaque.w; 0 = sky, nothing to be in front of) and
 // strictly behind the previous layer's (u_front.w; layer 0 has none), the nearest (the depth
 // test).  Its targets are the G-buffer's formats, so every technique's passes read a layer

@@ -1,5 +1,5 @@
 #version 430
-// Transparent layers (app/transparent.py): the G-buffer's vertex stage, with the mesh's opacity.
+// Transparent layers (app/pipeline/transparent.py): the G-buffer's vertex stage, with the mesh's opacity.
 uniform mat4 u_view_from_world;
 uniform mat4 u_clip_from_view;
 in vec3 in_position;

@@ -21,7 +21,7 @@ What is read, and how it converts (every rule below is this lab's, stated once h
   is a perfect mirror, a delta no light loop evaluates, and the lab's roughness 0 means
   matte (no specular code).
   Textures and vertex colours are not used; alpha only as `alphaMode: BLEND`, whose
-  baseColorFactor alpha is the mesh's opacity (a transparent surface, app/transparent.py;
+  baseColorFactor alpha is the mesh's opacity (a transparent surface, app/pipeline/transparent.py;
   OPAQUE and MASK surfaces are opaque: MASK's cutout needs the texture alpha, not read).
 - **Lights** (`KHR_lights_punctual`), one per node that references one, in walk order:
   position = the node's world origin; a spot's direction = the node's world -Z, normalised;

@@ -144,7 +144,7 @@ def _material(ctx: FieldChecker, g: dict, field: str) -> dict:
     out = {key: ctx.num(g.get(key, 0.0), f"{field}.{key}", 0.0, 1.0)
            for key in ("roughness", "metallic")}
     out["albedo"] = DEFAULT_ALBEDO
-    # opacity below 1: a transparent surface (app/transparent.py), composited over the opaque
+    # opacity below 1: a transparent surface (app/pipeline/transparent.py), composited over the opaque
     out["opacity"] = ctx.num(g.get("opacity", 1.0), f"{field}.opacity", 0.0, 1.0)
     if "albedo" in g:
         a = ctx.vec3(g["albedo"], field + ".albedo", lo=0.0)

@@ -65,7 +65,7 @@ class FrameResult:
     wave: np.ndarray | None = None           # (GH,GW) WAVE_STATS per 8x8 group, image order
     cell: np.ndarray | None = None           # (H,W) uint32 the structure cell each pixel read
     debug_lights: np.ndarray | None = None   # render(debug_pixel=...): ids affecting that pixel
-    # a scene with transparent surfaces (app/transparent.py): per layer (L, H, W), 0 where
+    # a scene with transparent surfaces (app/pipeline/transparent.py): per layer (L, H, W), 0 where
     # a layer has no fragment
     contrib_count_t: np.ndarray | None = None
     contrib_hash_t: np.ndarray | None = None
@@ -110,7 +110,7 @@ class Renderer:
         self._blank = None       # colour target of passes that draw to no target
         self._targets: dict = {}  # Target.name -> ((Target, size), rawgl.DepthTarget)
         self._frame = _Frame()
-        from .. import transparent     # the scene's transparent layers (None: it has none)
+        from . import transparent      # the scene's transparent layers (None: it has none)
         self.transparent = transparent.for_scene(
             self.ctx, scene, transparent_layers or transparent.DEFAULT_LAYERS)
 
@@ -286,7 +286,7 @@ class Renderer:
         if first:
             # a build made on the GPU (app/gpu_build) brings its passes, ending in the technique's
             steps = build.steps or technique.passes(build, opts)
-            if self.transparent is not None:      # the layers first (app/transparent.py)
+            if self.transparent is not None:      # the layers first (app/pipeline/transparent.py)
                 self.transparent.shade(self, steps, env, technique.name, fin.camera)
             self.run(steps, *env, technique=technique.name)
             # a GPU build knows its visible lights' shapes once its steps ran (app/gpu_build)

@@ -42,9 +42,9 @@ import numpy as np
 
 from cpu_prep import layouts
 
-from .errors import UserError
-from .pipeline.gbuffer import column_major, triangle_soup
-from .pipeline.passes import OUT_COLOR, OUT_STATS
+from ..errors import UserError
+from .gbuffer import column_major, triangle_soup
+from .passes import OUT_COLOR, OUT_STATS
 
 DEFAULT_LAYERS = 4
 MAX_LAYERS = 8
@@ -173,7 +173,7 @@ class Layers:
     def shade(self, renderer, steps, env, technique: str, camera) -> None:
         """Peel the layers, then run the technique's `steps` over each, back to front,
         keeping each layer's colour and per-pixel counters (module docstring)."""
-        from .pipeline import gl
+        from . import gl
         self.peel(renderer, camera)
         f, gb = renderer._frame, renderer.gbuffer
         held = (gb.position, gb.normal, gb.albedo)
