@@ -68,6 +68,8 @@ def build_parser():
     cli.add_display_args(p)
     cli.add_motion_arg(p)
     cli.add_option_args(p)
+    from .pipeline import transparent
+    transparent.add_args(p)
     return p
 
 
@@ -100,7 +102,7 @@ def main(argv=None) -> None:
     from .pipeline.renderer import Renderer
     from . import images, dump
     t0 = time.perf_counter()
-    renderer = Renderer(scene, args.size)
+    renderer = Renderer(scene, args.size, transparent_layers=args.transparent_layers)
     warm = time.perf_counter()
     technique.build(renderer.frame_input(args.frame, args.frames), opts)
     warm_ms = (time.perf_counter() - warm) * 1e3

@@ -112,7 +112,8 @@ class Renderer:
         self._frame = _Frame()
         from . import transparent      # the scene's transparent layers (None: it has none)
         self.transparent = transparent.for_scene(
-            self.ctx, scene, transparent_layers or transparent.DEFAULT_LAYERS)
+            self.ctx, scene, transparent.DEFAULT_LAYERS if transparent_layers is None
+            else transparent.check_layers(transparent_layers))
 
     @property
     def size(self) -> tuple[int, int]:
