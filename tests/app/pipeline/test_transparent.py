@@ -216,6 +216,8 @@ def test_the_exactness_check_names_a_differing_layer(hard):
     m = check(res, ref)
     assert m is not None and "transparent layer 1" in m.message()
     assert m.first == (int(cols[0]), int(rows[0])) and m.pixels == 1
+    from app.bench.measure import mismatches           # a benchmark row counts it too
+    assert mismatches(res, ref) == (0, 1)
 
 
 def test_capture_dumps_the_layers_and_checks_them(gl, tmp_path):
