@@ -568,11 +568,11 @@ def build_stress(lights: int | None = None, seed: int = 0, distribution: str | N
 
 BUILTIN_SCENES = {
     "city": build_city,
-    "city-glass": build_city_glass,
     "arena": build_arena,
     "hangar": build_hangar,
     "gallery": build_gallery,
     "corridor": build_corridor,
     "contention": build_contention,
     "stress": build_stress,
+    "city-glass": build_city_glass,
 }
