@@ -194,6 +194,7 @@ def _check_capped(result, reference, cap, renderer, technique, reference_techniq
         intended = renderer.render(reference_technique, **args)
         m = _compare(result, intended, renderer, technique, reference_technique,
                      dict(render_args or {}, lights=args["lights"]), out_dir)
+        m = m if m is not None else _layers_mismatch(result, intended)
         if m is not None:
             m.reference += f" without the {dropped} lights {policy} dropped"
             return m

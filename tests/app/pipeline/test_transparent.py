@@ -242,3 +242,22 @@ def test_capture_dumps_the_layers_and_checks_them(gl, tmp_path):
     assert d["contrib_count_t"].shape == (3, 32, 48) and d["contrib_hash_t"].dtype == np.uint32
     assert d["depth_t"].dtype == np.float32 and d["meta"]["transparent"]["max_layers"] == 3
     assert (d["contrib_count_t"][0] > 0).sum() > 20 and (d["contrib_count_t"][2] == 0).all()
+
+
+def test_a_capped_frame_is_held_to_brute_without_the_dropped_lights_on_its_layers(hard):
+    """A light-cap policy's frame (app.exactness's intended loss): its layers too equal brute's
+    rendered without the lights it dropped, and a layer that differs beyond them fails."""
+    from app.exactness import IntendedLoss
+    from cpu_prep import caps
+    from tests.helpers import options
+    scene, r, ref = hard
+    opts = options("clustered", cap_policy=caps.NAMES.index("urp-16"))
+    res = r.render(REGISTRY["clustered"], opts=opts)
+    assert res.meta["stats"]["capped_lights"] > 0
+    args = {"frame": 0, "opts": opts}
+    assert isinstance(check(res, ref, r, REGISTRY["clustered"], REGISTRY["brute"], args), IntendedLoss)
+    rows, cols = np.nonzero(res.depth_t[0])
+    res.contrib_hash_t = res.contrib_hash_t.copy()
+    res.contrib_hash_t[0, rows[0], cols[0]] ^= 1
+    m = check(res, ref, r, REGISTRY["clustered"], REGISTRY["brute"], args)
+    assert not isinstance(m, IntendedLoss) and "transparent layer 0" in m.message()
