@@ -110,6 +110,9 @@ class Layers:
         self.meta: dict = {}
         self._vao = None
         self.color = self.stats = None
+        # render(debug_pixel=...) records the lights of this layer's fragment at that pixel
+        # in place of the opaque surface's (the exactness check's explanation of a layer)
+        self.debug_layer: int | None = None
 
     # ---- targets ---------------------------------------------------------------------
 
@@ -180,7 +183,7 @@ class Layers:
         timer, renderer.timer = renderer.timer, gl.PassTimer(self.ctx)
         timed, setup, debug = len(f.timed), dict(f.setup_ms), f.debug_pixel
         untimed = set(f.untimed_writes)   # each run of the steps starts from the frame's
-        f.debug_pixel = None          # the exactness check's explanation is the opaque frame's
+        f.debug_pixel = None          # the explanation: the opaque surface's, or debug_layer's
         w, h = self.size
         try:
             for k in reversed(range(self.used)):
@@ -188,6 +191,7 @@ class Layers:
                 gb.position, gb.normal, gb.albedo = layer.position, layer.normal, layer.albedo
                 gb.bind_textures()
                 f.untimed_writes = set(untimed)
+                f.debug_pixel = debug if k == self.debug_layer else None
                 renderer.run(steps, *env, technique=technique)
                 self.ctx.copy_buffer(self.color, renderer.buffers[OUT_COLOR], w * h * 16,
                                      write_offset=k * w * h * 16)
@@ -200,7 +204,8 @@ class Layers:
             layer_setup = {k: v - setup.get(k, 0.0) for k, v in f.setup_ms.items()
                            if v != setup.get(k, 0.0)}
             del f.timed[timed:]
-            f.setup_ms, f.debug_pixel, f.untimed_writes = setup, debug, untimed
+            f.setup_ms, f.untimed_writes = setup, untimed
+            f.debug_pixel = debug if self.debug_layer is None else None
         self.meta = {"max_layers": self.max_layers, "layers": self.used,
                      "gpu_ms": ms, "setup_ms": layer_setup}
 

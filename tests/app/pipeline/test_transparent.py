@@ -261,3 +261,36 @@ def test_a_capped_frame_is_held_to_brute_without_the_dropped_lights_on_its_layer
     res.contrib_hash_t[0, rows[0], cols[0]] ^= 1
     m = check(res, ref, r, REGISTRY["clustered"], REGISTRY["brute"], args)
     assert not isinstance(m, IntendedLoss) and "transparent layer 0" in m.message()
+
+
+def test_a_layer_culled_against_the_opaque_depth_fails_and_is_explained(hard, monkeypatch, tmp_path):
+    """tiled with its culling pass reading the opaque G-buffer while its shading reads the
+    layer (tiles bounded by the opaque depth, for transparents the naive way) misses the
+    lights between the pane and the wall: the check names the layer, the pixel and the lights
+    missing there, which the float64 oracle says affect it."""
+    scene, r, ref = hard
+    opaque = (r.gbuffer.position, r.gbuffer.normal, r.gbuffer.albedo)
+    run = Renderer.run
+
+    def culled_against_opaque(self, steps, *a, **kw):
+        gb = self.gbuffer
+        if self is not r or gb.position is opaque[0] or len(steps) < 2:
+            return run(self, steps, *a, **kw)
+        layer = (gb.position, gb.normal, gb.albedo)
+        gb.position, gb.normal, gb.albedo = opaque
+        gb.bind_textures()
+        run(self, steps[:-1], *a, **kw)
+        gb.position, gb.normal, gb.albedo = layer
+        gb.bind_textures()
+        return run(self, steps[-1:], *a, **kw)
+
+    monkeypatch.setattr(Renderer, "run", culled_against_opaque)
+    res = r.render(REGISTRY["tiled"])
+    assert check(res, ref) is not None and (res.contrib_count == ref.contrib_count).all()
+    m = check(res, ref, r, REGISTRY["tiled"], REGISTRY["brute"], {"frame": 0}, tmp_path)
+    assert "transparent layer 0" in m.message() and m.missing and not m.extra, m.message()
+    assert all(p.is_file() for p in m.images.values()) and len(m.images) == 3
+    x, row = m.first
+    inside = layer_oracle(r, scene.lights, scene.camera)[0][3].reshape(SIZE[1], SIZE[0], -1)
+    assert set(m.missing) <= set(np.nonzero(inside[row, x])[0].tolist())
+    assert len(m.missing) == m.count[1] - m.count[0]
