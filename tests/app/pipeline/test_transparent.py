@@ -294,3 +294,24 @@ def test_a_layer_culled_against_the_opaque_depth_fails_and_is_explained(hard, mo
     inside = layer_oracle(r, scene.lights, scene.camera)[0][3].reshape(SIZE[1], SIZE[0], -1)
     assert set(m.missing) <= set(np.nonzero(inside[row, x])[0].tolist())
     assert len(m.missing) == m.count[1] - m.count[0]
+
+
+@pytest.mark.parametrize("opts", [{"build": 1}, {"tile": 16}, {"scalarize": True}],
+                         ids=["gpu-build", "tile-16", "scalarized"])
+def test_the_options_keep_the_layers_exact(hard, opts):
+    """The GPU build (its passes and read-backs run again per layer), other tiles, the
+    scalarized walks."""
+    scene, r, ref = hard
+    names = [n for n in REGISTRY if n != "brute" and set(opts) <= set(REGISTRY[n].Options.names())]
+    assert names
+    assert_exact(render_on(r, opts, names, reference=ref), str(opts))
+
+
+def test_later_samples_composite_the_layers_again(hard):
+    scene, r, ref = hard
+    one = r.render(REGISTRY["clustered"])
+    three = r.render(REGISTRY["clustered"], samples=3)
+    assert len(three.meta["samples"]) == 3 and "shade" in three.meta["transparent"]["gpu_ms"]
+    assert np.array_equal(one.image, three.image) and not np.array_equal(one.image, ref.image * 0)
+    for k in LAYER_FIELDS:
+        assert np.array_equal(getattr(one, k), getattr(three, k)), k
