@@ -136,10 +136,23 @@ def main(argv=None) -> None:
         "exact_per_pixel": round(float(result.contrib_count[result.depth > 0].mean()) if (result.depth > 0).any() else 0.0, 3),
         "cpu_ms": {k: round(v, 2) for k, v in m["cpu_ms"].items()}, "cpu_threads": m["cpu_threads"],
         **gpu_timing(m, args.repeat),
+        **transparent_summary(result),
         "cpu_warmup_ms": round(warm_ms, 2), "display": display,
         "wall_s": round(time.perf_counter() - t0, 2)}))
     if args.check:
         check_against_reference(renderer, technique, opts, result, args)
+
+
+def transparent_summary(result) -> dict:
+    """The printed line's transparent layers (a scene with transparent surfaces; else {}):
+    layers used of L, fragments per layer, exact lights per fragment."""
+    t = result.meta.get("transparent")
+    if t is None:
+        return {}
+    covered = result.depth_t > 0
+    exact = float(result.contrib_count_t[covered].mean()) if covered.any() else 0.0
+    return {"transparent": {"layers": t["layers"], "max_layers": t["max_layers"],
+                            "fragments": t["fragments"], "exact_per_fragment": round(exact, 3)}}
 
 
 def gpu_timing(meta: dict, repeat: int) -> dict:

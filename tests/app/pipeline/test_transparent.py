@@ -232,8 +232,8 @@ def test_capture_dumps_the_layers_and_checks_them(gl, tmp_path):
            "lights": [{"type": "point", "position": [0.5, 1.5, -1.0], "radius": 2.0},
                       {"type": "point", "position": [0.5, 1.5, 3.0], "radius": 5.0}]}
     (tmp_path / "s.json").write_text(json.dumps(doc))
-    err = io.StringIO()
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+    err, out = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         cli.run_main(lambda: capture.main(["--scene", str(tmp_path / "s.json"), "--technique", "tiled",
                                            "--transparent-layers", "3", "--dump", str(tmp_path / "d.npz"),
                                            "--check", str(tmp_path / "check")]))
@@ -242,6 +242,8 @@ def test_capture_dumps_the_layers_and_checks_them(gl, tmp_path):
     assert d["contrib_count_t"].shape == (3, 32, 48) and d["contrib_hash_t"].dtype == np.uint32
     assert d["depth_t"].dtype == np.float32 and d["meta"]["transparent"]["max_layers"] == 3
     assert (d["contrib_count_t"][0] > 0).sum() > 20 and (d["contrib_count_t"][2] == 0).all()
+    printed = json.loads(out.getvalue())["transparent"]
+    assert printed["layers"] == 2 and printed["fragments"] == d["meta"]["transparent"]["fragments"]
 
 
 def test_a_capped_frame_is_held_to_brute_without_the_dropped_lights_on_its_layers(hard):
