@@ -68,6 +68,8 @@ def build_parser():
     cli.add_display_args(p)
     cli.add_motion_arg(p)
     cli.add_option_args(p)
+    from .pipeline import transparent
+    transparent.add_args(p)
     return p
 
 
@@ -100,7 +102,7 @@ def main(argv=None) -> None:
     from .pipeline.renderer import Renderer
     from . import images, dump
     t0 = time.perf_counter()
-    renderer = Renderer(scene, args.size)
+    renderer = Renderer(scene, args.size, transparent_layers=args.transparent_layers)
     warm = time.perf_counter()
     technique.build(renderer.frame_input(args.frame, args.frames), opts)
     warm_ms = (time.perf_counter() - warm) * 1e3
@@ -134,10 +136,23 @@ def main(argv=None) -> None:
         "exact_per_pixel": round(float(result.contrib_count[result.depth > 0].mean()) if (result.depth > 0).any() else 0.0, 3),
         "cpu_ms": {k: round(v, 2) for k, v in m["cpu_ms"].items()}, "cpu_threads": m["cpu_threads"],
         **gpu_timing(m, args.repeat),
+        **transparent_summary(result),
         "cpu_warmup_ms": round(warm_ms, 2), "display": display,
         "wall_s": round(time.perf_counter() - t0, 2)}))
     if args.check:
         check_against_reference(renderer, technique, opts, result, args)
+
+
+def transparent_summary(result) -> dict:
+    """The printed line's transparent layers (a scene with transparent surfaces; else {}):
+    layers used of L, fragments per layer, exact lights per fragment."""
+    t = result.meta.get("transparent")
+    if t is None:
+        return {}
+    covered = result.depth_t > 0
+    exact = float(result.contrib_count_t[covered].mean()) if covered.any() else 0.0
+    return {"transparent": {"layers": t["layers"], "max_layers": t["max_layers"],
+                            "fragments": t["fragments"], "exact_per_fragment": round(exact, 3)}}
 
 
 def gpu_timing(meta: dict, repeat: int) -> dict:

@@ -8,6 +8,9 @@ import json
 import numpy as np
 
 FIELDS = ("image", "depth", "evaluated", "contrib_count", "contrib_hash")
+# a scene with transparent surfaces adds, per layer (L, H, W): contrib_count_t, contrib_hash_t,
+# evaluated_t uint32 (0 where the layer has no fragment), depth_t float32 (app/pipeline/transparent.py)
+LAYER_FIELDS = ("contrib_count_t", "contrib_hash_t", "depth_t", "evaluated_t")
 
 
 def write_dump(path, result) -> None:
@@ -18,12 +21,15 @@ def write_dump(path, result) -> None:
         "contrib_count": result.contrib_count.astype(np.uint32),
         "contrib_hash": result.contrib_hash.astype(np.uint32),
     }
+    if getattr(result, "contrib_count_t", None) is not None:    # transparent layers (L, H, W)
+        arrays.update({k: getattr(result, k).astype(np.float32 if k == "depth_t" else np.uint32)
+                       for k in LAYER_FIELDS})
     np.savez_compressed(path, **arrays, meta=np.array(json.dumps(result.meta, sort_keys=True)))
 
 
 def read_dump(path) -> dict:
     with np.load(path, allow_pickle=False) as d:
-        out = {k: d[k] for k in FIELDS}
+        out = {k: d[k] for k in FIELDS + LAYER_FIELDS if k in FIELDS or k in d}
         out["meta"] = json.loads(str(d["meta"]))
     return out
 

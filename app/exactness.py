@@ -136,8 +136,44 @@ def check(result, reference, renderer=None, technique=None, reference_technique=
     if cap is not None:
         return _check_capped(result, reference, cap, renderer, technique, reference_technique,
                              render_args, out_dir)
-    return _compare(result, reference, renderer, technique, reference_technique, render_args,
-                    out_dir)
+    m = _compare(result, reference, renderer, technique, reference_technique, render_args,
+                 out_dir)
+    return m if m is not None else _layers_mismatch(result, reference, renderer, technique,
+                                                    reference_technique, render_args, out_dir)
+
+
+def _layers_mismatch(result, reference, renderer=None, technique=None, reference_technique=None,
+                     render_args=None, out_dir=None) -> Mismatch | None:
+    """check()'s part for the transparent layers (app/pipeline/transparent.py): every layer's
+    count and hash equal to the reference's at every pixel, else the Mismatch naming the
+    layer (and, given the renderer and both techniques, the lights that differ at its first
+    pixel, both frames rendered again recording that layer's lights there)."""
+    from .pipeline.transparent import layer_difference
+    diff = layer_difference(result, reference)
+    if diff is None:
+        return None
+    where, mask, counts = diff
+    first = (0, 0) if mask is None else tuple(int(v) for v in np.argwhere(mask)[0][::-1])
+    m = Mismatch(result.meta.get("technique", "?"),
+                 f"{reference.meta.get('technique', '?')} on its {where}",
+                 1 if mask is None else int(mask.sum()), 1 if mask is None else int(mask.size),
+                 first, counts)
+    layers = getattr(renderer, "transparent", None)
+    if mask is not None and layers is not None and technique is not None and reference_technique is not None:
+        layers.debug_layer = int(where.rsplit(" ", 1)[1])
+        try:
+            args = dict(render_args or {})
+            got = renderer.render(technique, readback=False, debug_pixel=first, **args).debug_lights
+            args["opts"] = stochastic_draw(result) or None
+            want = renderer.render(reference_technique, readback=False, debug_pixel=first,
+                                   **args).debug_lights
+        finally:
+            layers.debug_layer = None
+        m.missing = sorted(set(want.tolist()) - set(got.tolist()))
+        m.extra = sorted(set(got.tolist()) - set(want.tolist()))
+    if mask is not None and out_dir is not None:     # the composites, the layer's pixels marked
+        m.images = write_images(Path(out_dir), result, reference, mask, first)
+    return m
 
 
 def _compare(result, reference, renderer, technique, reference_technique, render_args,
@@ -178,6 +214,7 @@ def _check_capped(result, reference, cap, renderer, technique, reference_techniq
         intended = renderer.render(reference_technique, **args)
         m = _compare(result, intended, renderer, technique, reference_technique,
                      dict(render_args or {}, lights=args["lights"]), out_dir)
+        m = m if m is not None else _layers_mismatch(result, intended)
         if m is not None:
             m.reference += f" without the {dropped} lights {policy} dropped"
             return m

@@ -124,7 +124,8 @@ def _refusals(t) -> list[str]:
 def technique_section(t) -> str:
     paper = getattr(t, "paper", None) or PAPERS.get(t.name, "not declared")
     lines = [f"## `{t.name}`", "", t.summary[:1].upper() + t.summary[1:] + ".", "",
-             f"- Role: {t.role}", f"- Source: {paper}"]
+             f"- Role: {t.role}", f"- Source: {paper}",
+             f"- Transparent layers: {t.transparent}"]
     doc = _doc(type(t))
     if doc:
         lines += ["", doc]

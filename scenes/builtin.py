@@ -119,6 +119,17 @@ def build_city(lights: int | None = None, seed: int = 0, distribution: str | Non
     return _finish("city", cams, meshes, ls)
 
 
+def build_city_glass(lights: int | None = None, seed: int = 0,
+                     distribution: str | None = None) -> Scene:
+    """city with glass panes and particles over the street (scenes/glass.py): the same
+    lights, cameras and opaque geometry, so city's figures stay city's."""
+    from .glass import street_glass
+    scene = build_city(lights, seed, distribution)
+    scene.name = "city-glass"
+    scene.meshes = scene.meshes + merge_meshes(street_glass())
+    return scene
+
+
 # ---------------------------------------------------------------------------------- arena
 def _arena_geometry() -> list[Mesh]:
     g = np.random.default_rng(2002)
@@ -563,4 +574,5 @@ BUILTIN_SCENES = {
     "corridor": build_corridor,
     "contention": build_contention,
     "stress": build_stress,
+    "city-glass": build_city_glass,
 }

@@ -88,10 +88,11 @@ def ramp_mesh(lo, hi, rise_axis: str = "+z", albedo=(0.8, 0.8, 0.8)) -> Mesh:
 
 
 def merge_meshes(meshes: list[Mesh]) -> list[Mesh]:
-    """Merge meshes of equal material into one mesh each (fewer draws), first-seen order."""
+    """Merge meshes of equal material and opacity into one mesh each (fewer draws),
+    first-seen order."""
     groups: dict[tuple, list[Mesh]] = {}
     for m in meshes:
-        groups.setdefault(m.material, []).append(m)
+        groups.setdefault(m.material + (float(m.opacity),), []).append(m)
     out = []
     for key, ms in groups.items():
         verts, faces, off = [], [], 0
@@ -100,7 +101,7 @@ def merge_meshes(meshes: list[Mesh]) -> list[Mesh]:
             faces.append(m.faces + off)
             off += len(m.vertices)
         out.append(Mesh(np.concatenate(verts).astype(np.float32),
-                        np.concatenate(faces).astype(np.int32), key[:3], key[3], key[4]))
+                        np.concatenate(faces).astype(np.int32), key[:3], key[3], key[4], key[5]))
     return out
 
 

@@ -20,7 +20,9 @@ What is read, and how it converts (every rule below is this lab's, stated once h
   smallest perceptual roughness; scenes.model, as for every scene) is raised to it: glTF's 0
   is a perfect mirror, a delta no light loop evaluates, and the lab's roughness 0 means
   matte (no specular code).
-  Textures, vertex colours and alpha are not used.
+  Textures and vertex colours are not used; alpha only as `alphaMode: BLEND`, whose
+  baseColorFactor alpha is the mesh's opacity (a transparent surface, app/pipeline/transparent.py;
+  OPAQUE and MASK surfaces are opaque: MASK's cutout needs the texture alpha, not read).
 - **Lights** (`KHR_lights_punctual`), one per node that references one, in walk order:
   position = the node's world origin; a spot's direction = the node's world -Z, normalised;
   `color` as is (linear RGB); `intensity` (candela for point and spot) times
@@ -356,10 +358,14 @@ def _accessor(ctx: FieldChecker, h: dict, buffers: list[bytes], idx, field: str,
     return i
 
 
-def _material(ctx: FieldChecker, h: dict, p: dict, f: str) -> tuple[tuple, float, float]:
-    """(albedo RGB, roughness, metallic) of a primitive (module docstring, "Material")."""
+ALPHA_MODES = ("OPAQUE", "MASK", "BLEND")    # glTF's material.alphaMode (default OPAQUE)
+
+
+def _material(ctx: FieldChecker, h: dict, p: dict, f: str) -> tuple[tuple, float, float, float]:
+    """(albedo RGB, roughness, metallic, opacity) of a primitive (module docstring,
+    "Material")."""
     if "material" not in p:
-        return (1.0, 1.0, 1.0), 1.0, 1.0             # glTF's default material
+        return (1.0, 1.0, 1.0), 1.0, 1.0, 1.0        # glTF's default material
     materials = ctx.arr(h.get("materials", []), "materials")
     k = _index(ctx, p["material"], f + ".material", materials, "materials")
     fm = f"materials[{k}]"
@@ -373,7 +379,11 @@ def _material(ctx: FieldChecker, h: dict, p: dict, f: str) -> tuple[tuple, float
     fp = fm + ".pbrMetallicRoughness."
     metallic = ctx.num(pbr.get("metallicFactor", 1.0), fp + "metallicFactor", 0.0, 1.0)
     roughness = ctx.num(pbr.get("roughnessFactor", 1.0), fp + "roughnessFactor", 0.0, 1.0)
-    return tuple(rgba[:3]), max(float(roughness), MIN_ROUGHNESS), float(metallic)
+    mode = mat.get("alphaMode", "OPAQUE")
+    if mode not in ALPHA_MODES:
+        ctx.fail(fm + ".alphaMode", f"must be one of {', '.join(ALPHA_MODES)} (got {show(mode)})")
+    opacity = float(rgba[3]) if mode == "BLEND" else 1.0
+    return tuple(rgba[:3]), max(float(roughness), MIN_ROUGHNESS), float(metallic), opacity
 
 
 def _decode(ctx: FieldChecker, h: dict, buffers: list[bytes], prims: list[tuple]) -> list:

@@ -57,7 +57,7 @@ CAMERA_KEYS = ("position", "target", "up", "fov_y_deg", "near", "far")
 BOX_KEYS = ("min", "max")
 # A geometry entry's material (docs/contracts.md "Contract: scene files"): albedo, and GGX specular when
 # `roughness` is given (> 0; without it, or at 0, the surface is matte), `metallic` in [0, 1].
-MATERIAL_KEYS = ("albedo", "roughness", "metallic")
+MATERIAL_KEYS = ("albedo", "roughness", "metallic", "opacity")
 GEOMETRY_KEYS = {"box": ("box",) + MATERIAL_KEYS,
                  "mesh": ("mesh", "transform") + MATERIAL_KEYS}
 _COMMON = ("type", "position", "color", "intensity")
@@ -144,6 +144,8 @@ def _material(ctx: FieldChecker, g: dict, field: str) -> dict:
     out = {key: ctx.num(g.get(key, 0.0), f"{field}.{key}", 0.0, 1.0)
            for key in ("roughness", "metallic")}
     out["albedo"] = DEFAULT_ALBEDO
+    # opacity below 1: a transparent surface (app/pipeline/transparent.py), composited over the opaque
+    out["opacity"] = ctx.num(g.get("opacity", 1.0), f"{field}.opacity", 0.0, 1.0)
     if "albedo" in g:
         a = ctx.vec3(g["albedo"], field + ".albedo", lo=0.0)
         out["albedo"] = tuple(ctx.num(x, f"{field}.albedo[{i}]", 0.0, 1.0) for i, x in enumerate(a))
@@ -213,6 +215,7 @@ def _geometry(ctx: FieldChecker, v) -> list[Mesh]:
             material = _material(ctx, g, f)
             mesh = box_mesh(lo, hi, material["albedo"])
             mesh.roughness, mesh.metallic = material["roughness"], material["metallic"]
+            mesh.opacity = material["opacity"]
             meshes.append(mesh)
         else:
             meshes.append(_load_mesh(ctx, g, f))

@@ -73,9 +73,9 @@ GROUPED = ("tests/app/test_bad_input.py", "tests/app/test_long_run.py",
 # Tests that share one reference frame (tests.helpers.builtin_reference: rendered once per
 # process) run on one worker: node id pattern -> the scope's name ({0}: the pattern's group).
 SHARED_REFERENCE = (
-    (r"tests/app/techniques/test_exactness\.py::test_builtin_scenes_are_exact\[(\w+)-uniform\]$",
+    (r"tests/app/techniques/test_exactness\.py::test_builtin_scenes_are_exact\[([\w-]+)-uniform\]$",
      "reference {0}"),
-    (r"tests/app/techniques/test_tree_options\.py::test_options_exact_on_every_scene\[(\w+)\]$",
+    (r"tests/app/techniques/test_tree_options\.py::test_options_exact_on_every_scene\[([\w-]+)\]$",
      "reference {0}"),
     (r"tests/app/techniques/test_exactness\.py::test_options_keep_exactness\[", "reference arena 4096"),
 )

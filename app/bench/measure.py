@@ -153,9 +153,14 @@ def radiance_ratio(res, ref) -> float:
 
 
 def mismatches(res, ref) -> tuple[int, int]:
-    """Pixels whose contrib_count, contrib_hash differ from the reference's."""
-    return (int((res.contrib_count != ref.contrib_count).sum()),
-            int((res.contrib_hash != ref.contrib_hash).sum()))
+    """Pixels whose contrib_count, contrib_hash differ from the reference's (a frame with
+    transparent layers: those of every layer's pixels too, app/pipeline/transparent.py)."""
+    count, hashes = (int((res.contrib_count != ref.contrib_count).sum()),
+                     int((res.contrib_hash != ref.contrib_hash).sum()))
+    if getattr(res, "contrib_count_t", None) is not None:
+        count += int((res.contrib_count_t != ref.contrib_count_t).sum())
+        hashes += int((res.contrib_hash_t != ref.contrib_hash_t).sum())
+    return count, hashes
 
 
 def fill_floor_positions(rows: list[dict], reference: str, floor: str) -> None:

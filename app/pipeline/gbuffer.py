@@ -46,7 +46,8 @@ class GBuffer:
 
     def __init__(self, ctx, meshes, size: tuple[int, int]):
         self.ctx = ctx
-        self.soup = triangle_soup(meshes)
+        # opaque surfaces only: transparent ones are the layers' (app/pipeline/transparent.py)
+        self.soup = triangle_soup([m for m in meshes if not m.transparent])
         self.specular = any(m.roughness > 0 for m in meshes)   # compile GGX only then
         self.size = None
         self.resize(size)

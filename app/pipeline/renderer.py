@@ -65,6 +65,12 @@ class FrameResult:
     wave: np.ndarray | None = None           # (GH,GW) WAVE_STATS per 8x8 group, image order
     cell: np.ndarray | None = None           # (H,W) uint32 the structure cell each pixel read
     debug_lights: np.ndarray | None = None   # render(debug_pixel=...): ids affecting that pixel
+    # a scene with transparent surfaces (app/pipeline/transparent.py): per layer (L, H, W), 0 where
+    # a layer has no fragment
+    contrib_count_t: np.ndarray | None = None
+    contrib_hash_t: np.ndarray | None = None
+    depth_t: np.ndarray | None = None
+    evaluated_t: np.ndarray | None = None
 
 
 @dataclass
@@ -87,7 +93,8 @@ class _Frame:
 
 
 class Renderer:
-    def __init__(self, scene, size: tuple[int, int] | None = None):
+    def __init__(self, scene, size: tuple[int, int] | None = None,
+                 transparent_layers: int | None = None):
         self.ctx = gl.context()
         self.limits = gl.limits()
         self.scene = scene
@@ -103,6 +110,10 @@ class Renderer:
         self._blank = None       # colour target of passes that draw to no target
         self._targets: dict = {}  # Target.name -> ((Target, size), rawgl.DepthTarget)
         self._frame = _Frame()
+        from . import transparent      # the scene's transparent layers (None: it has none)
+        self.transparent = transparent.for_scene(
+            self.ctx, scene, transparent.DEFAULT_LAYERS if transparent_layers is None
+            else transparent.check_layers(transparent_layers))
 
     @property
     def size(self) -> tuple[int, int]:
@@ -232,6 +243,10 @@ class Renderer:
         result = FrameResult(meta=meta, build=build)
         if readback:
             self._read_outputs(result)
+            if self.transparent is not None:
+                self.transparent.read_outputs(result)
+        if self.transparent is not None:
+            meta["transparent"] = dict(self.transparent.meta)
         if debug_pixel is not None:
             raw = np.frombuffer(self.buffers[DEBUG_SLOT].read(), np.uint32)
             result.debug_lights = np.unique(raw[1:1 + min(int(raw[0]), DEBUG_MAX_IDS)])
@@ -272,6 +287,8 @@ class Renderer:
         if first:
             # a build made on the GPU (app/gpu_build) brings its passes, ending in the technique's
             steps = build.steps or technique.passes(build, opts)
+            if self.transparent is not None:      # the layers first (app/pipeline/transparent.py)
+                self.transparent.shade(self, steps, env, technique.name, fin.camera)
             self.run(steps, *env, technique=technique.name)
             # a GPU build knows its visible lights' shapes once its steps ran (app/gpu_build)
             features = feat.feature_set(build.lights.type, self.gbuffer.specular)
@@ -279,6 +296,8 @@ class Renderer:
             for p in self._frame.timed:
                 self._check_deadline(p.name)
                 self._run_pass(p, *env, technique.name)
+        if self.transparent is not None:
+            self.transparent.composite(self)
         return build, features, {"cpu_ms": cpu_ms, "gpu_ms": self.timer.take()}
 
     # ---- executing steps -----------------------------------------------------------
@@ -547,6 +566,8 @@ class Renderer:
         for _, t in self._targets.values():
             t.release()
         self._targets.clear()
+        if self.transparent is not None:
+            self.transparent.release()
         self.programs.release()
         self.gbuffer.release()
 

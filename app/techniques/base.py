@@ -51,6 +51,17 @@ from .options import TechniqueOptions, cap_policy, stochastic
 
 ROLES = ("technique", "reference", "floor", "sampler")
 
+# Technique.transparent: a structure of the lights alone serves a transparent fragment's
+# view-space point as it serves the opaque surface's; one bounded by the depth its GPU passes
+# read is built again over each layer's fragments (app/pipeline/transparent.py).
+TRANSPARENT_LOOKUP = ("served by lookup: its structure, built from the lights alone, holds "
+                      "any view-space point, and each layer's fragments read their own cells "
+                      "of it (the CPU build is not redone).")
+TRANSPARENT_REBUILT = ("built again per layer: {what} made by GPU passes from the G-buffer "
+                       "they read, so those passes run again over each layer's fragments before "
+                       "it is shaded (a tile's depth range is then its layer's fragments', so a "
+                       "pane nearer than the tile's opaque minimum depth lies inside it).")
+
 # The one registry: capture, the window, the benchmark, the report and the tests iterate it.
 REGISTRY: dict[str, "Technique"] = {}
 _PLACES: dict[str, float] = {}      # name -> register_at (techniques registered by hand: last)
@@ -88,6 +99,9 @@ class Technique:
     # then depends on the wave width (native subgroup or emulated 64-lane group); counts,
     # hashes and images never do (tests compare `evaluated` across widths only without it).
     evaluates_per_wave: bool = False
+    # How it shades the transparent layers (app/pipeline/transparent.py: its steps run again
+    # over each layer's fragments): docs/techniques.md's "Transparent layers" line.
+    transparent: str = TRANSPARENT_LOOKUP
 
     def __init_subclass__(cls, register_at: float | None = None, **kw) -> None:
         """`class X(Technique, register_at=N)`: one instance of X joins the registry at

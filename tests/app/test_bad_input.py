@@ -157,6 +157,9 @@ CASES = {
     # radius
     "zero_radius": (scene_case(setp("lights.1.radius", 0)), r"lights\[1\]\.radius"),
     "negative_radius": (scene_case(setp("lights.0.radius", -1.5)), r"lights\[0\]\.radius"),
+    "opacity_above_one": (scene_case(setp("geometry.0.opacity", 1.5)), r"geometry\[0\]\.opacity"),
+    "opacity_negative": (scene_case(setp("geometry.0.opacity", -0.25)), r"geometry\[0\]\.opacity"),
+    "opacity_not_a_number": (scene_case(setp("geometry.0.opacity", "glass")), r"geometry\[0\]\.opacity"),
     "string_radius": (scene_case(setp("lights.0.radius", "3")), r"lights\[0\]\.radius"),
     # light types and fields
     "unknown_light_type": (scene_case(setp("lights.0.type", "area")), r"lights\[0\]\.type"),
@@ -209,6 +212,8 @@ CASES = {
     "scene_no_such_file": (lambda d: ["--scene", str(d / "absent.json")], r"absent\.json"),
     # command-line flags
     "size_zero": (flag_case("--size", "0x10"), r"--size"),
+    "transparent_layers_zero": (flag_case("--transparent-layers", "0"), r"--transparent-layers"),
+    "transparent_layers_past_max": (flag_case("--transparent-layers", "9"), r"--transparent-layers"),
     "size_absurd": (flag_case("--size", "99999x10"), r"--size"),
     "size_not_wxh": (flag_case("--size", "640"), r"--size"),
     "size_negative": (flag_case("--size", "-5x10"), r"--size"),

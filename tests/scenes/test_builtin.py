@@ -9,14 +9,16 @@ from scenes.geometry import mesh_triangles
 from scenes.model import LIGHT_POINT, LIGHT_SPOT, LIGHT_TYPE_NAMES
 
 DEFAULT_LIGHTS = {"city": 4096, "arena": 4096, "hangar": 512, "gallery": 46, "corridor": 512,
-                  "contention": 256, "stress": 100_000}
+                  "contention": 256, "stress": 100_000, "city-glass": 4096}
 DEFAULT_DIST = {"city": "geometry", "arena": "uniform", "hangar": "uniform", "gallery": "geometry",
-                "corridor": "uniform", "contention": "uniform", "stress": "uniform"}
+                "corridor": "uniform", "contention": "uniform", "stress": "uniform",
+                "city-glass": "geometry"}
 NAMES = list(BUILTIN_SCENES)
 
 
 def test_registry_order():
-    assert NAMES == ["city", "arena", "hangar", "gallery", "corridor", "contention", "stress"]
+    assert NAMES == ["city", "arena", "hangar", "gallery", "corridor", "contention", "stress",
+                     "city-glass"]
 
 
 def _check_scene(s: Scene, n: int):

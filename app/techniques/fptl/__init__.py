@@ -105,7 +105,7 @@ from scenes.model import LIGHT_BOX, LIGHT_CAPSULE, LIGHT_POINT, LIGHT_SPOT, LIGH
 from ...pipeline.passes import Buffer, HostStep, Pass
 from ...errors import UserError
 from .. import variants
-from ..base import Technique, prepare, shading_passes
+from ..base import TRANSPARENT_REBUILT, Technique, prepare, shading_passes
 # its GPU formats (lists.py), also read as fptl.NAME by its replay and the tests
 from .lists import (TILE, COARSE_BATCH, LIST_CAP, INDEX10_MAX, INDEX16_MAX, FLAG_COARSE_OVER,
                     FLAG_SPILLED, FLAG_POOL_FULL, FLAG_COVERED, STATE, SPILLED_COUNTS,
@@ -216,6 +216,7 @@ class FptlData:
 
 class Fptl(Technique, register_at=70):
     name = "fptl"
+    transparent = TRANSPARENT_REBUILT.format(what="its coarse and fine-pruned tile lists are")
     summary = "16x16 tiles, GPU screen-AABB coarse lists fine-pruned per pixel (Mikkelsen)"
     views = Technique.views + ("tiles", "slices", "maps", "variants")
     glsl = {"fptl_structs.glsl": structs_glsl(), "fptl_format.glsl": format_glsl()}

@@ -25,7 +25,7 @@ from cpu_prep.limits import MAX_STORAGE_BYTES
 
 from ...errors import UserError
 from ...pipeline.passes import Buffer, HostStep, Pass, image_groups
-from ..base import Technique, prepare, shading_passes, windows
+from ..base import TRANSPARENT_REBUILT, Technique, prepare, shading_passes, windows
 from ..options import StochasticOptions
 
 
@@ -50,6 +50,7 @@ def bands(counts: np.ndarray, max_band_bytes: int) -> list[tuple[int, int, int]]
 
 class Perfect(Technique, register_at=90):
     name = "perfect"
+    transparent = TRANSPARENT_REBUILT.format(what="its per-pixel lists are")
     summary = "exact per-pixel light lists built untimed (the shading floor)"
     role = "floor"
     max_band_bytes = MAX_STORAGE_BYTES     # one band's entries: one storage block

@@ -26,7 +26,7 @@ from cpu_prep import frame as cpuframe, grid as gridmod, layouts, limits, raster
 
 from ...pipeline.gbuffer import column_major
 from ...pipeline.passes import Buffer, Draw, HostStep, Pass, StencilStep, Target, image_groups
-from ..base import Technique, grid_uniforms, prepare, shading_passes
+from ..base import TRANSPARENT_REBUILT, Technique, grid_uniforms, prepare, shading_passes
 from ..options import StochasticOptions, choice, option
 from ..bit_arrays import ShadingOptions, attach_zbins, shading_steps, tile_bit_maps, tile_uniforms, variant_flags
 from .counters import raster_counters
@@ -75,6 +75,7 @@ class RasterData:
 
 class Raster(Technique, register_at=80):
     name = "raster"
+    transparent = TRANSPARENT_REBUILT.format(what="its proxies' depth-tested tile bits are")
     summary = "light proxy meshes rasterized into tile bit arrays with atomics (Drobot 2017)"
     evaluates_per_wave = True          # the zbin loop's scalarized variants (zbin.py)
     views = Technique.views + ("tiles", "slices", "maps")   # slices: --cluster

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from cpu_prep import layouts
 
 from ...pipeline.passes import Buffer, Pass
-from ..base import Technique, grid_uniforms, make_grid, prepare, refuse, shading_passes
+from ..base import TRANSPARENT_REBUILT, Technique, grid_uniforms, make_grid, prepare, refuse, shading_passes
 from ..options import CapOptions, FeatureVariantOptions, StochasticOptions, TileOptions
 from .. import variants
 
@@ -26,6 +26,7 @@ def pool_entries(b) -> int:
 
 class Tiled(Technique, register_at=20):
     name = "tiled"
+    transparent = TRANSPARENT_REBUILT.format(what="its tiles' light lists are")
     summary = "2D tiles, min/max depth and light lists on the GPU (Andersson, Harada)"
     views = Technique.views + ("tiles", "variants")
     glsl = {"tiled_lists.glsl": layouts.glsl_defines({"TILE_OVERFLOW": OVERFLOW})}

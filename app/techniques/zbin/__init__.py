@@ -68,7 +68,7 @@ from cpu_prep import frame as cpuframe, grid as gridmod, limits, zbin as zb
 
 from ...errors import UserError
 from ...pipeline.passes import Buffer, HostStep, Pass
-from ..base import Technique, prepare
+from ..base import TRANSPARENT_REBUILT, Technique, prepare
 from ..bit_arrays import VARIANTS, ShadingOptions, attach_zbins, shading_steps, tile_bit_maps, variant_flags
 from ..blocks import tile_boxes
 from ..gpu_build import BuildOptions, build_bits, on_gpu
@@ -80,6 +80,7 @@ DEPTH_GROUP = 64              # zbin_tile_depth.comp: one 8x8 group a tile
 
 class ZBin(Technique, register_at=60):
     name = "zbin"
+    transparent = TRANSPARENT_REBUILT.format(what="its tile bits (culled against each tile's depth with --tile-depth) are")
     summary = "flat bit arrays per tile + Z-bin LUT, scalarized loop (Drobot 2017)"
     # Scalarized variants evaluate the union of the wave's lights: per-pixel `evaluated`
     # depends on the wave width (native subgroup or emulated 64-lane group); counts, hashes
