@@ -88,6 +88,12 @@ class Technique:
     # then depends on the wave width (native subgroup or emulated 64-lane group); counts,
     # hashes and images never do (tests compare `evaluated` across widths only without it).
     evaluates_per_wave: bool = False
+    # What stereo's union way (app.stereo) shares between the two eyes: "structure" (the
+    # culling structure itself, built once over the union camera's frustum; each eye's
+    # shading maps its pixels into the union camera's cells, STEREO_UNION in
+    # glsl/cells.glsl) or "cull-sort" (a structure made per pixel of a view, e.g. screen
+    # tiles: only the CPU cull and sort are shared, the rest is built per eye)
+    stereo_union: str = "cull-sort"
 
     def __init_subclass__(cls, register_at: float | None = None, **kw) -> None:
         """`class X(Technique, register_at=N)`: one instance of X joins the registry at
@@ -187,8 +193,11 @@ def prepare(frame: FrameInput, sort_buckets: int = 0, opts=None) -> Build:
     if drawn is not None:
         with times.stage("cull"):          # the range draw: part of the cull step
             lights, alpha, dark = stochastic_ranges(frame, *drawn)
-    pl, dropped = cpuframe.prepare_capped_lights(lights, frame.camera, times, sort_buckets,
-                                                 frame.arena, policy)
+    if getattr(frame, "presorted", None) is not None:   # cull and sort made before (app.stereo)
+        pl, dropped = stereo_pack(frame, times), np.zeros(0, np.uint32)
+    else:
+        pl, dropped = cpuframe.prepare_capped_lights(lights, frame.camera, times, sort_buckets,
+                                                     frame.arena, policy)
     if alpha is not None:
         pl.gpu["right"][:, 3] = alpha[pl.ids]        # read by glsl/light_window.glsl lambert
     b = Build(frame=frame, lights=pl, times=times)
@@ -201,6 +210,16 @@ def prepare(frame: FrameInput, sort_buckets: int = 0, opts=None) -> Build:
         b.stats.update(cap_policy=policy, capped_lights=len(dropped))
         b.capped_ids = dropped
     return b
+
+
+def stereo_pack(frame: FrameInput, times) -> "cpuframe.PreparedLights":
+    """The pack step alone, of the lights `frame.presorted` (culled and sorted for a wider
+    camera: app.stereo's union of two eyes) in this frame's camera; no cap policy or
+    stochastic draw applies (app.stereo refuses them)."""
+    with times.stage("pack"):
+        pl = lightsmod.pack(frame.lights, frame.camera, frame.presorted, frame.arena)
+    cpuframe.check_buffer("light buffer", pl.gpu.nbytes)
+    return pl
 
 
 def stochastic_ranges(frame: FrameInput, budget: int, seed: int, draw_frame: int):
