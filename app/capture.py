@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import cli
+from . import cli, stereo_capture
 
 # The output flags, each with the file it must be (None: a folder): never a silently renamed file.
 OUTPUTS = (
@@ -68,6 +68,7 @@ def build_parser():
     cli.add_display_args(p)
     cli.add_motion_arg(p)
     cli.add_option_args(p)
+    stereo_capture.add_args(p)
     return p
 
 
@@ -87,6 +88,7 @@ def main(argv=None) -> None:
     if args.repeat < 0:
         raise cli.UserError(f"--repeat must be >= 0, got {args.repeat}")
     check_suffixes(args)
+    views_stereo = stereo_capture.wanted(args)
     technique = get(args.technique)
     if args.classify:
         from .techniques import REGISTRY
@@ -97,6 +99,8 @@ def main(argv=None) -> None:
                                 f"{', '.join(with_view(REGISTRY, 'classes'))}")
     opts = cli.options_for(technique, args)
     scene = cli.load_scene_args(args)
+    if views_stereo:                         # two eyes (app.stereo_capture)
+        return stereo_capture.capture(args, technique, opts, scene)
     from .pipeline.renderer import Renderer
     from . import images, dump
     t0 = time.perf_counter()

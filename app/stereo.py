@@ -176,6 +176,9 @@ class StereoFrame:
     shared_ms: list = field(default_factory=list)
     shared_build: object | None = None
     shared_buffers: tuple = ()             # buffers both eyes bind, counted once
+    # eye -> what renders it again (the exactness check's explanation): the technique as
+    # the renderer saw it, and renderer.render's camera and defines
+    renders: dict = field(default_factory=dict)
 
     def samples(self) -> list[dict]:
         """One {"cpu_ms", "gpu_ms"} a timing sample of the two-eye frame: the shared
@@ -277,9 +280,16 @@ def union_input(renderer, frame: int, frames: int, separation: float):
 
 
 def render(renderer, technique, opts, way: str, separation: float, frame: int = 0,
-           frames: int = 64, samples: int = 1, readback: bool = True) -> StereoFrame:
+           frames: int = 64, samples: int = 1, readback: bool = True, on_eye=None) -> StereoFrame:
     """Both eyes of `frame` rendered with `technique` in `way` (module docstring); `samples`
-    timing samples of each eye and of the shared stage."""
+    timing samples of each eye and of the shared stage; `on_eye(eye, result)` called after
+    each eye's render (the renderer still holds that eye's G-buffer)."""
+    def rendered(e, t, **kw):
+        r = renderer.render(t, frame, opts, frames, samples=samples, readback=readback, **kw)
+        if on_eye is not None:
+            on_eye(e, r)
+        return r
+
     opts = technique.resolve_options(opts)
     refuse(technique, opts, way)
     separation = check_separation(separation)
@@ -287,9 +297,9 @@ def render(renderer, technique, opts, way: str, separation: float, frame: int = 
     cams = dict(zip(EYES, eye_cameras(center, separation)))
     meta = {"way": way, "separation": separation}
     if way == "per-view":
-        results = {e: renderer.render(technique, frame, opts, frames, camera=c, samples=samples,
-                                      readback=readback) for e, c in cams.items()}
-        return _finish(StereoFrame(way, separation, None, results), meta)
+        results = {e: rendered(e, technique, camera=c) for e, c in cams.items()}
+        renders = {e: (technique, {"camera": c}) for e, c in cams.items()}
+        return _finish(StereoFrame(way, separation, None, results, renders=renders), meta)
     share = getattr(technique, "stereo_union", CULL_SORT)
     fin = union_input(renderer, frame, frames, separation)
     shared_ms, keys, shared = [], None, None
@@ -305,12 +315,12 @@ def render(renderer, technique, opts, way: str, separation: float, frame: int = 
                 keys = lightsmod.sort_ids(keyed, depth, getattr(opts, "sort_buckets", 0), None).copy()
             shared_ms.append(times.ms)
     defines = {UNION_DEFINE: 1} if share == STRUCTURE else None
-    results = {e: renderer.render(_Eye(technique, c, fin.camera, keys, shared), frame, opts, frames,
-                                  camera=c, samples=samples, readback=readback, defines=defines)
+    renders = {e: (_Eye(technique, c, fin.camera, keys, shared), {"camera": c, "defines": defines})
                for e, c in cams.items()}
+    results = {e: rendered(e, t, **kw) for e, (t, kw) in renders.items()}
     sf = StereoFrame(way, separation, share, results, shared_ms, shared,
                      tuple(n for n in (shared.buffers if shared is not None else ())
-                           if n not in EYE_BUFFERS))
+                           if n not in EYE_BUFFERS), renders)
     meta["share"] = share
     meta["shared_cpu_ms"] = shared_ms[-1]
     return _finish(sf, meta)
