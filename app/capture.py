@@ -100,7 +100,7 @@ def main(argv=None) -> None:
     opts = cli.options_for(technique, args)
     scene = cli.load_scene_args(args)
     if views_stereo:                         # two eyes (app.stereo_capture)
-        return stereo_capture.capture(args, technique, opts, scene)
+        return stereo_capture.capture(args, technique, opts, scene, _albedo, gpu_timing)
     from .pipeline.renderer import Renderer
     from . import images, dump
     t0 = time.perf_counter()

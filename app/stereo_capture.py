@@ -53,8 +53,9 @@ def eye_path(path: str, eye: str) -> Path:
     return p.with_name(f"{p.stem}-{eye}{p.suffix}")
 
 
-def capture(args, technique, opts, scene) -> None:
-    """Both eyes of args.frame (capture.main's stereo branch)."""
+def capture(args, technique, opts, scene, _albedo, gpu_timing) -> None:
+    """Both eyes of args.frame (capture.main's stereo branch, which hands over its helpers:
+    the G-buffer's albedo of the renderer, the printed GPU figures of a meta)."""
     for name, flag in MONO_ONLY:
         if getattr(args, name):
             raise UserError(f"{flag} is a mono figure: not with --views stereo")
@@ -64,7 +65,6 @@ def capture(args, technique, opts, scene) -> None:
     stereo.refuse(technique, opts, way)
     from .pipeline.renderer import Renderer
     from . import dump, images
-    from .capture import _albedo, gpu_timing
     t0 = time.perf_counter()
     renderer = Renderer(scene, args.size)
     warm = time.perf_counter()               # as mono's: the numba kernels' first call apart
