@@ -54,6 +54,16 @@ UNION_MARGIN = 1e-3
 STRUCTURE, CULL_SORT = "structure", "cull-sort"
 SHARES = (STRUCTURE, CULL_SORT)
 UNION_DEFINE = "STEREO_UNION"
+# what each declaration shares in the union way, for the technique pages (app.reference)
+SHARE_DOCS = {
+    STRUCTURE: "its structure itself, built once over the union camera's frustum; each eye's "
+               "shading maps its pixels into the union camera's cells (STEREO_UNION, "
+               "glsl/cells.glsl) and only the light records are packed per eye",
+    CULL_SORT: "only the CPU cull and depth sort (view-independent work), made once over the "
+               "union camera's frustum; each eye packs that order in its own camera and builds "
+               "the rest of its CPU stage itself (a structure made per pixel of a view, where "
+               "it has one, cannot be shared by pixel)",
+}
 # the buffers of a structure-sharing build that hold the lights themselves (view space):
 # packed per eye; every other buffer is the shared structure
 EYE_BUFFERS = ("lights", "dup_lights")
