@@ -26,7 +26,8 @@ eye's own, so every eye evaluates the same float32 numbers as `brute` rendered p
 
 The union way refuses, in one line, the options it cannot honour: a GPU-built structure
 (built from the view on the GPU), an engine's cap policy (a view's visible set decides what
-it drops) and stochastic culling (ranges drawn from the eye's position).
+it drops), stochastic culling (ranges drawn from the eye's position) and feature variants
+(their classification and indirect dispatches are not mapped to the union camera's cells).
 
 No technique is named here: the declaration says what each shares.
 """
@@ -162,7 +163,10 @@ def refusal(technique, opts, way: str) -> str | None:
            f"--cap-policy {cap_policy(opts)} (a view's own visible lights decide what it drops)"
            if cap_policy(opts) != caps.NONE else
            "--stochastic (each light's range is drawn from one eye's position)"
-           if stochastic(opts) is not None else None)
+           if stochastic(opts) is not None else
+           "--feature-variants (its tile classification and indirect dispatches read the "
+           "cells of one view; not mapped to the union camera's)"
+           if share == STRUCTURE and getattr(opts, "feature_variants", False) else None)
     return None if why is None else f"--stereo-way union: {technique.name} cannot share {why}"
 
 

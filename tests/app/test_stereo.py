@@ -142,7 +142,8 @@ def test_union_shares_what_the_declaration_says(gl):
 
 @pytest.mark.parametrize("values,needle", [({"build": "gpu"}, "--build gpu"),
                                            ({"cap_policy": CAP}, "--cap-policy"),
-                                           ({"stochastic": 4}, "--stochastic")])
+                                           ({"stochastic": 4}, "--stochastic"),
+                                           ({"feature_variants": True}, "--feature-variants")])
 def test_union_refuses_what_it_cannot_share_in_one_line(values, needle):
     t = REGISTRY["clustered"]
     opts = t.Options.make(values, t.name)
