@@ -26,8 +26,7 @@ eye's own, so every eye evaluates the same float32 numbers as `brute` rendered p
 
 The union way refuses, in one line, the options it cannot honour: a GPU-built structure
 (built from the view on the GPU), an engine's cap policy (a view's visible set decides what
-it drops), stochastic culling (ranges drawn from the eye's position) and feature variants
-(their classification and indirect dispatches are not mapped to the union camera's cells).
+it drops) and stochastic culling (ranges drawn from the eye's position).
 
 No technique is named here: the declaration says what each shares.
 """
@@ -163,10 +162,7 @@ def refusal(technique, opts, way: str) -> str | None:
            f"--cap-policy {cap_policy(opts)} (a view's own visible lights decide what it drops)"
            if cap_policy(opts) != caps.NONE else
            "--stochastic (each light's range is drawn from one eye's position)"
-           if stochastic(opts) is not None else
-           "--feature-variants (its tile classification and indirect dispatches read the "
-           "cells of one view; not mapped to the union camera's)"
-           if share == STRUCTURE and getattr(opts, "feature_variants", False) else None)
+           if stochastic(opts) is not None else None)
     return None if why is None else f"--stereo-way union: {technique.name} cannot share {why}"
 
 
@@ -270,10 +266,18 @@ class _Eye:
 
 def _with_union_uniforms(step, glsl: dict, eye: FrameCamera, union: FrameCamera):
     """A pass whose shaders declare the union mapping's uniforms (glsl/cells.glsl) with them
-    set for this eye; any other step as it is."""
+    set for this eye; a host step whose further steps get them so (the feature variants'
+    shading dispatches); any other step as it is."""
     from .pipeline import features as feat
-    from .pipeline.passes import Pass
+    from .pipeline.passes import HostStep, Pass
     from .pipeline.validate import declared_uniforms
+    if isinstance(step, HostStep):
+        run = step.run
+
+        def mapped(got):
+            uploads, more = run(got)
+            return uploads, [_with_union_uniforms(s, glsl, eye, union) for s in more]
+        return replace(step, run=mapped)
     if not isinstance(step, Pass):
         return step
     names = (step.shader,) if isinstance(step.shader, str) else tuple(step.shader)

@@ -125,6 +125,19 @@ def test_the_union_mapping_is_needed(gl, monkeypatch):
         assert sum(c + h for c, h in stereo.mismatches(sf, ref).values()) > 0
 
 
+@pytest.mark.parametrize("values", [{"scalarize": True}, {"duplicated": True},
+                                    {"feature_variants": True}])
+def test_the_shared_structure_is_exact_with_its_options(gl, values):
+    """The scalarized walk, duplicated light copies (packed per eye), and the feature
+    variants (their classification and per-mask dispatches map pixels as the shading does)."""
+    sep = 0.6
+    with Renderer(make_scene(_hard_lights(sep)), (96, 64)) as r:
+        ref = stereo.reference(r, sep)
+        t = REGISTRY["clustered"]
+        sf = stereo.render(r, t, t.Options.make(values, t.name), "union", sep)
+        assert stereo.mismatches(sf, ref) == {e: (0, 0) for e in stereo.EYES}, values
+
+
 def test_union_shares_what_the_declaration_says(gl):
     with Renderer(load_scene("arena", lights=1024, seed=3), (96, 54)) as r:
         per = stereo.render(r, REGISTRY["clustered"], None, "per-view", 0.064)
@@ -142,8 +155,7 @@ def test_union_shares_what_the_declaration_says(gl):
 
 @pytest.mark.parametrize("values,needle", [({"build": "gpu"}, "--build gpu"),
                                            ({"cap_policy": CAP}, "--cap-policy"),
-                                           ({"stochastic": 4}, "--stochastic"),
-                                           ({"feature_variants": True}, "--feature-variants")])
+                                           ({"stochastic": 4}, "--stochastic")])
 def test_union_refuses_what_it_cannot_share_in_one_line(values, needle):
     t = REGISTRY["clustered"]
     opts = t.Options.make(values, t.name)
