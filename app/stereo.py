@@ -10,7 +10,8 @@ structure built for them in one of two ways.
                 near plane, far at theirs, so that its frustum holds both eyes' frusta
                 (union_camera, contains).  What it shares is the technique's declaration
                 (Technique.stereo_union):
-                  "structure"  the structure itself (a 2.5D grid of index lists: clustered):
+                  "structure"  the structure itself (a 2.5D grid of index lists, and the
+                               samplers' CDF words over it):
                                built once over the union camera; each eye's shading maps its
                                view-space position into the union camera's cells (a
                                translation, the orientation being the same: STEREO_UNION in
@@ -34,10 +35,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 import math
+import weakref
 
 import numpy as np
 
 from cpu_prep import frame as cpuframe, lights as lightsmod
+from cpu_prep.arena import Arena
 from cpu_prep.camera import FrameCamera, perspective
 
 from .errors import UserError
@@ -288,13 +291,20 @@ def _with_union_uniforms(step, glsl: dict, eye: FrameCamera, union: FrameCamera)
                                        u_union_tan=(union.tan_half_x, union.tan_half_y)))
 
 
+# each renderer's arena for the union camera's shared build: the shared structure outlives
+# the renders after it (its eyes', a check's references), which reuse the renderer's own
+_UNION_ARENAS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
 def union_input(renderer, frame: int, frames: int, separation: float):
     """The CPU stage's input over the union camera of `frame`: its lights, the union camera,
-    the depth worth slicing moved back with it."""
+    the depth worth slicing moved back with it, an arena of its own (reused frame to frame)."""
     center = renderer.camera(frame, frames)
     union = union_camera(center, separation)
     fin = renderer.frame_input(frame, frames, camera=union)
-    return replace(fin, max_depth=(renderer.scene.max_depth or center.far) + (union.far - center.far))
+    arena = _UNION_ARENAS.setdefault(renderer, Arena())
+    return replace(fin, arena=arena,
+                   max_depth=(renderer.scene.max_depth or center.far) + (union.far - center.far))
 
 
 def render(renderer, technique, opts, way: str, separation: float, frame: int = 0,

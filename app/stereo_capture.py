@@ -9,7 +9,8 @@ writes one frame, the file names suffixed by the eye.
 --out f.png writes f-left.png and f-right.png; --dump d.npz d-left.npz and d-right.npz, whose
 meta adds eye, way, separation (and, in the union way, share and shared_cpu_ms); --heatmap
 likewise; --check DIR holds each eye to the reference rendered for that eye (its images in
-DIR/left, DIR/right), exit 1 when an eye differs, after both are checked.
+DIR/left, DIR/right; a sampler's support, then its estimate over seeds as mono's --check),
+exit 1 when an eye differs, after both are checked.
 """
 from __future__ import annotations
 
@@ -115,10 +116,23 @@ def with_role_reference():
     return with_role("reference")
 
 
+class _EyeRenderer:
+    """The renderer as one eye's frames see it: every render() with that eye's camera (and
+    the union way's defines), for the sampler's statistical check (app.sampling_check)."""
+
+    def __init__(self, renderer, kw: dict):
+        self.renderer, self.kw = renderer, kw
+
+    def render(self, technique, *a, **k):
+        return self.renderer.render(technique, *a, **dict(k, **self.kw))
+
+
 def check_eyes(renderer, technique, opts, sf, args) -> None:
     """Each eye against the reference rendered for that eye; one line an eye, exit 1 when
-    one differs (a sampler: its support, the statistical check being mono's)."""
+    one differs.  A sampler: its support pixel by pixel, then its estimate statistically
+    against that eye's reference (app.sampling_check), as mono's --check."""
     from .exactness import check
+    from . import sampling_check
     ref_t = with_role_reference()
     failed = False
     for eye, result in sf.results.items():
@@ -131,9 +145,14 @@ def check_eyes(renderer, technique, opts, sf, args) -> None:
         if m is not None:
             failed = True
             print(f"not exact: {eye} eye ({sf.way}): {m.message()}", file=sys.stderr)
+        elif technique.role == "sampler":
+            verdict = sampling_check.check(_EyeRenderer(renderer, kw), t, opts, ref, args.frame,
+                                           args.frames)
+            failed |= not verdict.passed
+            print(f"{'exact support' if verdict.passed else 'not unbiased'}: {eye} eye "
+                  f"({sf.way}): {verdict.message()}", file=sys.stderr)
         else:
-            what = "support " if technique.role == "sampler" else ""
-            print(f"exact: {eye} eye ({sf.way}): {technique.name}'s {what}equals {ref_t.name} "
+            print(f"exact: {eye} eye ({sf.way}): {technique.name}'s equals {ref_t.name} "
                   f"at every pixel", file=sys.stderr)
     if failed:
         raise SystemExit(1)

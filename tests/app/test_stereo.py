@@ -15,8 +15,9 @@ from scenes import load_scene
 from scenes.model import Camera, make_lights
 from tests.helpers import CAMERA, make_scene, random_lights
 
-# one technique that shares its structure, and tile ones that share their cull and sort
-TECHNIQUES = ("clustered", "tiled", "tree", "zbin")
+# techniques that share their structure (a culling one, a sampler's support), and tile ones
+# that share their cull and sort
+TECHNIQUES = ("clustered", "sample-list", "tiled", "tree", "zbin")
 CAP = next(n for n in caps.NAMES if n != caps.NONE and not caps.per_tile(n))
 
 
@@ -136,6 +137,21 @@ def test_the_shared_structure_is_exact_with_its_options(gl, values):
         t = REGISTRY["clustered"]
         sf = stereo.render(r, t, t.Options.make(values, t.name), "union", sep)
         assert stereo.mismatches(sf, ref) == {e: (0, 0) for e in stereo.EYES}, values
+
+
+def test_the_shared_structure_outlives_later_renders(gl):
+    """Renders after a union frame reuse the renderer's arena (a check's references, another
+    technique): the shared build keeps its own, so its eyes render again exactly."""
+    sep = 0.6
+    with Renderer(make_scene(_hard_lights(sep)), (96, 64)) as r:
+        ref = stereo.reference(r, sep)
+        sf = stereo.render(r, REGISTRY["clustered"], None, "union", sep)
+        stereo.render(r, REGISTRY["tree"], None, "per-view", 2.0)
+        for e in stereo.EYES:
+            t, kw = sf.renders[e]
+            again = r.render(t, **kw)
+            assert (again.contrib_count == ref.results[e].contrib_count).all(), e
+            assert (again.contrib_hash == ref.results[e].contrib_hash).all(), e
 
 
 def test_union_shares_what_the_declaration_says(gl):

@@ -38,6 +38,14 @@ def test_stereo_writes_each_eye_and_checks_each(tmp_path):
     assert line["views"] == "stereo" and set(line["eyes"]) == {"left", "right"}
 
 
+def test_a_samplers_eyes_are_checked_for_support_and_bias(tmp_path):
+    r = capture("--technique", "sample-list", "--views", "stereo", "--stereo-way", "union",
+                "--check", str(tmp_path / "chk"))
+    assert r.returncode == 0, r.stderr
+    lines = [ln for ln in r.stderr.splitlines() if ln.startswith("exact support: ")]
+    assert len(lines) == 2 and all("unbiased within its noise" in ln for ln in lines), r.stderr
+
+
 def test_mono_is_unchanged(tmp_path):
     r = capture("--technique", "tree", "--dump", str(tmp_path / "d.npz"))
     assert r.returncode == 0, r.stderr
