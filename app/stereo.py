@@ -10,12 +10,13 @@ structure built for them in one of two ways.
                 near plane, far at theirs, so that its frustum holds both eyes' frusta
                 (union_camera, contains).  What it shares is the technique's declaration
                 (Technique.stereo_union):
-                  "structure"  the structure itself (a 2.5D grid of index lists, and the
-                               samplers' CDF words over it):
+                  "structure"  the structure itself (a 2.5D grid of index lists or trees,
+                               the samplers' CDF words over it):
                                built once over the union camera; each eye's shading maps its
-                               view-space position into the union camera's cells (a
+                               view-space position into the union camera's cells and depth (a
                                translation, the orientation being the same: STEREO_UNION in
-                               glsl/cells.glsl); only the light records are packed per eye
+                               glsl/cells.glsl, cell_of and cell_depth); only the light records
+                               are packed per eye
                   "cull-sort"  a structure made per pixel of a view (screen tiles, per-tile
                                trees, z-bins over tiles, rasterized tiles): only the CPU
                                cull and depth sort are made once over the union camera; each
@@ -60,7 +61,7 @@ UNION_DEFINE = "STEREO_UNION"
 # what each declaration shares in the union way, for the technique pages (app.reference)
 SHARE_DOCS = {
     STRUCTURE: "its structure itself, built once over the union camera's frustum; each eye's "
-               "shading maps its pixels into the union camera's cells (STEREO_UNION, "
+               "shading maps its pixels into the union camera's cells and depth (STEREO_UNION, "
                "glsl/cells.glsl) and only the light records are packed per eye",
     CULL_SORT: "only the CPU cull and depth sort (view-independent work), made once over the "
                "union camera's frustum; each eye packs that order in its own camera and builds "

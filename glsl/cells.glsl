@@ -20,12 +20,22 @@ ivec2 union_pixel(vec3 Pu) {
 }
 #endif
 
+// The pixel's linear depth in the structure's camera (the union camera's with STEREO_UNION):
+// what its depth ranges (slices, tree nodes) are compared with.
+float cell_depth(PixelState s) {
+#if STEREO_UNION
+    return -(s.P.z + u_union_offset.z);
+#else
+    return s.depth;
+#endif
+}
+
 // priced: cell
 uint cell_of(PixelState s) {
 #if STEREO_UNION
     vec3 Pu = s.P + u_union_offset;
     ivec2 t = union_pixel(Pu) / u_tile;
-    uint sl = u_slices > 1 ? slice_of(-Pu.z) : 0u;
+    uint sl = u_slices > 1 ? slice_of(cell_depth(s)) : 0u;
 #else
     ivec2 t = s.pixel / u_tile;
     uint sl = u_slices > 1 ? slice_of(s.depth) : 0u;

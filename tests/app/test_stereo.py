@@ -17,7 +17,7 @@ from tests.helpers import CAMERA, make_scene, random_lights
 
 # techniques that share their structure (a culling one, a sampler's support), and tile ones
 # that share their cull and sort
-TECHNIQUES = ("clustered", "sample-list", "tiled", "tree", "zbin")
+TECHNIQUES = ("clustered", "hybrid", "sample-list", "tiled", "tree", "zbin")
 CAP = next(n for n in caps.NAMES if n != caps.NONE and not caps.per_tile(n))
 
 
@@ -126,15 +126,17 @@ def test_the_union_mapping_is_needed(gl, monkeypatch):
         assert sum(c + h for c, h in stereo.mismatches(sf, ref).values()) > 0
 
 
-@pytest.mark.parametrize("values", [{"scalarize": True}, {"duplicated": True},
-                                    {"feature_variants": True}])
-def test_the_shared_structure_is_exact_with_its_options(gl, values):
+@pytest.mark.parametrize("name,values", [("clustered", {"scalarize": True}),
+                                         ("clustered", {"duplicated": True}),
+                                         ("clustered", {"feature_variants": True}),
+                                         ("hybrid", {"feature_variants": True, "duplicated": True})])
+def test_the_shared_structure_is_exact_with_its_options(gl, name, values):
     """The scalarized walk, duplicated light copies (packed per eye), and the feature
     variants (their classification and per-mask dispatches map pixels as the shading does)."""
     sep = 0.6
     with Renderer(make_scene(_hard_lights(sep)), (96, 64)) as r:
         ref = stereo.reference(r, sep)
-        t = REGISTRY["clustered"]
+        t = REGISTRY[name]
         sf = stereo.render(r, t, t.Options.make(values, t.name), "union", sep)
         assert stereo.mismatches(sf, ref) == {e: (0, 0) for e in stereo.EYES}, values
 
