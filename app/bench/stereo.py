@@ -15,7 +15,8 @@ shared stage's ms (union) plus each eye's CPU stage, and each eye's timed GPU pa
     entries          structure list entries of the two-eye frame (the shared structure's
                      once; each eye's summed); blank where the structure has no lists
     bytes            culling bytes the timed passes bind, both eyes (shared buffers once)
-    cpu_total_ms     CPU stage of both eyes and the shared stage (+ _min / _max)
+    cpu_total_ms     CPU stage of both eyes and the shared stage (+ _min / _max); each eye's
+                     upload holds the whole build (a shared structure uploaded once an eye)
     gpu_lighting_ms  both eyes' timed passes but the G-buffer (+ _min / _max)
     frame_cost_ms    their sum (+ _min / _max)
     mismatch_count / mismatch_hash   pixels of both eyes whose contrib_count / contrib_hash

@@ -21,7 +21,9 @@ EXPLANATION = (
     "per-tile trees, z-bins over tiles, rasterized tiles; only the CPU cull and sort are shared). "
     "Entries: structure list entries of the two-eye frame (blank: no lists). Bytes: culling "
     "buffers both eyes bind, shared ones once. CPU ms: the shared stage and both eyes' CPU "
-    "stages; GPU ms: both eyes' timed passes but the G-buffer; medians over the timing samples "
+    "stages (the renderer uploads a frame's buffers with each eye's frame, so a shared structure "
+    "is uploaded twice: its upload is in both eyes' ms); GPU ms: both eyes' timed passes but the "
+    "G-buffer; medians over the timing samples "
     "with [min-max]. Exact: pixels of both eyes whose contrib_count or contrib_hash differ from "
     "brute rendered in that eye (must be 0).")
 
