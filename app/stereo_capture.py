@@ -137,8 +137,9 @@ def check_eyes(renderer, technique, opts, sf, args) -> None:
     failed = False
     for eye, result in sf.results.items():
         t, kw = sf.renders[eye]
-        ref = result if technique is ref_t else renderer.render(ref_t, args.frame, frames=args.frames,
-                                                                 camera=kw["camera"])
+        # the reference per eye: the frame itself only when it is that (brute, per view)
+        ref = result if technique is ref_t and sf.way == "per-view" else \
+            renderer.render(ref_t, args.frame, frames=args.frames, camera=kw["camera"])
         m = check(result, ref, renderer, t, ref_t,
                   dict(kw, frame=args.frame, frames=args.frames, opts=opts),
                   str(Path(args.check) / eye))
