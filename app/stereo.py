@@ -236,13 +236,40 @@ class StereoFrame:
         return None if any(n is None for n in got) else int(sum(got))
 
 
+class _Shared:
+    """The union way's shared CPU stage over the union camera's input `fin`: the structure
+    (STRUCTURE) or the cull and sort's keys (CULL_SORT), made again by make() (one timing
+    sample each: `ms`)."""
+
+    def __init__(self, technique, fin, opts, share: str):
+        self.t, self.fin, self.opts, self.share = technique, fin, opts, share
+        self.build, self.keys, self.ms = None, None, []
+
+    def make(self) -> None:
+        if self.share == STRUCTURE:
+            self.build = self.t.build(self.fin, self.opts)
+            self.ms.append(dict(self.build.times.ms))
+            return
+        times = cpuframe.StageTimes()
+        with times.stage("cull"):
+            keyed, depth = lightsmod.cull(self.fin.lights, self.fin.camera, self.fin.arena)
+        with times.stage("sort"):
+            self.keys = lightsmod.sort_ids(keyed, depth, getattr(self.opts, "sort_buckets", 0),
+                                           self.fin.arena)
+        self.ms.append(times.ms)
+
+
 class _Eye:
     """A technique as the renderer sees it for one eye of the union way: its own options,
     passes and shaders; its build either the shared structure with this eye's light records
-    (STRUCTURE) or its own build from the shared cull and sort (CULL_SORT)."""
+    (STRUCTURE) or its own build from the shared cull and sort (CULL_SORT).  The leading
+    eye (the left) makes the shared stage in its build, after its G-buffer as a per-view
+    eye builds its own (on a software GL the G-buffer's raster runs on the same cores), so
+    that both ways' CPU ms are measured in the same place of the frame."""
 
-    def __init__(self, technique, eye: FrameCamera, union: FrameCamera, keys=None, shared=None):
-        self.t, self.eye, self.union, self.keys, self.shared = technique, eye, union, keys, shared
+    def __init__(self, technique, eye: FrameCamera, shared: _Shared, leads: bool):
+        self.t, self.eye, self.shared, self.leads = technique, eye, shared, leads
+        self.union = shared.fin.camera
         self.name, self.role, self.summary = technique.name, technique.role, technique.summary
         self.glsl = getattr(technique, "glsl", {})
 
@@ -250,12 +277,14 @@ class _Eye:
         return self.t.resolve_options(opts)
 
     def build(self, fin, opts):
-        if self.shared is None:
-            return self.t.build(replace(fin, presorted=self.keys), opts)
-        b = self.shared
+        if self.leads:
+            self.shared.make()
+        if self.shared.share == CULL_SORT:
+            return self.t.build(replace(fin, presorted=self.shared.keys), opts)
+        b = self.shared.build
         times = cpuframe.StageTimes()
         with times.stage("pack"):          # this eye's light records, in the shared order
-            pl = lightsmod.pack(fin.lights, fin.camera, b.lights.ids.astype(np.uint64), None)
+            pl = lightsmod.pack(fin.lights, fin.camera, b.lights.ids.astype(np.uint64), fin.arena)
             buffers = dict(b.buffers, lights=pl.gpu)
             if "dup_lights" in buffers:
                 buffers["dup_lights"] = pl.gpu[b.buffers["entries"]]
@@ -263,7 +292,7 @@ class _Eye:
 
     def passes(self, build, opts):
         steps = self.t.passes(build, opts)
-        if self.shared is None:
+        if self.shared.share == CULL_SORT:
             return steps
         return [_with_union_uniforms(s, self.glsl, self.eye, self.union) for s in steps]
 
@@ -330,28 +359,16 @@ def render(renderer, technique, opts, way: str, separation: float, frame: int = 
         renders = {e: (technique, {"camera": c}) for e, c in cams.items()}
         return _finish(StereoFrame(way, separation, None, results, renders=renders), meta)
     share = getattr(technique, "stereo_union", CULL_SORT)
-    fin = union_input(renderer, frame, frames, separation)
-    shared_ms, keys, shared = [], None, None
-    for _ in range(max(int(samples), 1)):
-        if share == STRUCTURE:
-            shared = technique.build(fin, opts)
-            shared_ms.append(dict(shared.times.ms))
-        else:
-            times = cpuframe.StageTimes()
-            with times.stage("cull"):
-                keyed, depth = lightsmod.cull(fin.lights, fin.camera, None)
-            with times.stage("sort"):
-                keys = lightsmod.sort_ids(keyed, depth, getattr(opts, "sort_buckets", 0), None).copy()
-            shared_ms.append(times.ms)
+    shared = _Shared(technique, union_input(renderer, frame, frames, separation), opts, share)
     defines = {UNION_DEFINE: 1} if share == STRUCTURE else None
-    renders = {e: (_Eye(technique, c, fin.camera, keys, shared), {"camera": c, "defines": defines})
+    renders = {e: (_Eye(technique, c, shared, leads=e == EYES[0]), {"camera": c, "defines": defines})
                for e, c in cams.items()}
     results = {e: rendered(e, t, **kw) for e, (t, kw) in renders.items()}
-    sf = StereoFrame(way, separation, share, results, shared_ms, shared,
-                     tuple(n for n in (shared.buffers if shared is not None else ())
+    sf = StereoFrame(way, separation, share, results, list(shared.ms), shared.build,
+                     tuple(n for n in (shared.build.buffers if shared.build is not None else ())
                            if n not in EYE_BUFFERS), renders)
     meta["share"] = share
-    meta["shared_cpu_ms"] = shared_ms[-1]
+    meta["shared_cpu_ms"] = shared.ms[-1]
     return _finish(sf, meta)
 
 
