@@ -11,6 +11,9 @@
     glsl          shader texts of its own by file name, beside glsl/: its structs and
                   constants generated from Python (fptl_structs.glsl); usually empty
     evaluates_per_wave  per-pixel `evaluated` depends on the wave width (scalarized loops)
+    stereo_union  what `--views stereo --stereo-way union` shares between the eyes
+                  (app.stereo): "structure" (a 2.5D grid: the structure itself) or
+                  "cull-sort" (the default: only the CPU cull and sort)
     maps()        optional per-tile or per-pixel maps of its own structure for a rendered
                   frame (capture --maps, the report's technique maps)
     refusal()     why it would refuse a frame (a limit its build meets), from counts and
