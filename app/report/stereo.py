@@ -62,7 +62,7 @@ def stereo_section(rows) -> tuple[None, list[str], str]:
         r0 = mine[0]
         head = (f"{scene}, {int(num(r0['lights'])):,} lights, {int(num(r0['width']))}x"
                 f"{int(num(r0['height']))} an eye, eyes {num(r0['separation']):g} m apart, "
-                f"{int(num(r0['samples']))} timing samples:")
+                f"{int(num(r0['samples']))} timing sample{'' if int(num(r0['samples'])) == 1 else 's'}:")
         lines = [head, "",
                  "| technique | union shares | way | entries | bytes | CPU ms | GPU ms | exact |",
                  "|---|---|---|---|---|---|---|---|"]
