@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import cli
+from . import cli, stereo_capture
 
 # The output flags, each with the file it must be (None: a folder): never a silently renamed file.
 OUTPUTS = (
@@ -70,6 +70,7 @@ def build_parser():
     cli.add_option_args(p)
     from .pipeline import transparent
     transparent.add_args(p)
+    stereo_capture.add_args(p)
     return p
 
 
@@ -89,6 +90,7 @@ def main(argv=None) -> None:
     if args.repeat < 0:
         raise cli.UserError(f"--repeat must be >= 0, got {args.repeat}")
     check_suffixes(args)
+    views_stereo = stereo_capture.wanted(args)
     technique = get(args.technique)
     if args.classify:
         from .techniques import REGISTRY
@@ -99,6 +101,8 @@ def main(argv=None) -> None:
                                 f"{', '.join(with_view(REGISTRY, 'classes'))}")
     opts = cli.options_for(technique, args)
     scene = cli.load_scene_args(args)
+    if views_stereo:                         # two eyes (app.stereo_capture)
+        return stereo_capture.capture(args, technique, opts, scene, _albedo, gpu_timing)
     from .pipeline.renderer import Renderer
     from . import images, dump
     t0 = time.perf_counter()

@@ -121,6 +121,13 @@ def _refusals(t) -> list[str]:
     return out
 
 
+def _stereo_line(t) -> str:
+    """What its `--stereo-way union` shares between the eyes (Technique.stereo_union)."""
+    from app.stereo import CULL_SORT, SHARE_DOCS
+    share = getattr(t, "stereo_union", CULL_SORT)
+    return f"- `--views stereo --stereo-way union` shares ({share}): {SHARE_DOCS[share]}."
+
+
 def technique_section(t) -> str:
     paper = getattr(t, "paper", None) or PAPERS.get(t.name, "not declared")
     lines = [f"## `{t.name}`", "", t.summary[:1].upper() + t.summary[1:] + ".", "",
@@ -130,6 +137,7 @@ def technique_section(t) -> str:
     if doc:
         lines += ["", doc]
     lines += _refusals(t)
+    lines += [_stereo_line(t)]
     specs = t.Options.specs()
     lines += ["", *(_option_rows(specs) if specs else ["No options."]), ""]
     return "\n".join(lines)

@@ -14,7 +14,7 @@ bool node_hit(TreeNode n, float depth) { return depth >= n.min_depth && depth <=
 
 void visit_node(inout PixelState s, TreeNode n, inout uint i) {
     if (first_window()) s.nodes++;      // every window walks the same nodes: count them once
-    if (node_hit(n, s.depth)) {
+    if (node_hit(n, cell_depth(s))) {   // the tree's depths: its camera's (glsl/cells.glsl)
         if (node_is_leaf(n.bits)) evaluate_list(s, n.first_light, node_light_count(n.bits));
         i++;
     } else {

@@ -21,11 +21,13 @@ from .cpu_series import CpuConfig
 from .gpu_build import GpuBuildConfig
 from .rendered import RenderedConfig
 from .sampling import SamplingConfig
+from .stereo import StereoConfig
 from .study import Shared
 from .temporal import TemporalConfig
 from .validation import PapersConfig
 
-STUDY_ORDER = ("temporal", "rendered", "sampling", "papers", "cpu", "growth", "gpu_build", "c_reference")
+STUDY_ORDER = ("temporal", "rendered", "sampling", "papers", "cpu", "growth", "gpu_build", "c_reference",
+               "stereo")
 SCENES = ("arena", "city", "hangar", "gallery", "corridor")
 SHARED = "shared"             # a change of the Shared config, in `changed`
 SAMPLE_STUDY = (1, 2, 4, 8, 16, 32, 64)        # the full preset's light samples S a pixel
@@ -101,7 +103,10 @@ def _quick() -> Preset:
         # 2 counts x the --build techniques, both builds, at the rendered size
         ("gpu_build", GpuBuildConfig("city", (4096, 16384), s.size, 3)),
         # 2 techniques x 2 thread counts x 21 frames each side at 65,536 lights: ~3 s
-        ("c_reference", CReferenceConfig("arena", (65536,), (1920, 1080), 21, threads=(1, 2)))))
+        ("c_reference", CReferenceConfig("arena", (65536,), (1920, 1080), 21, threads=(1, 2))),
+        # both eyes, both ways, every culling technique on one frame at 160x90 an eye and
+        # 2,048 lights: ~4 s on 2 cores
+        ("stereo", StereoConfig(("arena",), 2048, (160, 90), 0.064, repeat=3, seed=s.seed))))
 
 
 def _full() -> Preset:
@@ -124,7 +129,9 @@ def _full() -> Preset:
                                 cap_ms=0.0, seed=s.seed, frames=s.frames)),
         ("gpu_build", GpuBuildConfig("city", (8192, 32768, 131072), s.size, 5)),
         ("c_reference", CReferenceConfig("arena", (16384, 65536), (1920, 1080), 61,
-                                         threads=(1, 2)))))
+                                         threads=(1, 2))),
+        ("stereo", StereoConfig(("arena", "city"), 16384, (960, 540), 0.064, repeat=5,
+                                seed=s.seed))))
 
 
 QUICK = _quick()
@@ -143,7 +150,7 @@ GPU_CHECK = FULL.changed(
     temporal=dict(frames=0), rendered=dict(cutoffs=(), cutoff_scenes=(), caps_scenes=()),
     sampling=dict(scenes=()),
     papers=dict(size=None), cpu=dict(lights=()), growth=dict(lights=(), frames=2),
-    gpu_build=dict(lights=()), c_reference=dict(lights=()))
+    gpu_build=dict(lights=()), c_reference=dict(lights=()), stereo=dict(scenes=()))
 
 PRESETS = {"quick": QUICK, "full": FULL, "gpu-check": GPU_CHECK}
 
@@ -176,6 +183,7 @@ def preset_from_args(args) -> Preset:
         ch["sampling"]["scenes"] = scenes[:len(preset.config("sampling").scenes)]
         for study in ("cpu", "growth", "gpu_build", "c_reference"):
             ch[study]["scene"] = scenes[0]
+        ch["stereo"]["scenes"] = scenes[:len(preset.config("stereo").scenes)]
     if args.lights:
         lights = int_list(args.lights, "--lights")
         ch[SHARED].update(lights=lights, study_lights=max(lights))
@@ -212,6 +220,12 @@ def preset_from_args(args) -> Preset:
         if args.threads < 0:
             raise UserError("--threads must be >= 0")
         ch[SHARED]["threads"] = args.threads
+    if args.size:                        # the stereo study follows the frame overrides too
+        ch["stereo"]["size"] = tuple(args.size)
+    if args.lights:
+        ch["stereo"]["lights"] = min(int_list(args.lights, "--lights"))
+    if args.repeat is not None:
+        ch["stereo"]["repeat"] = args.repeat
     return preset.changed(**ch)
 
 

@@ -58,6 +58,9 @@ class FrameInput:
     loop_lanes: int = 1              # ... shared by this many lanes in lockstep (gl.Limits)
     context_limits: Limits | None = None   # the renderer's; None: the process's, on use
     specular: bool = False           # some surface of the scene is specular (features.py)
+    # the visible lights already culled and sorted (cpu_prep.lights.sort_ids' keys) for this
+    # frame, e.g. over the union of two eyes' frusta (app.stereo): prepare() packs them only
+    presorted: np.ndarray | None = None
 
     @property
     def limits(self) -> Limits:

@@ -16,7 +16,8 @@ temporal (one figure each; temporal reads DIR/temporal.csv, app.bench.temporal),
 believe), validation (the model beside the papers' measurements), tradeoff (the lead
 figure: image and temporal error against frame cost over cutoffs, cap policies and
 stochastic culling), sampling (samplers against culling on one frame; reads
-DIR/sampling.csv, app.bench.sampling).
+DIR/sampling.csv, app.bench.sampling), stereo (two eyes, a structure per view or one over
+both frusta; reads DIR/stereo.csv, app.bench.stereo).
 """
 from __future__ import annotations
 
@@ -41,6 +42,7 @@ from .temporal import CSV as TEMPORAL_CSV, EXPLANATION as TEMPORAL_EXPLANATION, 
 from .tables import floor_table, summary_table
 from .tradeoff import EXPLANATION as TRADEOFF_EXPLANATION, fig_tradeoff
 from .sampling import CSV as SAMPLING_CSV, sampling_section
+from .stereo import CSV as STEREO_CSV, stereo_section
 from .model import model_section
 from .validation import validation
 
@@ -71,6 +73,8 @@ def write_report(out: Path, rows: list[dict], maps: dict, info: dict) -> list[st
     srows = read_csv(out / SAMPLING_CSV) if (out / SAMPLING_CSV).exists() else []
     section("Sampling against culling on one frame: error against evaluations and frame cost",
             *sampling_section(srows, out, roles))
+    strows = read_csv(out / STEREO_CSV) if (out / STEREO_CSV).exists() else []
+    section("Two eyes: a structure per view or one over both frusta", *stereo_section(strows))
     section("What accuracy costs: culling waste vs frame cost", *fig_accuracy(rows, out, colors, roles))
     section("Modelled GPU cost at 1920x1080, per scene and GPU (app/model)",
             *fig_gpu_scenes(rows, out, colors, roles))

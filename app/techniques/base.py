@@ -11,6 +11,9 @@
     glsl          shader texts of its own by file name, beside glsl/: its structs and
                   constants generated from Python (fptl_structs.glsl); usually empty
     evaluates_per_wave  per-pixel `evaluated` depends on the wave width (scalarized loops)
+    stereo_union  what `--views stereo --stereo-way union` shares between the eyes
+                  (app.stereo): "structure" (a 2.5D grid: the structure itself) or
+                  "cull-sort" (the default: only the CPU cull and sort)
     maps()        optional per-tile or per-pixel maps of its own structure for a rendered
                   frame (capture --maps, the report's technique maps)
     refusal()     why it would refuse a frame (a limit its build meets), from counts and
@@ -102,6 +105,12 @@ class Technique:
     # How it shades the transparent layers (app/pipeline/transparent.py: its steps run again
     # over each layer's fragments): docs/techniques.md's "Transparent layers" line.
     transparent: str = TRANSPARENT_LOOKUP
+    # What stereo's union way (app.stereo) shares between the two eyes: "structure" (the
+    # culling structure itself, built once over the union camera's frustum; each eye's
+    # shading maps its pixels into the union camera's cells, STEREO_UNION in
+    # glsl/cells.glsl) or "cull-sort" (a structure made per pixel of a view, e.g. screen
+    # tiles: only the CPU cull and sort are shared, the rest is built per eye)
+    stereo_union: str = "cull-sort"
 
     def __init_subclass__(cls, register_at: float | None = None, **kw) -> None:
         """`class X(Technique, register_at=N)`: one instance of X joins the registry at
@@ -201,8 +210,11 @@ def prepare(frame: FrameInput, sort_buckets: int = 0, opts=None) -> Build:
     if drawn is not None:
         with times.stage("cull"):          # the range draw: part of the cull step
             lights, alpha, dark = stochastic_ranges(frame, *drawn)
-    pl, dropped = cpuframe.prepare_capped_lights(lights, frame.camera, times, sort_buckets,
-                                                 frame.arena, policy)
+    if getattr(frame, "presorted", None) is not None:   # cull and sort made before (app.stereo)
+        pl, dropped = stereo_pack(frame, times), np.zeros(0, np.uint32)
+    else:
+        pl, dropped = cpuframe.prepare_capped_lights(lights, frame.camera, times, sort_buckets,
+                                                     frame.arena, policy)
     if alpha is not None:
         pl.gpu["right"][:, 3] = alpha[pl.ids]        # read by glsl/light_window.glsl lambert
     b = Build(frame=frame, lights=pl, times=times)
@@ -215,6 +227,16 @@ def prepare(frame: FrameInput, sort_buckets: int = 0, opts=None) -> Build:
         b.stats.update(cap_policy=policy, capped_lights=len(dropped))
         b.capped_ids = dropped
     return b
+
+
+def stereo_pack(frame: FrameInput, times) -> "cpuframe.PreparedLights":
+    """The pack step alone, of the lights `frame.presorted` (culled and sorted for a wider
+    camera: app.stereo's union of two eyes) in this frame's camera; no cap policy or
+    stochastic draw applies (app.stereo refuses them)."""
+    with times.stage("pack"):
+        pl = lightsmod.pack(frame.lights, frame.camera, frame.presorted, frame.arena)
+    cpuframe.check_buffer("light buffer", pl.gpu.nbytes)
+    return pl
 
 
 def stochastic_ranges(frame: FrameInput, budget: int, seed: int, draw_frame: int):

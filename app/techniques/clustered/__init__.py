@@ -25,6 +25,7 @@ class Clustered(Technique, register_at=30):
     name = "clustered"
     summary = "2.5D grid of index lists (Persson 2013)"
     views = Technique.views + ("tiles", "slices", "variants")
+    stereo_union = "structure"     # a 2.5D grid: both eyes shade from the union camera's cells
 
     @dataclass(frozen=True)
     class Options(SliceOptions, ListOptions, WaveOptions, ScalarizeOptions, CapOptions,

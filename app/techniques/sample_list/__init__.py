@@ -27,6 +27,7 @@ class SampleList(Technique, register_at=92):
     summary = "S light samples a pixel from its cluster's list, p ~ a bound (unbiased)"
     role = "sampler"
     views = Technique.views + ("tiles", "slices")
+    stereo_union = "structure"     # the clustered grid and its CDF words, shared by the eyes
 
     @dataclass(frozen=True)
     class Options(SliceOptions, SampleOptions):

@@ -80,6 +80,7 @@ class SampleRis(Technique, register_at=93):
              "tracing with dynamic direct lighting\" (its RIS and spatial passes); Talbot et al. "
              "2005, \"Importance resampling for global illumination\"")
     views = Technique.views + ("tiles", "slices")
+    stereo_union = "structure"     # the clustered grid and its CDF words, shared by the eyes
     glsl = {"ris_structs.glsl": structs_glsl()}
 
     @dataclass(frozen=True)
