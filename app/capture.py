@@ -73,10 +73,11 @@ def build_parser():
 
 def main(argv=None) -> None:
     args = build_parser().parse_args(argv)
-    from scenes import BUILTIN_SCENES
+    from scenes import BUILTIN_SCENES, BUILTIN_VARIANTS
     from .techniques import REGISTRY, get
     if args.list:
         print("scenes:     " + " ".join(BUILTIN_SCENES))
+        print("variants:   " + " ".join(BUILTIN_VARIANTS))
         print("techniques: " + " ".join(REGISTRY))
         for t in REGISTRY.values():
             role = "" if t.role == "technique" else f" [{t.role}]"

@@ -38,7 +38,7 @@ import cpu_prep
 from cpu_prep.arena import Arena
 from cpu_prep.camera import frame_camera
 from cpu_prep.limits import WINDOW_ALL, LimitError
-from . import features as feat, gl, rawgl
+from . import features as feat, fog as fogmod, gl, rawgl
 from ..errors import FrameTimeout, UserError
 from .gbuffer import GBuffer, TEXTURE_UNITS
 from .passes import (DEPTH_FUNCS, DRAW_MODES, FRAME_OUTPUTS, OUT_CELL, OUT_STATS, Buffer, Build,
@@ -65,6 +65,9 @@ class FrameResult:
     wave: np.ndarray | None = None           # (GH,GW) WAVE_STATS per 8x8 group, image order
     cell: np.ndarray | None = None           # (H,W) uint32 the structure cell each pixel read
     debug_lights: np.ndarray | None = None   # render(debug_pixel=...): ids affecting that pixel
+    froxel_count: np.ndarray | None = None   # (D,H,W) uint32 a fog scene's froxel light sets
+    froxel_hash: np.ndarray | None = None    # (D,H,W) uint32 (app/pipeline/fog.py)
+    froxel_sets: object | None = None        # cpu_prep.froxels.FroxelSets of the frame
 
 
 @dataclass
@@ -103,6 +106,7 @@ class Renderer:
         self._blank = None       # colour target of passes that draw to no target
         self._targets: dict = {}  # Target.name -> ((Target, size), rawgl.DepthTarget)
         self._frame = _Frame()
+        self.fog_options = None  # a fog scene's grid (app/pipeline/fog.py FogOptions; None: defaults)
 
     @property
     def size(self) -> tuple[int, int]:
@@ -200,6 +204,8 @@ class Renderer:
         has passed, counting only the technique's passes (the module's docstring)."""
         begun = time.perf_counter()
         opts = technique.resolve_options(opts)
+        if self.scene.fog is not None:            # a technique that cannot serve froxels: one line
+            fogmod.refuse(technique, opts, self.fog_options)
         fin = self.frame_input(frame, frames, lights, camera)
         self._begin_frame(debug_pixel, readback if figures is None else figures)
         f = self._frame
@@ -230,6 +236,8 @@ class Renderer:
         if samples > 1:
             meta["samples"] = records
         result = FrameResult(meta=meta, build=build)
+        if self.scene.fog is not None and debug_pixel is None:   # the medium over the frame
+            fogmod.render_fog(self, technique, opts, build, result, self.fog_options, readback)
         if readback:
             self._read_outputs(result)
         if debug_pixel is not None:

@@ -88,6 +88,9 @@ class Technique:
     # then depends on the wave width (native subgroup or emulated 64-lane group); counts,
     # hashes and images never do (tests compare `evaluated` across widths only without it).
     evaluates_per_wave: bool = False
+    # How it serves a fog scene's froxels (app/pipeline/fog.py FROXEL_SOURCES: "all",
+    # "cells"); None: it refuses a fog scene in one line.
+    froxels: str | None = None
 
     def __init_subclass__(cls, register_at: float | None = None, **kw) -> None:
         """`class X(Technique, register_at=N)`: one instance of X joins the registry at

@@ -25,6 +25,7 @@ class Clustered(Technique, register_at=30):
     name = "clustered"
     summary = "2.5D grid of index lists (Persson 2013)"
     views = Technique.views + ("tiles", "slices", "variants")
+    froxels = "cells"       # a fog scene: a froxel's candidates are the cells it overlaps
 
     @dataclass(frozen=True)
     class Options(SliceOptions, ListOptions, WaveOptions, ScalarizeOptions, CapOptions,
