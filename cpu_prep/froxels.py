@@ -235,8 +235,13 @@ FACES = np.array([[0, 1, 3, 2], [4, 5, 7, 6],       # near, far
 
 @numba.njit(inline="always")
 def _sphere_meets_cell(c, r, q, faces):
-    """Past the plane tests and not inside all six planes: the nearest face within r."""
+    """Past the plane tests and not inside all six planes: the nearest face within r (a
+    corner within r first: the same answer, sooner, for a froxel deep inside the sphere)."""
     r2 = r * r
+    for n in range(8):          # a corner inside the sphere: the cell's point within r
+        dx, dy, dz = q[n, 0] - c[0], q[n, 1] - c[1], q[n, 2] - c[2]
+        if dx * dx + dy * dy + dz * dz < r2:
+            return True
     for f in range(6):
         if _quad_d2(c, q, faces[f, 0], faces[f, 1], faces[f, 2], faces[f, 3]) < r2:
             return True
@@ -281,7 +286,7 @@ def _depth_test(c, r, z0, z1, d0, d1):
 
 @numba.njit(inline="always")
 def _froxel_test(c, r, rect, dep, xs, ys, us, vs, zs, tx, ty, i, j, k, q, faces):
-    """meets (the module's definition) for one light and froxel; q: scratch (8, 3)."""
+    """meets (the module's definition) for one light and froxel; q: its corners (_corners)."""
     a = _axis_test(c, r, xs[i], xs[i + 1], us[i], us[i + 1], tx, 0, rect[0], rect[1])
     b = _axis_test(c, r, ys[j], ys[j + 1], vs[j], vs[j + 1], ty, 1, rect[2], rect[3])
     z = _depth_test(c, r, zs[k], zs[k + 1], dep[0], dep[1])
@@ -289,8 +294,19 @@ def _froxel_test(c, r, rect, dep, xs, ys, us, vs, zs, tx, ty, i, j, k, q, faces)
         return False
     if a & b & z & 2:
         return True
-    _corners(us, vs, zs, tx, ty, i, j, k, q)
     return _sphere_meets_cell(c, r, q, faces)
+
+
+@numba.njit(inline="always")
+def _passing(p):
+    """[first, last + 1) of the indices whose test passed (bit 1); empty: (0, 0)."""
+    a = 0
+    while a < p.shape[0] and (p[a] & 1) == 0:
+        a += 1
+    b = p.shape[0]
+    while b > a and (p[b - 1] & 1) == 0:
+        b -= 1
+    return a, b
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -315,13 +331,16 @@ def _sets_all(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty, faces):
             px[i] = _axis_test(c, r, xs[i], xs[i + 1], us[i], us[i + 1], tx, 0, RECT[l, 0], RECT[l, 1])
         for j in range(H):
             py[j] = _axis_test(c, r, ys[j], ys[j + 1], vs[j], vs[j + 1], ty, 1, RECT[l, 2], RECT[l, 3])
-        for k in range(D):
+        k0, k1 = _passing(pz)
+        j0, j1 = _passing(py)
+        i0, i1 = _passing(px)
+        for k in range(k0, k1):
             if (pz[k] & 1) == 0:
                 continue
-            for j in range(H):
+            for j in range(j0, j1):
                 if (py[j] & 1) == 0:
                     continue
-                for i in range(W):
+                for i in range(i0, i1):
                     if (px[i] & 1) == 0:
                         continue
                     ok = True
@@ -397,7 +416,10 @@ def _sets_from_cells(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty, faces, tile_x,
                                     buf[nb] = l
                                     nb += 1
                 candidates += nb
-                sel = np.sort(buf[:nb])
+                one = ty0 == ty1 and tx0 == tx1 and s0 == s1
+                sel = buf[:nb] if one else np.sort(buf[:nb])   # one cell's list: in order already
+                if exact:
+                    _corners(us, vs, zs, tx, ty, i, j, k, q)
                 for t in range(nb):
                     l = sel[t]
                     if exact and not _froxel_test(C[l], R[l], RECT[l], DEP[l], xs, ys, us, vs,
