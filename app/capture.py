@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import cli
+from . import cli, fog
 
 # The output flags, each with the file it must be (None: a folder): never a silently renamed file.
 OUTPUTS = (
@@ -68,6 +68,7 @@ def build_parser():
     cli.add_display_args(p)
     cli.add_motion_arg(p)
     cli.add_option_args(p)
+    fog.add_fog_args(p)
     return p
 
 
@@ -102,6 +103,7 @@ def main(argv=None) -> None:
     from . import images, dump
     t0 = time.perf_counter()
     renderer = Renderer(scene, args.size)
+    renderer.fog_options = fog.fog_options(args, scene)
     warm = time.perf_counter()
     technique.build(renderer.frame_input(args.frame, args.frames), opts)
     warm_ms = (time.perf_counter() - warm) * 1e3
@@ -136,6 +138,7 @@ def main(argv=None) -> None:
         "cpu_ms": {k: round(v, 2) for k, v in m["cpu_ms"].items()}, "cpu_threads": m["cpu_threads"],
         **gpu_timing(m, args.repeat),
         "cpu_warmup_ms": round(warm_ms, 2), "display": display,
+        **({"fog": m["fog"]["mismatch"]} if "fog" in m else {}),
         "wall_s": round(time.perf_counter() - t0, 2)}))
     if args.check:
         check_against_reference(renderer, technique, opts, result, args)
@@ -194,7 +197,10 @@ def check_against_reference(renderer, technique, opts, result, args) -> None:
     from .exactness import IntendedLoss, check
     from .techniques import with_role
     ref_t = with_role("reference")
+    own = renderer.fog_options                   # a fog scene: the reference on the frame's froxels
+    renderer.fog_options = fog.reference_options(result, own)
     ref = result if technique is ref_t else renderer.render(ref_t, args.frame, frames=args.frames)
+    renderer.fog_options = own
     m = check(result, ref, renderer, technique, ref_t,
               {"frame": args.frame, "frames": args.frames, "opts": opts}, args.check)
     if isinstance(m, IntendedLoss):       # a cap policy's loss: counted, neither pass nor failure
@@ -202,6 +208,10 @@ def check_against_reference(renderer, technique, opts, result, args) -> None:
         raise SystemExit(INTENDED_LOSS_EXIT)
     if m is not None:
         print(f"not exact: {m.message()}", file=sys.stderr)
+        raise SystemExit(1)
+    froxels = fog.check_froxels(result, ref)     # a fog scene: the froxels' light sets too
+    if froxels is not None:
+        print(f"not exact: {froxels}", file=sys.stderr)
         raise SystemExit(1)
     if technique.role == "sampler":       # its support is exact; its estimate, unbiased?
         from . import sampling_check
@@ -212,7 +222,8 @@ def check_against_reference(renderer, technique, opts, result, args) -> None:
         print(f"exact support: every light affecting a pixel in {ref_t.name} can be drawn "
               f"there; {verdict.message()}", file=sys.stderr)
         return
-    print(f"exact: {technique.name} equals {ref_t.name} at every pixel", file=sys.stderr)
+    print(f"exact: {technique.name} equals {ref_t.name} at every pixel"
+          + (" and every froxel" if result.froxel_count is not None else ""), file=sys.stderr)
 
 
 if __name__ == "__main__":

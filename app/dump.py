@@ -8,6 +8,8 @@ import json
 import numpy as np
 
 FIELDS = ("image", "depth", "evaluated", "contrib_count", "contrib_hash")
+# a fog scene's per-froxel light sets, (D, H, W) uint32, row 0 the top (app/pipeline/fog.py)
+FOG_FIELDS = ("froxel_count", "froxel_hash")
 
 
 def write_dump(path, result) -> None:
@@ -18,12 +20,16 @@ def write_dump(path, result) -> None:
         "contrib_count": result.contrib_count.astype(np.uint32),
         "contrib_hash": result.contrib_hash.astype(np.uint32),
     }
+    for k in FOG_FIELDS:
+        if getattr(result, k, None) is not None:
+            arrays[k] = getattr(result, k).astype(np.uint32)
     np.savez_compressed(path, **arrays, meta=np.array(json.dumps(result.meta, sort_keys=True)))
 
 
 def read_dump(path) -> dict:
     with np.load(path, allow_pickle=False) as d:
         out = {k: d[k] for k in FIELDS}
+        out.update({k: d[k] for k in FOG_FIELDS if k in d.files})
         out["meta"] = json.loads(str(d["meta"]))
     return out
 

@@ -92,6 +92,12 @@ class FroxelGrid:
         return out
 
 
+def default_dims(width: int, height: int) -> tuple[int, int, int]:
+    """DEFAULT_FROXELS, its columns and rows at most the image's pixels."""
+    w, h, d = DEFAULT_FROXELS
+    return min(w, width), min(h, height), d
+
+
 def check_dims(dims, width: int, height: int) -> None:
     """The grid's limits: a froxel at least a pixel wide and high, 1..MAX_FROXEL_SLICES
     slices, at most MAX_FROXELS froxels in all (the budget)."""

@@ -47,15 +47,18 @@ FROXEL_STATS = np.dtype([("count", np.uint32), ("hash", np.uint32)])
 
 @dataclass(frozen=True)
 class FogOptions:
-    """The froxel grid: (W, H, D) or "matched" (a cell technique's own grid), the samples
-    a froxel is lit at (1 its centre, 8 its octants' centres) and the lookup (exact sets, or
-    the centre-cell shortcut)."""
-    froxels: tuple[int, int, int] | str = fx.DEFAULT_FROXELS
+    """The froxel grid: (W, H, D), "matched" (a cell technique's own grid) or a FroxelGrid
+    (another frame's, e.g. the one the reference is held to), the samples a froxel is lit at
+    (1 its centre, 8 its octants' centres) and the lookup (exact sets, or the centre-cell
+    shortcut)."""
+    froxels: tuple[int, int, int] | str | fx.FroxelGrid | None = None   # None: the default
     samples: int = 1
     lookup: str = "exact"
 
     def as_dict(self) -> dict:
-        f = self.froxels if isinstance(self.froxels, str) else "x".join(map(str, self.froxels))
+        dims = self.froxels.dims if isinstance(self.froxels, fx.FroxelGrid) else \
+            (self.froxels or "default")
+        f = dims if isinstance(dims, str) else "x".join(map(str, dims))
         return {"froxels": f, "samples": self.samples, "lookup": self.lookup}
 
 
@@ -63,23 +66,19 @@ def source_of(technique) -> str | None:
     return getattr(technique, "froxels", None)
 
 
-def serving() -> str:
-    return "brute (all) and the techniques that declare cells"
-
-
 def refuse(technique, opts, fog_opts: FogOptions | None = None) -> None:
     """One line, before the frame, where `technique` with `opts` cannot serve froxels."""
     src = source_of(technique)
     if src is None:
         raise UserError(f"{technique.name} does not serve froxels, so it cannot render a fog "
-                        f"scene (docs/techniques.md: the techniques whose 'Fog' line serves)")
+                        f"scene (docs/techniques.md, each technique's 'Fog' line: those that do)")
     for name in ("build", "stochastic", "cap_policy"):     # each 0 at its default (cpu, off, none)
         if getattr(opts, name, 0):
             flag = "--" + name.replace("_", "-")
             raise UserError(f"{technique.name}: {flag} with a fog scene: the froxel sets are "
                             f"built from the CPU stage's exact lights (leave {flag} at its default)")
     fo = fog_opts or FogOptions()
-    if src != "cells" and (fo.froxels == "matched" or fo.lookup != "exact"):
+    if src != "cells" and (isinstance(fo.froxels, str) or fo.lookup != "exact"):
         what = "--froxels matched" if fo.froxels == "matched" else f"--froxel-lookup {fo.lookup}"
         raise UserError(f"{technique.name}: {what} needs a technique whose froxels come from "
                         f"cells (its froxels: {src})")
@@ -87,10 +86,15 @@ def refuse(technique, opts, fog_opts: FogOptions | None = None) -> None:
 
 def froxel_grid(build, fog, fo: FogOptions) -> fx.FroxelGrid:
     cam = build.frame.camera
+    if isinstance(fo.froxels, fx.FroxelGrid):
+        if (fo.froxels.width, fo.froxels.height) != (cam.width, cam.height):
+            raise UserError("fog: the given froxel grid is for another image size")
+        return fo.froxels
     try:
         if fo.froxels == "matched":
             return fx.matched_grid(cam, build.grid, fog.far)
-        return fx.make_froxel_grid(cam, fo.froxels, fog.far)
+        return fx.make_froxel_grid(cam, fo.froxels or fx.default_dims(cam.width, cam.height),
+                                   fog.far)
     except fx.FroxelError as exc:
         raise UserError(str(exc)) from None
 
@@ -138,7 +142,7 @@ def passes(fg: fx.FroxelGrid, fog, fo: FogOptions, size) -> list[Pass]:
              reads=("froxel_light", "froxel_accum", "froxel_edges"),
              writes={OUT_COLOR: Buffer(size[0] * size[1] * 16, np.dtype((np.float32, 4)))},
              groups=(-(-size[0] // 8), -(-size[1] // 8), 1),
-             uniforms=dict(common, u_density=float(fog.density))),
+             uniforms=dict(common, u_density=float(fog.density), u_size=tuple(size))),
     ]
 
 
@@ -214,3 +218,4 @@ def render_fog(renderer, technique, opts, build, result, fo: FogOptions | None, 
         result.froxel_count = flip(raw["count"])
         result.froxel_hash = flip(raw["hash"])
         result.froxel_sets = sets
+        result.froxel_grid = fg

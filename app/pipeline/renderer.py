@@ -68,6 +68,7 @@ class FrameResult:
     froxel_count: np.ndarray | None = None   # (D,H,W) uint32 a fog scene's froxel light sets
     froxel_hash: np.ndarray | None = None    # (D,H,W) uint32 (app/pipeline/fog.py)
     froxel_sets: object | None = None        # cpu_prep.froxels.FroxelSets of the frame
+    froxel_grid: object | None = None        # ... and its cpu_prep.froxels.FroxelGrid
 
 
 @dataclass
