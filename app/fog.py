@@ -59,6 +59,12 @@ def fog_options(args, scene) -> FogOptions | None:
     if not given:
         return None
     froxels = parse_froxels(args.froxels) if args.froxels is not None else None
+    if isinstance(froxels, tuple):                 # refused before anything renders
+        w, h = getattr(args, "size", None) or scene.resolution
+        try:
+            fx.check_dims(froxels, w, h)
+        except fx.FroxelError as exc:
+            raise UserError(str(exc)) from None
     return FogOptions(froxels, args.froxel_samples or 1, args.froxel_lookup or "exact")
 
 
