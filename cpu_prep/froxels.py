@@ -388,10 +388,13 @@ def _span(lo, hi, edges):
 
 @numba.njit(cache=True, error_model="numpy")
 def _sets_from_cells(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty, faces, tile_x, tile_y,
-                     s_edges, ranges, cell_entries, tiles_x, slices, exact):
+                     s_edges, cell_spans, spans, cell_entries, tiles_x, slices, exact):
     """Per froxel the union of the lists of the cells it overlaps (tiles by its pixel
     rectangle, slices by its depth range), sorted, without repeats, then the exact test on
-    each (exact=False: the union as it is).  -> (offsets, entries, candidates)."""
+    each (exact=False: the union as it is).  A cell's list is its spans (cell_spans[cell]:
+    first, count into spans; a span: first entry, count, and the depth range it covers,
+    whose froxels alone take it: a tree's leaf and its bounding interval).
+    -> (offsets, entries, candidates)."""
     W, H, D = us.shape[0] - 1, vs.shape[0] - 1, zs.shape[0] - 1
     n = C.shape[0]
     stamp = np.full(max(n, 1), -1, np.int64)
@@ -410,20 +413,24 @@ def _sets_from_cells(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty, faces, tile_x,
                 tx0, tx1 = _span(xs[i], xs[i + 1], tile_x)
                 f = (k * H + j) * W + i
                 nb = 0
+                runs = 0
                 for cy in range(ty0, ty1 + 1):
                     for cx in range(tx0, tx1 + 1):
                         for s in range(s0, s1 + 1):
                             cell = (cy * tiles_x + cx) * slices + s
-                            first, cnt = ranges[cell, 0], ranges[cell, 1]
-                            for e in range(first, first + cnt):
-                                l = cell_entries[e]
-                                if stamp[l] != f:
-                                    stamp[l] = f
-                                    buf[nb] = l
-                                    nb += 1
+                            for p in range(cell_spans[cell, 0], cell_spans[cell, 0] + cell_spans[cell, 1]):
+                                if not (spans[p, 2] < zs[k + 1] and zs[k] < spans[p, 3]):
+                                    continue
+                                runs += 1
+                                first, cnt = np.int64(spans[p, 0]), np.int64(spans[p, 1])
+                                for e in range(first, first + cnt):
+                                    l = cell_entries[e]
+                                    if stamp[l] != f:
+                                        stamp[l] = f
+                                        buf[nb] = l
+                                        nb += 1
                 candidates += nb
-                one = ty0 == ty1 and tx0 == tx1 and s0 == s1
-                sel = buf[:nb] if one else np.sort(buf[:nb])   # one cell's list: in order already
+                sel = buf[:nb] if runs <= 1 else np.sort(buf[:nb])   # one list: in order already
                 if exact:
                     _corners(us, vs, zs, tx, ty, i, j, k, q)
                 for t in range(nb):
@@ -483,11 +490,43 @@ def froxel_sets_from_cells(fg: FroxelGrid, grid: Grid, ranges, cell_entries, lb:
                            exact: bool = True) -> FroxelSets:
     """A cell technique: the union of the cells each froxel overlaps (ranges (cells, 2)
     first / count into cell_entries, cells of `grid`), then the exact test."""
+    ranges = np.asarray(ranges, np.int64)
+    spans = np.empty((len(ranges), 4))
+    spans[:, 0], spans[:, 1], spans[:, 2], spans[:, 3] = ranges[:, 0], ranges[:, 1], -np.inf, np.inf
+    cell_spans = np.stack([np.arange(len(ranges)), np.ones(len(ranges), np.int64)], 1)
+    return froxel_sets_from_spans(fg, grid, cell_spans, spans, cell_entries, lb, exact)
+
+
+def froxel_sets_from_spans(fg: FroxelGrid, grid: Grid, cell_spans, spans, cell_entries,
+                           lb: LightBounds, exact: bool = True) -> FroxelSets:
+    """froxel_sets_from_cells() of cells whose lists are spans (a tree's leaves, each with
+    its depth interval: a froxel takes the leaves whose interval overlaps its depths)."""
     tx, ty, s = cell_edges(grid)
     offsets, entries, cand = _sets_from_cells(
-        *_args(fg, lb), tx, ty, s, np.ascontiguousarray(ranges, np.int64),
-        np.ascontiguousarray(cell_entries, np.int64), grid.tiles_x, grid.slices, exact)
+        *_args(fg, lb), tx, ty, s, np.ascontiguousarray(cell_spans, np.int64),
+        np.ascontiguousarray(spans, np.float64), np.ascontiguousarray(cell_entries, np.int64),
+        grid.tiles_x, grid.slices, exact)
     return FroxelSets(offsets, entries, int(cand))
+
+
+def tree_spans(ranges, nodes, count_mask: int = 0x7FFFFFFF):
+    """(cell_spans, spans) of light trees (cpu_prep.tree: ranges[cell] = first node, node
+    count (masked: hybrid's tree bit); TREE_NODE rows): each cell's leaves, in node order,
+    each its lights' span of the entries and its bounding interval [min, max depth]."""
+    ranges = np.asarray(ranges, np.int64)
+    first, count = ranges[:, 0], ranges[:, 1] & count_mask
+    cell_of = np.repeat(np.arange(len(ranges)), count)
+    node = np.repeat(first - np.concatenate([[0], np.cumsum(count)[:-1]]), count) + np.arange(count.sum())
+    from .layouts import unpack_node_bits
+    leaf, lights, _ = unpack_node_bits(nodes["bits"][node])
+    keep = leaf & (lights > 0)
+    cell_of, node, lights = cell_of[keep], node[keep], lights[keep]
+    spans = np.stack([nodes["first_light"][node].astype(np.float64), lights.astype(np.float64),
+                      nodes["min_depth"][node].astype(np.float64),
+                      nodes["max_depth"][node].astype(np.float64)], 1)
+    per = np.bincount(cell_of, minlength=len(ranges))
+    cell_spans = np.stack([np.concatenate([[0], np.cumsum(per)[:-1]]), per], 1)
+    return cell_spans, spans
 
 
 def centre_cell_sets(fg: FroxelGrid, grid: Grid, ranges, cell_entries) -> FroxelSets:

@@ -3,15 +3,16 @@ from each technique's own structure, after the technique's frame (Renderer.rende
 
     froxel sets (CPU, cpu_prep/froxels.py): each froxel's lights, from the technique's
         candidates (its declared `froxels`: "all" every visible light, brute; "cells" the
-        union of the lists of its 2.5D cells the froxel overlaps, clustered), kept by the
-        exact test ("meets": cpu_prep/froxels.py)
+        union of the lists of its 2.5D cells the froxel overlaps, clustered; "trees" the
+        leaves of the cells' light trees whose depth interval overlaps the froxel's, tree
+        and hybrid), kept by the exact test ("meets": cpu_prep/froxels.py)
     fog_light     (compute) each froxel's in-scatter from its set at FROXEL_SAMPLES points,
                   Henyey-Greenstein phase; its count and hash of the set
     fog_march     (compute) scattering and transmittance integrated along each column
     fog_composite (compute) out_color = colour * T + S at each pixel's depth
 
 A technique declares how it serves froxels by its class attribute `froxels` ("all",
-"cells"; None: it refuses a fog scene in one line); FROXEL_SOURCES says what each means.
+"cells", "trees"; None: it refuses a fog scene in one line); FROXEL_SOURCES says what each means.
 The frame's stats add the grid and, per froxel on average, the lights it meets, the
 candidates it was given, and those it did not need; a cell technique also the same figure on
 the matched grid (one froxel per cell of its own grid), which is what a grid of its own
@@ -39,7 +40,11 @@ FROXEL_SOURCES = {
     "cells": "a froxel's candidates are the union of the lists of the 2.5D cells of its grid "
              "that the froxel overlaps (cpu_prep/froxels.py); the exact test keeps those "
              "that meet it",
+    "trees": "a froxel's candidates are the lights of the leaves, among the light trees of the "
+             "cells it overlaps, whose bounding depth interval overlaps the froxel's depths "
+             "(cpu_prep/froxels.py tree_spans); the exact test keeps those that meet it",
 }
+CELL_SOURCES = ("cells", "trees")     # a grid of cells: the matched grid is theirs
 SAMPLES = (1, 8)
 LOOKUPS = ("exact", "centre")
 FROXEL_STATS = np.dtype([("count", np.uint32), ("hash", np.uint32)])
@@ -78,10 +83,12 @@ def refuse(technique, opts, fog_opts: FogOptions | None = None) -> None:
             raise UserError(f"{technique.name}: {flag} with a fog scene: the froxel sets are "
                             f"built from the CPU stage's exact lights (leave {flag} at its default)")
     fo = fog_opts or FogOptions()
-    if src != "cells" and (isinstance(fo.froxels, str) or fo.lookup != "exact"):
-        what = "--froxels matched" if fo.froxels == "matched" else f"--froxel-lookup {fo.lookup}"
-        raise UserError(f"{technique.name}: {what} needs a technique whose froxels come from "
-                        f"cells (its froxels: {src})")
+    if src not in CELL_SOURCES and isinstance(fo.froxels, str):
+        raise UserError(f"{technique.name}: --froxels {fo.froxels} needs a technique whose "
+                        f"froxels come from a grid of cells (its froxels: {src})")
+    if src != "cells" and fo.lookup != "exact":
+        raise UserError(f"{technique.name}: --froxel-lookup {fo.lookup} needs a technique whose "
+                        f"froxels come from cell lists (its froxels: {src})")
 
 
 def froxel_grid(build, fog, fo: FogOptions) -> fx.FroxelGrid:
@@ -105,15 +112,22 @@ def cell_lists(build):
     return ranges, build.buffers["entries"]
 
 
+def from_cells(technique, build, fg: fx.FroxelGrid, lb) -> fx.FroxelSets:
+    """The exact sets of a technique of cells: its lists, or its trees' leaves."""
+    if source_of(technique) == "trees":
+        spans = fx.tree_spans(build.buffers["ranges"]["offset_count"], build.buffers["nodes"])
+        return fx.froxel_sets_from_spans(fg, build.grid, *spans, build.buffers["entries"], lb)
+    return fx.froxel_sets_from_cells(fg, build.grid, *cell_lists(build), lb)
+
+
 def froxel_sets(technique, build, fg: fx.FroxelGrid, lb, lookup: str = "exact") -> fx.FroxelSets:
     """The froxels' light sets from `technique`'s own structure (its declared source)."""
     src = source_of(technique)
     if src == "all":
         return fx.froxel_sets_all(fg, lb)
-    ranges, entries = cell_lists(build)
     if lookup == "centre":
-        return fx.centre_cell_sets(fg, build.grid, ranges, entries)
-    return fx.froxel_sets_from_cells(fg, build.grid, ranges, entries, lb)
+        return fx.centre_cell_sets(fg, build.grid, *cell_lists(build))
+    return from_cells(technique, build, fg, lb)
 
 
 def edges_array(fg: fx.FroxelGrid) -> np.ndarray:
@@ -197,9 +211,9 @@ def render_fog(renderer, technique, opts, build, result, fo: FogOptions | None, 
     line = (f"froxels {w}x{h}x{d} ({fo.lookup}): {stats['froxel_lights_mean']} lights meet a "
             f"froxel on average; its candidates {stats['froxel_candidates_mean']}, "
             f"{stats['froxel_unneeded_mean']} of them not needed")
-    if source_of(technique) == "cells" and fo.lookup == "exact":
+    if source_of(technique) in CELL_SOURCES and fo.lookup == "exact":
         mg = fx.matched_grid(build.frame.camera, build.grid, fog.far)
-        ms = fx.froxel_sets_from_cells(mg, build.grid, *cell_lists(build), lb)
+        ms = from_cells(technique, build, mg, lb)
         mw, mh, md = mg.dims
         stats["froxels_matched"] = f"{mw}x{mh}x{md}"
         stats["froxel_unneeded_mean_matched"] = mean(ms.candidates - len(ms.entries), mg.count)

@@ -31,10 +31,14 @@ def same_froxels(a, b) -> bool:
             and np.array_equal(a.froxel_hash, b.froxel_hash))
 
 
+SERVING = ("clustered", "tree", "hybrid")
+
+
+@pytest.mark.parametrize("technique", SERVING)
 @pytest.mark.parametrize("grid", [(24, 12, 16), "matched"])
-def test_clustered_serves_brute_froxel_sets_on_the_fog_hangar(gl, grid):
+def test_cell_techniques_serve_brute_froxel_sets_on_the_fog_hangar(gl, grid, technique):
     scene = load_scene("hangar-fog", 200)
-    _, c = render(scene, "clustered", FogOptions(grid))
+    _, c = render(scene, technique, FogOptions(grid))
     _, b = render(scene, "brute", FogOptions(c.froxel_grid))
     assert same_froxels(c, b) and c.froxel_count.sum() > c.froxel_count.size
     assert np.array_equal(c.contrib_hash, b.contrib_hash)        # the pixels stay exact
@@ -45,6 +49,7 @@ def test_clustered_serves_brute_froxel_sets_on_the_fog_hangar(gl, grid):
     if grid == "matched":
         assert stats["froxel_unneeded_mean"] == stats["froxel_unneeded_mean_matched"]
     assert set(c.meta["gpu_ms"]) >= {"fog_light", "fog_march", "fog_composite"}
+    assert c.meta["fog"]["froxel_source"] == ("cells" if technique == "clustered" else "trees")
 
 
 def hard_scene(fog):
@@ -63,9 +68,10 @@ def hard_scene(fog):
     return scene
 
 
-def test_clustered_serves_brute_froxel_sets_on_the_hard_cases(gl):
+@pytest.mark.parametrize("technique", SERVING)
+def test_cell_techniques_serve_brute_froxel_sets_on_the_hard_cases(gl, technique):
     scene = hard_scene(Fog(0.04, (0.9, 0.8, 0.7), 30.0, -0.3))
-    _, c = render(scene, "clustered", FogOptions((13, 7, 11), 8))
+    _, c = render(scene, technique, FogOptions((13, 7, 11), 8))
     _, b = render(scene, "brute", FogOptions(c.froxel_grid, 8))
     assert same_froxels(c, b)
     assert np.array_equal(c.image, b.image)       # the same lights in the same order
@@ -156,7 +162,8 @@ def test_capture_fog_flags_dump_and_check(gl, tmp_path, capsys):
                         (["--technique", "brute", "--size", "4096x2048", "--froxels", "4096x2048x1"],
                          "budget"),
                         (["--technique", "brute", "--froxels", "65x9x9"], "W and H"),
-                        (["--technique", "brute", "--froxels", "matched"], "from cells"),
+                        (["--technique", "brute", "--froxels", "matched"], "grid of cells"),
+                        (["--technique", "tree", "--froxel-lookup", "centre"], "cell lists"),
                         (["--technique", "clustered", "--build", "gpu"], "--build")):
         with pytest.raises(UserError, match=words):
             capture.main(base + argv)

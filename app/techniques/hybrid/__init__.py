@@ -37,6 +37,7 @@ class Hybrid(Technique, register_at=50):
     name = "hybrid"
     summary = "2.5D grid, each cell a list or a tree (listing 2 heuristic)"
     views = Technique.views + ("tiles", "slices", "classes", "variants")
+    froxels = "trees"       # a fog scene: the leaves of the cells it overlaps, by depth
     glsl = {"hybrid_cells.glsl": layouts.glsl_defines({"CELL_TREE_BIT": CELL_TREE_BIT})}
 
     @dataclass(frozen=True)
