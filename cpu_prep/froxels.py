@@ -41,12 +41,14 @@ froxel, each froxel's list in light-buffer order.
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 import math
 
 import numba
 import numpy as np
 
+from . import parallel, threads
 from .grid import Grid, slice_table
 
 # The froxel budget: a grid of more froxels is refused (its per-froxel buffers, 48 bytes a
@@ -315,7 +317,7 @@ def _passing(p):
     return a, b
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _sets_all(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty, faces):
     """Every light against every froxel (brute): per light the column, row and slice tests
     (each the froxel's own, separable), then the exact sphere test where all three pass;
@@ -386,7 +388,7 @@ def _span(lo, hi, edges):
     return a, b
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True, error_model="numpy")
 def _sets_from_cells(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty, faces, tile_x, tile_y,
                      s_edges, cell_spans, spans, cell_entries, tiles_x, slices, exact):
     """Per froxel the union of the lists of the cells it overlaps (tiles by its pixel
@@ -468,9 +470,35 @@ def _args(fg: FroxelGrid, lb: LightBounds):
             fg.tan_y, FACES)
 
 
+def _by_slices(fg: FroxelGrid, kernel, args, rest) -> tuple[np.ndarray, np.ndarray, int]:
+    """kernel(*args with fg.zs cut to a run of slices, *rest) over runs of slices, on the CPU
+    stage's threads (parallel(): each run its own kernel call, the GIL released), joined in
+    slice order: froxel ids are slice-major, so the runs' CSR lists follow one another."""
+    d = fg.dims[2]
+    runs = min(d, 4 * threads()) if parallel() else 1
+    cuts = [d * t // runs for t in range(runs + 1)]
+    zi = 8                                               # zs's place in _args
+    def one(t):
+        a = list(args)
+        a[zi] = np.ascontiguousarray(fg.zs[cuts[t]:cuts[t + 1] + 1])
+        out = kernel(*a, *rest)
+        return out if len(out) == 3 else (*out, 0)
+    if runs == 1:
+        parts = [one(0)]
+    else:
+        with ThreadPoolExecutor(threads()) as pool:
+            parts = list(pool.map(one, range(runs)))
+    offsets, shift = [np.zeros(1, np.int64)], 0
+    for o, _, _ in parts:
+        offsets.append(o[1:] + shift)
+        shift += int(o[-1])
+    return (np.concatenate(offsets), np.concatenate([p[1] for p in parts]),
+            sum(int(p[2]) for p in parts))
+
+
 def froxel_sets_all(fg: FroxelGrid, lb: LightBounds) -> FroxelSets:
     """brute: every visible light a candidate of every froxel, the exact test keeps it."""
-    offsets, entries = _sets_all(*_args(fg, lb))
+    offsets, entries, _ = _by_slices(fg, _sets_all, _args(fg, lb), ())
     return FroxelSets(offsets, entries, fg.count * len(lb))
 
 
@@ -502,10 +530,10 @@ def froxel_sets_from_spans(fg: FroxelGrid, grid: Grid, cell_spans, spans, cell_e
     """froxel_sets_from_cells() of cells whose lists are spans (a tree's leaves, each with
     its depth interval: a froxel takes the leaves whose interval overlaps its depths)."""
     tx, ty, s = cell_edges(grid)
-    offsets, entries, cand = _sets_from_cells(
-        *_args(fg, lb), tx, ty, s, np.ascontiguousarray(cell_spans, np.int64),
+    offsets, entries, cand = _by_slices(fg, _sets_from_cells, _args(fg, lb), (
+        tx, ty, s, np.ascontiguousarray(cell_spans, np.int64),
         np.ascontiguousarray(spans, np.float64), np.ascontiguousarray(cell_entries, np.int64),
-        grid.tiles_x, grid.slices, exact)
+        grid.tiles_x, grid.slices, exact))
     return FroxelSets(offsets, entries, int(cand))
 
 

@@ -239,3 +239,17 @@ def test_grid_layout_and_budget():
         with pytest.raises(fx.FroxelError, match=word):
             fx.make_froxel_grid(big if word == "budget" else cam, dims, FAR)
     assert fx.make_froxel_grid(big, (2048, 1024, 2), FAR).count == fx.MAX_FROXELS
+
+
+def test_the_same_sets_on_one_thread_and_on_runs_of_slices(hard):
+    import cpu_prep
+    cam, pl, fg = hard
+    lb = fx.light_bounds(pl)
+    grid = cell_grid(cam)
+    with cpu_prep.using_threads(1):
+        one = fx.froxel_sets_all(fg, lb), cell_sets(fg, cam, pl, grid, lb)[0]
+    with cpu_prep.using_threads(2):
+        runs = fx.froxel_sets_all(fg, lb), cell_sets(fg, cam, pl, grid, lb)[0]
+    for a, b in zip(one, runs):
+        assert np.array_equal(a.offsets, b.offsets) and np.array_equal(a.entries, b.entries)
+        assert a.candidates == b.candidates
