@@ -15,6 +15,7 @@ off.  The lights' radii are scaled down (--radius-scale) so that many end inside
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import sys
 from pathlib import Path
@@ -30,11 +31,15 @@ def fog_only(renderer, technique, fo: FogOptions) -> np.ndarray:
     return renderer.render(technique, readback=True).image
 
 
-def banding(scene, technique, size, froxels) -> dict:
+def banding(scene, technique, size, froxels, radius_scale: float = 1.0) -> dict:
     """{grid: {"exact": image, "centre": image, "error": max |centre - exact| / max exact,
     "pixels_off": the share of pixels more than 1% off}} for `froxels` (WxHxD) and the
-    matched grid, both lit at 8 samples a froxel."""
+    matched grid, both lit at 8 samples a froxel; the scene's lights' radii times
+    `radius_scale` (a copy: the scene is left as it was)."""
     from .pipeline.renderer import Renderer
+    scene = copy.copy(scene)
+    scene.lights = scene.lights.copy()
+    scene.lights["radius"] *= np.float32(radius_scale)
     renderer = Renderer(scene, size)
     out = {}
     for grid in (froxels, "matched"):
@@ -66,13 +71,12 @@ def main(argv=None) -> None:
     scene = load_scene(args.scene, lights=args.lights)
     if not 0 < args.radius_scale <= 1:
         raise cli.UserError(f"--radius-scale must be in (0, 1] (got {args.radius_scale})")
-    scene.lights["radius"] *= np.float32(args.radius_scale)
     if scene.fog is None:
         raise cli.UserError(f"--scene {args.scene}: the scene has no fog")
     froxels = parse_froxels(args.froxels)
     if froxels == "matched":
         raise cli.UserError("--froxels: a grid of its own (WxHxD): the matched grid is the other half")
-    res = banding(scene, get(args.technique), args.size, froxels)
+    res = banding(scene, get(args.technique), args.size, froxels, args.radius_scale)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     summary = {}

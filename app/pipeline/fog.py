@@ -71,24 +71,32 @@ def source_of(technique) -> str | None:
     return getattr(technique, "froxels", None)
 
 
-def refuse(technique, opts, fog_opts: FogOptions | None = None) -> None:
-    """One line, before the frame, where `technique` with `opts` cannot serve froxels."""
+def refusal(technique, opts, fog_opts: FogOptions | None = None) -> str | None:
+    """Why `technique` with `opts` cannot serve a fog scene's froxels (one line), else None."""
     src = source_of(technique)
     if src is None:
-        raise UserError(f"{technique.name} does not serve froxels, so it cannot render a fog "
-                        f"scene (docs/techniques.md, each technique's 'Fog' line: those that do)")
+        return (f"{technique.name} does not serve froxels, so it cannot render a fog scene "
+                f"(docs/techniques.md, each technique's 'Fog' line: those that do)")
     for name in ("build", "stochastic", "cap_policy"):     # each 0 at its default (cpu, off, none)
         if getattr(opts, name, 0):
             flag = "--" + name.replace("_", "-")
-            raise UserError(f"{technique.name}: {flag} with a fog scene: the froxel sets are "
-                            f"built from the CPU stage's exact lights (leave {flag} at its default)")
+            return (f"{technique.name}: {flag} with a fog scene: the froxel sets are built from "
+                    f"the CPU stage's exact lights (leave {flag} at its default)")
     fo = fog_opts or FogOptions()
     if src not in CELL_SOURCES and isinstance(fo.froxels, str):
-        raise UserError(f"{technique.name}: --froxels {fo.froxels} needs a technique whose "
-                        f"froxels come from a grid of cells (its froxels: {src})")
+        return (f"{technique.name}: --froxels {fo.froxels} needs a technique whose froxels "
+                f"come from a grid of cells (its froxels: {src})")
     if src != "cells" and fo.lookup != "exact":
-        raise UserError(f"{technique.name}: --froxel-lookup {fo.lookup} needs a technique whose "
-                        f"froxels come from cell lists (its froxels: {src})")
+        return (f"{technique.name}: --froxel-lookup {fo.lookup} needs a technique whose "
+                f"froxels come from cell lists (its froxels: {src})")
+    return None
+
+
+def refuse(technique, opts, fog_opts: FogOptions | None = None) -> None:
+    """refusal() as a UserError, before the frame."""
+    why = refusal(technique, opts, fog_opts)
+    if why:
+        raise UserError(why)
 
 
 def froxel_grid(build, fog, fo: FogOptions) -> fx.FroxelGrid:

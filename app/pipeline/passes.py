@@ -58,6 +58,7 @@ class FrameInput:
     loop_lanes: int = 1              # ... shared by this many lanes in lockstep (gl.Limits)
     context_limits: Limits | None = None   # the renderer's; None: the process's, on use
     specular: bool = False           # some surface of the scene is specular (features.py)
+    fog: object | None = None        # the scene's medium (scenes.model.Fog; app/pipeline/fog.py)
 
     @property
     def limits(self) -> Limits:

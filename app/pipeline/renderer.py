@@ -186,7 +186,7 @@ class Renderer:
         lights = self.scene.lights_at(frame, frames) if lights is None else lights
         return FrameInput(lights, cam, self.scene.max_depth or cam.far, self.arena,
                           self.limits.loop_budget, self.limits.loop_lanes, self.limits,
-                          self.gbuffer.specular)
+                          self.gbuffer.specular, fog=self.scene.fog)
 
     def render(self, technique, frame: int = 0, opts=None, frames: int = 64,
                lights: np.ndarray | None = None, readback: bool = True, camera=None,
