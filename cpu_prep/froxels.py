@@ -199,18 +199,35 @@ def _seg_d2(px, py, pz, ax, ay, az, bx, by, bz):
 
 
 @numba.njit(inline="always")
-def _quad_d2(p, q, a, b, c, d):
+def _face_planes(q, faces, fp):
+    """fp[f] = the outward unit normal of face f and its offset (n . x = offset on it): the
+    normal from the quad's diagonals (robust for a thin quad), turned away from the cell's
+    centroid.  A degenerate face (no area) gets a zero normal."""
+    gx = (q[0, 0] + q[1, 0] + q[2, 0] + q[3, 0] + q[4, 0] + q[5, 0] + q[6, 0] + q[7, 0]) / 8.0
+    gy = (q[0, 1] + q[1, 1] + q[2, 1] + q[3, 1] + q[4, 1] + q[5, 1] + q[6, 1] + q[7, 1]) / 8.0
+    gz = (q[0, 2] + q[1, 2] + q[2, 2] + q[3, 2] + q[4, 2] + q[5, 2] + q[6, 2] + q[7, 2]) / 8.0
+    for f in range(6):
+        a, b, c, d = faces[f, 0], faces[f, 1], faces[f, 2], faces[f, 3]
+        e1x, e1y, e1z = q[c, 0] - q[a, 0], q[c, 1] - q[a, 1], q[c, 2] - q[a, 2]
+        e2x, e2y, e2z = q[d, 0] - q[b, 0], q[d, 1] - q[b, 1], q[d, 2] - q[b, 2]
+        nx = e1y * e2z - e1z * e2y
+        ny = e1z * e2x - e1x * e2z
+        nz = e1x * e2y - e1y * e2x
+        nn = math.sqrt(nx * nx + ny * ny + nz * nz)
+        if nn > 0.0:
+            nx, ny, nz = nx / nn, ny / nn, nz / nn
+            if (gx - q[a, 0]) * nx + (gy - q[a, 1]) * ny + (gz - q[a, 2]) * nz > 0.0:
+                nx, ny, nz = -nx, -ny, -nz
+        fp[f, 0], fp[f, 1], fp[f, 2] = nx, ny, nz
+        fp[f, 3] = nx * q[a, 0] + ny * q[a, 1] + nz * q[a, 2]
+
+
+@numba.njit(inline="always")
+def _quad_d2(p, q, a, b, c, d, nx, ny, nz, h):
     """Squared distance from p to the planar convex quad q[a], q[b], q[c], q[d] (in order
-    around it): the plane's where p projects inside the quad, else the nearest edge's."""
-    e1x, e1y, e1z = q[c, 0] - q[a, 0], q[c, 1] - q[a, 1], q[c, 2] - q[a, 2]
-    e2x, e2y, e2z = q[d, 0] - q[b, 0], q[d, 1] - q[b, 1], q[d, 2] - q[b, 2]
-    nx = e1y * e2z - e1z * e2y       # the normal from the diagonals
-    ny = e1z * e2x - e1x * e2z
-    nz = e1x * e2y - e1y * e2x
-    nn = math.sqrt(nx * nx + ny * ny + nz * nz)
-    if nn > 0.0:
-        nx, ny, nz = nx / nn, ny / nn, nz / nn
-        h = (p[0] - q[a, 0]) * nx + (p[1] - q[a, 1]) * ny + (p[2] - q[a, 2]) * nz
+    around it; unit normal n, p at height h above its plane): the plane's where p projects
+    inside the quad, else the nearest edge's."""
+    if nx != 0.0 or ny != 0.0 or nz != 0.0:
         sx, sy, sz = p[0] - h * nx, p[1] - h * ny, p[2] - h * nz
         pos, neg = 0, 0
         for m in range(4):
@@ -242,18 +259,29 @@ FACES = np.array([[0, 1, 3, 2], [4, 5, 7, 6],       # near, far
 
 
 @numba.njit(inline="always")
-def _sphere_meets_cell(c, r, q, faces):
-    """Past the plane tests and not inside all six planes: the nearest face within r (a
-    corner within r first: the same answer, sooner, for a froxel deep inside the sphere)."""
+def _sphere_meets_cell(c, r, q, faces, fp):
+    """Past the plane tests and not inside all six planes: the distance from c to the cell
+    (corners q, face planes fp: _face_planes) below r.  A corner within r answers at once;
+    else the nearest point of a convex cell to a point outside it lies on a face whose
+    outer side holds the point, so only the faces that c lies above by less than r are
+    measured; c above none lies inside the cell."""
     r2 = r * r
-    for n in range(8):          # a corner inside the sphere: the cell's point within r
+    for n in range(8):
         dx, dy, dz = q[n, 0] - c[0], q[n, 1] - c[1], q[n, 2] - c[2]
         if dx * dx + dy * dy + dz * dz < r2:
             return True
+    above = False
     for f in range(6):
-        if _quad_d2(c, q, faces[f, 0], faces[f, 1], faces[f, 2], faces[f, 3]) < r2:
+        h = fp[f, 0] * c[0] + fp[f, 1] * c[1] + fp[f, 2] * c[2] - fp[f, 3]
+        if h <= 0.0:
+            continue
+        above = True
+        if h >= r:
+            continue
+        if _quad_d2(c, q, faces[f, 0], faces[f, 1], faces[f, 2], faces[f, 3],
+                    fp[f, 0], fp[f, 1], fp[f, 2], h) < r2:
             return True
-    return False
+    return not above
 
 
 @numba.njit(inline="always")
@@ -293,8 +321,9 @@ def _depth_test(c, r, z0, z1, d0, d1):
 
 
 @numba.njit(inline="always")
-def _froxel_test(c, r, rect, dep, xs, ys, us, vs, zs, tx, ty, i, j, k, q, faces):
-    """meets (the module's definition) for one light and froxel; q: its corners (_corners)."""
+def _froxel_test(c, r, rect, dep, xs, ys, us, vs, zs, tx, ty, i, j, k, q, faces, fp):
+    """meets (the module's definition) for one light and froxel; q, fp: its corners
+    (_corners) and face planes (_face_planes)."""
     a = _axis_test(c, r, xs[i], xs[i + 1], us[i], us[i + 1], tx, 0, rect[0], rect[1])
     b = _axis_test(c, r, ys[j], ys[j + 1], vs[j], vs[j + 1], ty, 1, rect[2], rect[3])
     z = _depth_test(c, r, zs[k], zs[k + 1], dep[0], dep[1])
@@ -302,7 +331,7 @@ def _froxel_test(c, r, rect, dep, xs, ys, us, vs, zs, tx, ty, i, j, k, q, faces)
         return False
     if a & b & z & 2:
         return True
-    return _sphere_meets_cell(c, r, q, faces)
+    return _sphere_meets_cell(c, r, q, faces, fp)
 
 
 @numba.njit(inline="always")
@@ -326,6 +355,7 @@ def _sets_all(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty, faces):
     n = C.shape[0]
     px, py, pz = np.empty(W, np.int64), np.empty(H, np.int64), np.empty(D, np.int64)
     q = np.empty((8, 3))
+    fp = np.empty((6, 4))
     cap = max(1024, 4 * n)
     pf = np.empty(cap, np.int64)
     plight = np.empty(cap, np.int64)
@@ -354,7 +384,8 @@ def _sets_all(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty, faces):
                     ok = True
                     if (px[i] & py[j] & pz[k] & 2) == 0:
                         _corners(us, vs, zs, tx, ty, i, j, k, q)
-                        ok = _sphere_meets_cell(c, r, q, faces)
+                        _face_planes(q, faces, fp)
+                        ok = _sphere_meets_cell(c, r, q, faces, fp)
                     if ok:
                         if m == cap:
                             cap *= 2
@@ -402,6 +433,7 @@ def _sets_from_cells(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty, faces, tile_x,
     stamp = np.full(max(n, 1), -1, np.int64)
     buf = np.empty(max(n, 1), np.int64)
     q = np.empty((8, 3))
+    fp = np.empty((6, 4))
     offsets = np.zeros(W * H * D + 1, np.int64)
     cap = max(1024, 4 * n)
     entries = np.empty(cap, np.uint32)
@@ -435,10 +467,11 @@ def _sets_from_cells(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty, faces, tile_x,
                 sel = buf[:nb] if runs <= 1 else np.sort(buf[:nb])   # one list: in order already
                 if exact:
                     _corners(us, vs, zs, tx, ty, i, j, k, q)
+                    _face_planes(q, faces, fp)
                 for t in range(nb):
                     l = sel[t]
                     if exact and not _froxel_test(C[l], R[l], RECT[l], DEP[l], xs, ys, us, vs,
-                                                  zs, tx, ty, i, j, k, q, faces):
+                                                  zs, tx, ty, i, j, k, q, faces, fp):
                         continue
                     if m == cap:
                         cap *= 2
