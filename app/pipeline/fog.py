@@ -186,10 +186,11 @@ def render_fog(renderer, technique, opts, build, result, fo: FogOptions | None, 
     cpu_ms = (time.perf_counter() - t0) * 1e3
     longest = int(sets.counts().max(initial=0))
     budget = renderer.limits.loop_budget
-    if budget is not None and longest * fo.samples + fo.samples > budget:
-        raise UserError(f"fog: a froxel meets {longest} lights, x {fo.samples} samples past "
-                        f"this driver's loop budget of {budget} iterations (fewer lights or "
-                        f"smaller froxels)")
+    # fog_light's loops per invocation: the set's hash, then each sample's light loop
+    if budget is not None and longest * (fo.samples + 1) + fo.samples > budget:
+        raise UserError(f"fog: a froxel meets {longest} lights, which at {fo.samples} samples "
+                        f"pass this driver's loop budget of {budget} iterations a froxel "
+                        f"(fewer lights or smaller froxels)")
     ranges = np.zeros(fg.count, layouts.CELL_RANGE)
     ranges["offset_count"][:, 0] = sets.offsets[:-1]
     ranges["offset_count"][:, 1] = np.diff(sets.offsets)

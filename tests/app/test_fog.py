@@ -169,3 +169,20 @@ def test_capture_fog_flags_dump_and_check(gl, tmp_path, capsys):
             capture.main(base + argv)
     with pytest.raises(UserError, match="no fog"):
         capture.main(["--scene", "hangar", "--size", "64x36", "--froxels", "8x8x8"])
+
+
+def test_a_froxel_past_the_drivers_loop_budget_is_refused(gl):
+    from app.pipeline import gl as glmod
+    budget = glmod.limits().loop_budget
+    if budget is None:
+        pytest.skip("this driver runs any loop to its end")
+    n = budget // 9 + 1                       # at 8 samples: (8 + 1) loops of n lights a froxel
+    lights = make_lights(n)
+    lights["position"] = (0.0, 2.0, -8.0)
+    lights["radius"] = 50.0
+    scene = make_scene(lights, size=(32, 18), camera=Camera((0.0, 2.0, 0.0), (0.0, 2.0, -1.0)))
+    scene.fog = Fog(0.05, (0.9, 0.9, 0.9), 20.0, 0.0)
+    with pytest.raises(UserError, match="loop budget"):
+        render(scene, "clustered", FogOptions((2, 2, 2), 8), size=(32, 18))
+    _, ok = render(scene, "clustered", FogOptions((2, 2, 2), 1), size=(32, 18))
+    assert int(ok.froxel_count.max()) == n    # one sample: within it, every light met
