@@ -89,7 +89,7 @@ class Technique:
     # hashes and images never do (tests compare `evaluated` across widths only without it).
     evaluates_per_wave: bool = False
     # How it serves a fog scene's froxels (app/pipeline/fog.py FROXEL_SOURCES: "all",
-    # "cells"); None: it refuses a fog scene in one line.
+    # "cells", "trees"); None: it refuses a fog scene in one line.
     froxels: str | None = None
 
     def __init_subclass__(cls, register_at: float | None = None, **kw) -> None:
