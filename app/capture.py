@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import cli, stereo_capture
+from . import cli, fog, stereo_capture
 
 # The output flags, each with the file it must be (None: a folder): never a silently renamed file.
 OUTPUTS = (
@@ -71,15 +71,17 @@ def build_parser():
     from .pipeline import transparent
     transparent.add_args(p)
     stereo_capture.add_args(p)
+    fog.add_fog_args(p)
     return p
 
 
 def main(argv=None) -> None:
     args = build_parser().parse_args(argv)
-    from scenes import BUILTIN_SCENES
+    from scenes import BUILTIN_SCENES, BUILTIN_VARIANTS
     from .techniques import REGISTRY, get
     if args.list:
         print("scenes:     " + " ".join(BUILTIN_SCENES))
+        print("variants:   " + " ".join(BUILTIN_VARIANTS))
         print("techniques: " + " ".join(REGISTRY))
         for t in REGISTRY.values():
             role = "" if t.role == "technique" else f" [{t.role}]"
@@ -107,6 +109,7 @@ def main(argv=None) -> None:
     from . import images, dump
     t0 = time.perf_counter()
     renderer = Renderer(scene, args.size, transparent_layers=args.transparent_layers)
+    renderer.fog_options = fog.fog_options(args, scene)
     warm = time.perf_counter()
     technique.build(renderer.frame_input(args.frame, args.frames), opts)
     warm_ms = (time.perf_counter() - warm) * 1e3
@@ -142,6 +145,7 @@ def main(argv=None) -> None:
         **gpu_timing(m, args.repeat),
         **transparent_summary(result),
         "cpu_warmup_ms": round(warm_ms, 2), "display": display,
+        **({"fog": m["fog"]["mismatch"]} if "fog" in m else {}),
         "wall_s": round(time.perf_counter() - t0, 2)}))
     if args.check:
         check_against_reference(renderer, technique, opts, result, args)
@@ -212,7 +216,10 @@ def check_against_reference(renderer, technique, opts, result, args) -> None:
     from .exactness import IntendedLoss, check
     from .techniques import with_role
     ref_t = with_role("reference")
+    own = renderer.fog_options                   # a fog scene: the reference on the frame's froxels
+    renderer.fog_options = fog.reference_options(result, own)
     ref = result if technique is ref_t else renderer.render(ref_t, args.frame, frames=args.frames)
+    renderer.fog_options = own
     m = check(result, ref, renderer, technique, ref_t,
               {"frame": args.frame, "frames": args.frames, "opts": opts}, args.check)
     if isinstance(m, IntendedLoss):       # a cap policy's loss: counted, neither pass nor failure
@@ -220,6 +227,10 @@ def check_against_reference(renderer, technique, opts, result, args) -> None:
         raise SystemExit(INTENDED_LOSS_EXIT)
     if m is not None:
         print(f"not exact: {m.message()}", file=sys.stderr)
+        raise SystemExit(1)
+    froxels = fog.check_froxels(result, ref)     # a fog scene: the froxels' light sets too
+    if froxels is not None:
+        print(f"not exact: {froxels}", file=sys.stderr)
         raise SystemExit(1)
     if technique.role == "sampler":       # its support is exact; its estimate, unbiased?
         from . import sampling_check
@@ -230,7 +241,8 @@ def check_against_reference(renderer, technique, opts, result, args) -> None:
         print(f"exact support: every light affecting a pixel in {ref_t.name} can be drawn "
               f"there; {verdict.message()}", file=sys.stderr)
         return
-    print(f"exact: {technique.name} equals {ref_t.name} at every pixel", file=sys.stderr)
+    print(f"exact: {technique.name} equals {ref_t.name} at every pixel"
+          + (" and every froxel" if result.froxel_count is not None else ""), file=sys.stderr)
 
 
 if __name__ == "__main__":

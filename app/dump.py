@@ -11,6 +11,8 @@ FIELDS = ("image", "depth", "evaluated", "contrib_count", "contrib_hash")
 # a scene with transparent surfaces adds, per layer (L, H, W): contrib_count_t, contrib_hash_t,
 # evaluated_t uint32 (0 where the layer has no fragment), depth_t float32 (app/pipeline/transparent.py)
 LAYER_FIELDS = ("contrib_count_t", "contrib_hash_t", "depth_t", "evaluated_t")
+# a fog scene's per-froxel light sets, (D, H, W) uint32, row 0 the top (app/pipeline/fog.py)
+FOG_FIELDS = ("froxel_count", "froxel_hash")
 
 
 def write_dump(path, result) -> None:
@@ -24,12 +26,16 @@ def write_dump(path, result) -> None:
     if getattr(result, "contrib_count_t", None) is not None:    # transparent layers (L, H, W)
         arrays.update({k: getattr(result, k).astype(np.float32 if k == "depth_t" else np.uint32)
                        for k in LAYER_FIELDS})
+    for k in FOG_FIELDS:
+        if getattr(result, k, None) is not None:
+            arrays[k] = getattr(result, k).astype(np.uint32)
     np.savez_compressed(path, **arrays, meta=np.array(json.dumps(result.meta, sort_keys=True)))
 
 
 def read_dump(path) -> dict:
     with np.load(path, allow_pickle=False) as d:
         out = {k: d[k] for k in FIELDS + LAYER_FIELDS if k in FIELDS or k in d}
+        out.update({k: d[k] for k in FOG_FIELDS if k in d.files})
         out["meta"] = json.loads(str(d["meta"]))
     return out
 

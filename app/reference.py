@@ -118,6 +118,8 @@ def _refusals(t) -> list[str]:
         out.append(f"- Refuses an option its mode ignores (set to other than its default): {doc}")
     for doc in _mro_docs(t.Options, "check_modes", TechniqueOptions):
         out.append(f"- Refuses a combination of options: {doc}")
+    from app.fog import serves_line
+    out.append(serves_line(t))
     return out
 
 

@@ -14,7 +14,7 @@ import numpy as np
 from .geometry import box_mesh, max_depth_for, merge_meshes, ramp_mesh
 from .lights import _fill_common, on_geometry, sample_on_geometry, sample_radii, spot_lights, uniform_in_box
 from .errors import MAX_LIGHTS, SceneError
-from .model import LIGHT_BOX, LIGHT_CAPSULE, Camera, Mesh, Scene, make_lights
+from .model import LIGHT_BOX, LIGHT_CAPSULE, Camera, Fog, Mesh, Scene, make_lights
 
 DISTRIBUTIONS = ("uniform", "geometry")
 RESOLUTION = (960, 540)
@@ -231,6 +231,19 @@ def build_hangar(lights: int | None = None, seed: int = 0, distribution: str | N
     ], near=0.1, far=200.0)
     ls = _distribute(n, dist, meshes, np.array(HANGAR_LO), np.array(HANGAR_HI), rng, (4.0, 25.0))
     return _finish("hangar", cams, meshes, ls)
+
+
+# A foggy hangar: the hall's lights seen through a homogeneous medium (scenes.model.Fog),
+# a variant beside the hangar so that its figures and tests stay what they were.  The
+# medium fills the hall's longest diagonal (~91 m); a forward-scattering g halos the lights.
+HANGAR_FOG = Fog(density=0.02, albedo=(0.9, 0.9, 0.9), far=92.0, anisotropy=0.4)
+
+
+def build_hangar_fog(lights: int | None = None, seed: int = 0, distribution: str | None = None) -> Scene:
+    """The hangar in fog (HANGAR_FOG)."""
+    scene = build_hangar(lights, seed, distribution)
+    scene.name, scene.fog = "hangar-fog", HANGAR_FOG
+    return scene
 
 
 # -------------------------------------------------------------------------------- gallery
@@ -575,4 +588,10 @@ BUILTIN_SCENES = {
     "contention": build_contention,
     "stress": build_stress,
     "city-glass": build_city_glass,
+}
+
+# Variants of the builtin scenes: loaded by name like them (load_scene, capture --list), but
+# not among the scenes every test and study iterates (their figures stay the same).
+BUILTIN_VARIANTS = {
+    "hangar-fog": build_hangar_fog,
 }

@@ -33,14 +33,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .builtin import BUILTIN_SCENES
+from .builtin import BUILTIN_SCENES, BUILTIN_VARIANTS
 from .errors import (FLOAT32_MAX, MAX_FAR_NEAR, MAX_LIGHTS, MAX_RADIUS, MAX_RESOLUTION,
                      FieldChecker, SceneError, jtype, one_line, show, suggest, to_f32)
 from .geometry import box_mesh, max_depth_for
 from .gltf import GLTF_SUFFIXES, load_gltf
 from .motion import KINDS as MOTION_KINDS, MAX_SPEED, Motion, outside as motion_outside
 from .model import (LIGHT_BOX, LIGHT_CAPSULE, LIGHT_DTYPE, LIGHT_SPOT, LIGHT_TYPES as TYPE_NAMES,
-                    Camera, Mesh, Scene, make_lights)
+                    Camera, Fog, Mesh, Scene, make_lights)
 
 __all__ = ["load_scene", "scene_from_dict", "check_camera", "SceneError", "MAX_LIGHTS"]
 
@@ -51,7 +51,9 @@ NPZ_VEC3 = ("position", "color", "direction", "up", "extent")
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)
 
 # The keys of each object of the contract, by kind where the kind decides.
-TOP_KEYS = ("resolution", "camera", "geometry", "lights", "lights_npz", "motion")
+TOP_KEYS = ("resolution", "camera", "geometry", "lights", "lights_npz", "motion", "fog")
+FOG_KEYS = ("density", "albedo", "far", "anisotropy")
+MAX_FOG_DENSITY = 1e3      # extinction per metre: beyond, a metre of fog is opaque to 1e-434
 MOTION_KEYS = ("kind", "speed", "seed", "bounds")
 CAMERA_KEYS = ("position", "target", "up", "fov_y_deg", "near", "far")
 BOX_KEYS = ("min", "max")
@@ -425,8 +427,33 @@ def scene_from_dict(d, base_dir=None, source_name: str = "<scene>") -> Scene:
         lights = np.concatenate([lights, _npz_lights(ctx, d["lights_npz"], len(lights))])
     name = Path(str(source_name)).stem or str(source_name)
     motion = _motion(ctx, d["motion"], meshes, lights) if "motion" in d else None
+    fog = _fog(ctx, d["fog"], camera) if "fog" in d else None
     return Scene(name=name, resolution=resolution, camera=camera, meshes=meshes, lights=lights,
-                 path=[], max_depth=max_depth_for([camera], meshes), motion=motion)
+                 path=[], max_depth=max_depth_for([camera], meshes), motion=motion, fog=fog)
+
+
+def _fog(ctx: FieldChecker, v, camera: Camera) -> Fog:
+    """`fog` (scenes.model.Fog): a homogeneous medium from the near plane to view depth
+    `far`: `density` >= 0 (extinction, 1/m), `albedo` in [0, 1] (a number or an RGB triple;
+    default 0.9), `far` > the camera's near (default: the camera's far), `anisotropy` (the
+    Henyey-Greenstein g) in (-1, 1) (default 0: isotropic)."""
+    f = ctx.obj(v, "fog")
+    ctx.keys(f, "fog", FOG_KEYS)
+    density = ctx.num(ctx.req(f, "density", "fog.density"), "fog.density", 0.0, MAX_FOG_DENSITY)
+    a = f.get("albedo", 0.9)
+    if isinstance(a, (list, tuple)):
+        albedo = ctx.vec3(a, "fog.albedo", lo=0.0)
+        for i, x in enumerate(albedo):
+            ctx.num(x, f"fog.albedo[{i}]", 0.0, 1.0)
+    else:
+        albedo = (ctx.num(a, "fog.albedo", 0.0, 1.0),) * 3
+    far = ctx.num(f.get("far", camera.far), "fog.far", lo=0.0, lo_incl=False)
+    if not far > camera.near:
+        ctx.fail("fog.far", f"must be beyond camera.near ({camera.near:g}) (got {show(f.get('far'))})")
+    if far / camera.near > MAX_FAR_NEAR:
+        ctx.fail("fog.far", f"fog.far/camera.near must be <= {MAX_FAR_NEAR:g} (got {far / camera.near:g})")
+    g = ctx.num(f.get("anisotropy", 0.0), "fog.anisotropy", -1.0, 1.0, False, False)
+    return Fog(float(density), tuple(float(x) for x in albedo), float(far), float(g))
 
 
 def _motion(ctx: FieldChecker, v, meshes, lights) -> Motion:
@@ -499,6 +526,8 @@ def load_scene(name_or_path: str, lights: int | None = None, seed: int = 0,
     src = str(name_or_path)
     if src in BUILTIN_SCENES:
         return BUILTIN_SCENES[src](lights, seed, distribution)
+    if src in BUILTIN_VARIANTS:
+        return BUILTIN_VARIANTS[src](lights, seed, distribution)
     path = Path(src)
     if not path.is_file():
         raise SceneError(f"{src}: not a builtin scene ({', '.join(BUILTIN_SCENES)}) "

@@ -61,6 +61,7 @@ class FrameInput:
     # the visible lights already culled and sorted (cpu_prep.lights.sort_ids' keys) for this
     # frame, e.g. over the union of two eyes' frusta (app.stereo): prepare() packs them only
     presorted: np.ndarray | None = None
+    fog: object | None = None        # the scene's medium (scenes.model.Fog; app/pipeline/fog.py)
 
     @property
     def limits(self) -> Limits:

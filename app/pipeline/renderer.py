@@ -38,7 +38,7 @@ import cpu_prep
 from cpu_prep.arena import Arena
 from cpu_prep.camera import frame_camera
 from cpu_prep.limits import WINDOW_ALL, LimitError
-from . import features as feat, gl, rawgl
+from . import features as feat, fog as fogmod, gl, rawgl
 from ..errors import FrameTimeout, UserError
 from .gbuffer import GBuffer, TEXTURE_UNITS
 from .passes import (DEPTH_FUNCS, DRAW_MODES, FRAME_OUTPUTS, OUT_CELL, OUT_STATS, Buffer, Build,
@@ -71,6 +71,10 @@ class FrameResult:
     contrib_hash_t: np.ndarray | None = None
     depth_t: np.ndarray | None = None
     evaluated_t: np.ndarray | None = None
+    froxel_count: np.ndarray | None = None   # (D,H,W) uint32 a fog scene's froxel light sets
+    froxel_hash: np.ndarray | None = None    # (D,H,W) uint32 (app/pipeline/fog.py)
+    froxel_sets: object | None = None        # cpu_prep.froxels.FroxelSets of the frame
+    froxel_grid: object | None = None        # ... and its cpu_prep.froxels.FroxelGrid
 
 
 @dataclass
@@ -114,6 +118,7 @@ class Renderer:
         self.transparent = transparent.for_scene(
             self.ctx, scene, transparent.DEFAULT_LAYERS if transparent_layers is None
             else transparent.check_layers(transparent_layers))
+        self.fog_options = None  # a fog scene's grid (app/pipeline/fog.py FogOptions; None: defaults)
 
     @property
     def size(self) -> tuple[int, int]:
@@ -192,7 +197,7 @@ class Renderer:
         lights = self.scene.lights_at(frame, frames) if lights is None else lights
         return FrameInput(lights, cam, self.scene.max_depth or cam.far, self.arena,
                           self.limits.loop_budget, self.limits.loop_lanes, self.limits,
-                          self.gbuffer.specular)
+                          self.gbuffer.specular, fog=self.scene.fog)
 
     def render(self, technique, frame: int = 0, opts=None, frames: int = 64,
                lights: np.ndarray | None = None, readback: bool = True, camera=None,
@@ -211,6 +216,8 @@ class Renderer:
         has passed, counting only the technique's passes (the module's docstring)."""
         begun = time.perf_counter()
         opts = technique.resolve_options(opts)
+        if self.scene.fog is not None:            # a technique that cannot serve froxels: one line
+            fogmod.refuse(technique, opts, self.fog_options)
         fin = self.frame_input(frame, frames, lights, camera)
         self._begin_frame(debug_pixel, readback if figures is None else figures)
         f = self._frame
@@ -241,6 +248,8 @@ class Renderer:
         if samples > 1:
             meta["samples"] = records
         result = FrameResult(meta=meta, build=build)
+        if self.scene.fog is not None and debug_pixel is None:   # the medium over the frame
+            fogmod.render_fog(self, technique, opts, build, result, self.fog_options, readback)
         if readback:
             self._read_outputs(result)
             if self.transparent is not None:

@@ -111,6 +111,9 @@ class Technique:
     # glsl/cells.glsl) or "cull-sort" (a structure made per pixel of a view, e.g. screen
     # tiles: only the CPU cull and sort are shared, the rest is built per eye)
     stereo_union: str = "cull-sort"
+    # How it serves a fog scene's froxels (app/pipeline/fog.py FROXEL_SOURCES: "all",
+    # "cells", "trees"); None: it refuses a fog scene in one line.
+    froxels: str | None = None
 
     def __init_subclass__(cls, register_at: float | None = None, **kw) -> None:
         """`class X(Technique, register_at=N)`: one instance of X joins the registry at
@@ -141,8 +144,13 @@ class Technique:
         (visible_lights()), in the one line its build raises, else None: from counts and
         options alone, no build, so the window's probe leaves a refusing technique out
         unbuilt.  Every technique meets the light rows' limit (light_rows_refusal); one with
-        limits of its own adds them here and its build raises them through refuse()."""
-        return light_rows_refusal(frame, opts, visible)
+        limits of its own adds them here and its build raises them through refuse().  A fog
+        scene's frame (frame.fog) also meets whether it serves froxels (pipeline/fog.py)."""
+        rows = light_rows_refusal(frame, opts, visible)
+        if rows or getattr(frame, "fog", None) is None:
+            return rows
+        from ..pipeline.fog import refusal as fog_refusal
+        return fog_refusal(self, opts)
 
     def build(self, frame: FrameInput, opts) -> Build:
         raise NotImplementedError

@@ -14,6 +14,7 @@ class Brute(Technique, register_at=10):
     summary = "every visible light at every pixel (reference)"
     role = "reference"
     views = ("shaded", "heat", "split")      # no diff: it is the reference
+    froxels = "all"                          # a fog scene: every visible light a candidate
 
     # stochastic light culling: the same budget, seed and frame draw the same ranges here,
     # so every technique is checked against brute under its own draw (app.exactness)

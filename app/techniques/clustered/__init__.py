@@ -26,6 +26,7 @@ class Clustered(Technique, register_at=30):
     summary = "2.5D grid of index lists (Persson 2013)"
     views = Technique.views + ("tiles", "slices", "variants")
     stereo_union = "structure"     # a 2.5D grid: both eyes shade from the union camera's cells
+    froxels = "cells"       # a fog scene: a froxel's candidates are the cells it overlaps
 
     @dataclass(frozen=True)
     class Options(SliceOptions, ListOptions, WaveOptions, ScalarizeOptions, CapOptions,

@@ -38,6 +38,7 @@ class Hybrid(Technique, register_at=50):
     summary = "2.5D grid, each cell a list or a tree (listing 2 heuristic)"
     views = Technique.views + ("tiles", "slices", "classes", "variants")
     stereo_union = "structure"     # a 2.5D grid of lists and trees over its cells' depth
+    froxels = "trees"       # a fog scene: the leaves of the cells it overlaps, by depth
     glsl = {"hybrid_cells.glsl": layouts.glsl_defines({"CELL_TREE_BIT": CELL_TREE_BIT})}
 
     @dataclass(frozen=True)

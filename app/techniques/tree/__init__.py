@@ -25,6 +25,7 @@ class Tree(Technique, register_at=40):
     name = "tree"
     summary = "a light tree per 2D tile (O'Donnell & Chajdas 2017)"
     views = Technique.views + ("tiles", "classes")
+    froxels = "trees"       # a fog scene: the leaves of the cells it overlaps, by depth
 
     @dataclass(frozen=True)
     class Options(TileOptions, ListOptions, TreeOptions, CapOptions, StochasticOptions, BuildOptions):
