@@ -64,10 +64,15 @@ def capture(args, technique, opts, scene, _albedo, gpu_timing) -> None:
     sep = stereo.check_separation(stereo.DEFAULT_SEPARATION if args.eye_separation is None
                                   else args.eye_separation)
     stereo.refuse(technique, opts, way)
+    if scene.fog is not None and way == "union":
+        raise UserError("--stereo-way union: a fog scene's froxels take their candidates from "
+                        "cells in the eye's own camera, which the union's shared structure does "
+                        "not index; --stereo-way per-view renders it")
     from .pipeline.renderer import Renderer
-    from . import dump, images
+    from . import dump, fog, images
     t0 = time.perf_counter()
-    renderer = Renderer(scene, args.size)
+    renderer = Renderer(scene, args.size, transparent_layers=args.transparent_layers)
+    renderer.fog_options = fog.fog_options(args, scene)
     warm = time.perf_counter()               # as mono's: the numba kernels' first call apart
     technique.build(renderer.frame_input(args.frame, args.frames), opts)
     warm_ms = (time.perf_counter() - warm) * 1e3
@@ -132,20 +137,26 @@ def check_eyes(renderer, technique, opts, sf, args) -> None:
     one differs.  A sampler: its support pixel by pixel, then its estimate statistically
     against that eye's reference (app.sampling_check), as mono's --check."""
     from .exactness import check
-    from . import sampling_check
+    from . import fog, sampling_check
     ref_t = with_role_reference()
     failed = False
+    own = renderer.fog_options
     for eye, result in sf.results.items():
         t, kw = sf.renders[eye]
-        # the reference per eye: the frame itself only when it is that (brute, per view)
+        # the reference per eye: the frame itself only when it is that (brute, per view); a
+        # fog scene's on that eye's own froxels
+        renderer.fog_options = fog.reference_options(result, own)
         ref = result if technique is ref_t and sf.way == "per-view" else \
             renderer.render(ref_t, args.frame, frames=args.frames, camera=kw["camera"])
+        renderer.fog_options = own
         m = check(result, ref, renderer, t, ref_t,
                   dict(kw, frame=args.frame, frames=args.frames, opts=opts),
                   str(Path(args.check) / eye))
-        if m is not None:
+        froxels = None if m is not None else fog.check_froxels(result, ref)
+        if m is not None or froxels is not None:
             failed = True
-            print(f"not exact: {eye} eye ({sf.way}): {m.message()}", file=sys.stderr)
+            print(f"not exact: {eye} eye ({sf.way}): {m.message() if m else froxels}",
+                  file=sys.stderr)
         elif technique.role == "sampler":
             verdict = sampling_check.check(_EyeRenderer(renderer, kw), t, opts, ref, args.frame,
                                            args.frames)
@@ -154,6 +165,7 @@ def check_eyes(renderer, technique, opts, sf, args) -> None:
                   f"({sf.way}): {verdict.message()}", file=sys.stderr)
         else:
             print(f"exact: {eye} eye ({sf.way}): {technique.name}'s equals {ref_t.name} "
-                  f"at every pixel", file=sys.stderr)
+                  f"at every pixel" + (" and every froxel" if result.froxel_count is not None
+                                       else ""), file=sys.stderr)
     if failed:
         raise SystemExit(1)

@@ -68,3 +68,17 @@ def test_bad_stereo_input_is_one_line_exit_2(tmp_path):
         assert r.returncode == 2, (args, r.stderr)
         lines = r.stderr.strip().splitlines()
         assert len(lines) == 1 and needle in lines[0], (args, r.stderr)
+
+
+def test_a_fog_scenes_eyes_are_checked_on_their_froxels_and_union_refuses_it(tmp_path):
+    fog = ("--scene", "hangar-fog", "--lights", "256", "--froxels", "16x9x8")
+    r = capture(*fog, "--technique", "clustered", "--views", "stereo",
+                "--dump", str(tmp_path / "d.npz"), "--check", str(tmp_path / "chk"))
+    assert r.returncode == 0, r.stderr
+    assert [ln for ln in r.stderr.splitlines() if ln.startswith("exact: ")] == \
+        [f"exact: {e} eye (per-view): clustered's equals brute at every pixel and every froxel"
+         for e in ("left", "right")]
+    d = read_dump(tmp_path / "d-left.npz")
+    assert d["froxel_count"].shape == (8, 9, 16) and d["froxel_count"].any()
+    r = capture(*fog, "--technique", "clustered", "--views", "stereo", "--stereo-way", "union")
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "per-view" in r.stderr
