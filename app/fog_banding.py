@@ -40,17 +40,27 @@ def banding(scene, technique, size, froxels, radius_scale: float = 1.0) -> dict:
     scene = copy.copy(scene)
     scene.lights = scene.lights.copy()
     scene.lights["radius"] *= np.float32(radius_scale)
-    renderer = Renderer(scene, size)
     out = {}
-    for grid in (froxels, "matched"):
-        exact = fog_only(renderer, technique, FogOptions(grid, 8, "exact"))
-        centre = fog_only(renderer, technique, FogOptions(grid, 8, "centre"))
-        diff = np.abs(centre - exact).max(axis=2)
-        err = float(diff.max() / max(float(exact.max()), 1e-30))
-        off = float((diff > 0.01 * exact.max(axis=2)).mean())
-        name = grid if isinstance(grid, str) else "x".join(map(str, grid))
-        out[name] = {"exact": exact, "centre": centre, "error": err, "pixels_off": off}
+    with Renderer(scene, size) as renderer:
+        for grid in (froxels, "matched"):
+            exact = fog_only(renderer, technique, FogOptions(grid, 8, "exact"))
+            centre = fog_only(renderer, technique, FogOptions(grid, 8, "centre"))
+            diff = np.abs(centre - exact).max(axis=2)
+            err = float(diff.max() / max(float(exact.max()), 1e-30))
+            off = float((diff > 0.01 * exact.max(axis=2)).mean())
+            name = grid if isinstance(grid, str) else "x".join(map(str, grid))
+            out[name] = {"exact": exact, "centre": centre, "error": err, "pixels_off": off}
     return out
+
+
+def banding_images(r: dict) -> dict[str, np.ndarray]:
+    """One grid's images of banding() as shown (uint8, the exact image's exposure): "exact",
+    "centre" and "difference" (|centre - exact| x 10)."""
+    from . import images
+    exposure = images.auto_exposure(r["exact"], np.ones(r["exact"].shape[:2], bool))
+    shown = lambda x: images.display(x, None, exposure, 0.0)
+    return {"exact": shown(r["exact"]), "centre": shown(r["centre"]),
+            "difference": shown(10 * np.abs(r["centre"] - r["exact"]))}
 
 
 def main(argv=None) -> None:
@@ -64,8 +74,8 @@ def main(argv=None) -> None:
                    help="the lights' radii times this (small lights: more of them end inside a cell)")
     p.add_argument("--out", required=True)
     args = p.parse_args(argv)
+    from PIL import Image
     from scenes import load_scene
-    from . import images
     from .fog import parse_froxels
     from .techniques import get
     scene = load_scene(args.scene, lights=args.lights)
@@ -81,12 +91,8 @@ def main(argv=None) -> None:
     out.mkdir(parents=True, exist_ok=True)
     summary = {}
     for name, r in res.items():
-        every = np.ones(r["exact"].shape[:2], bool)
-        exposure = images.auto_exposure(r["exact"], every)
-        for kind in ("exact", "centre"):
-            images.save_png(r[kind], out / f"{name}-{kind}.png", None, exposure, 0.0)
-        images.save_png(10 * np.abs(r["centre"] - r["exact"]), out / f"{name}-difference.png",
-                        None, exposure, 0.0)
+        for kind, shown in banding_images(r).items():
+            Image.fromarray(shown).save(out / f"{name}-{kind}.png")
         summary[name] = {"max_error": round(r["error"], 6), "pixels_off_1pct": round(r["pixels_off"], 4)}
     print(json.dumps({"scene": args.scene, "technique": args.technique, "grids": summary}))
 

@@ -43,7 +43,9 @@ list arguments), plan (the rendered jobs), measure (one row from a frame), rende
 rendered study), sweep (its measuring, and running a preset), validation (the papers' study),
 cpu_series (the CPU-only series), temporal, cpu (the `cpu` subcommand, the growth study),
 gpu_build, c_reference, caps, path (--path), cutoff (the light cutoff rule), machine (run.json's
-machine figures), stereo (two eyes, a structure per view or one over both frusta: app.stereo).  Nothing here names a technique: the exactness
+machine figures), stereo (two eyes, a structure per view or one over both frusta: app.stereo), transparent
+(the frame with its transparent layers against the opaque-only frame), fog (froxel light
+sets and the banding case).  Nothing here names a technique: the exactness
 reference and the floor are found by role (app.techniques.with_role).
 
 CPU threads: the CPU stage runs on `--threads` numba threads, 1 by default as in the tree

@@ -18,16 +18,18 @@ from .args import int_list
 from .c_reference.compare import CReferenceConfig
 from .cpu import GROWTH_LIGHTS, GrowthConfig
 from .cpu_series import CpuConfig
+from .fog import FogConfig
 from .gpu_build import GpuBuildConfig
 from .rendered import RenderedConfig
 from .sampling import SamplingConfig
 from .stereo import StereoConfig
 from .study import Shared
 from .temporal import TemporalConfig
+from .transparent import TransparentConfig
 from .validation import PapersConfig
 
 STUDY_ORDER = ("temporal", "rendered", "sampling", "papers", "cpu", "growth", "gpu_build", "c_reference",
-               "stereo")
+               "stereo", "transparent", "fog")
 SCENES = ("arena", "city", "hangar", "gallery", "corridor")
 SHARED = "shared"             # a change of the Shared config, in `changed`
 SAMPLE_STUDY = (1, 2, 4, 8, 16, 32, 64)        # the full preset's light samples S a pixel
@@ -106,7 +108,17 @@ def _quick() -> Preset:
         ("c_reference", CReferenceConfig("arena", (65536,), (1920, 1080), 21, threads=(1, 2))),
         # both eyes, both ways, every culling technique on one frame at 160x90 an eye and
         # 2,048 lights: ~4 s on 2 cores
-        ("stereo", StereoConfig(("arena",), 2048, (160, 90), 0.064, repeat=3, seed=s.seed))))
+        ("stereo", StereoConfig(("arena",), 2048, (160, 90), 0.064, repeat=3, seed=s.seed)),
+        # the frame with its transparent layers against the opaque-only frame, every
+        # technique, frame 0 of city-glass at 4,096 lights (the fewest at which most pixels
+        # and fragments meet a light: 0.47 exact lights a pixel, 0.68 a fragment; 2,048 give
+        # 0.07) and 128x72, 3 samples: 12-24 s on 2 shared cores, most of it brute's, raster's
+        # and perfect's frames
+        ("transparent", TransparentConfig(("city-glass",), 4096, (128, 72), repeat=3, seed=s.seed)),
+        # froxel sets of the serving techniques on frame 0 of hangar-fog at 1,024 lights and
+        # 160x90 on a 40x23x16 grid (the default 160x90x64 grid's sets take seconds on the
+        # CPU), 3 samples, and the banding case on that grid: 3-7 s on 2 shared cores
+        ("fog", FogConfig(("hangar-fog",), 1024, (160, 90), (40, 23, 16), repeat=3, seed=s.seed))))
 
 
 def _full() -> Preset:
@@ -131,7 +143,10 @@ def _full() -> Preset:
         ("c_reference", CReferenceConfig("arena", (16384, 65536), (1920, 1080), 61,
                                          threads=(1, 2))),
         ("stereo", StereoConfig(("arena", "city"), 16384, (960, 540), 0.064, repeat=5,
-                                seed=s.seed))))
+                                seed=s.seed)),
+        ("transparent", TransparentConfig(("city-glass",), 16384, (960, 540), repeat=5, seed=s.seed)),
+        # the default grid (160x90x64): brute's sets test every visible light at each froxel
+        ("fog", FogConfig(("hangar-fog",), 4096, (960, 540), (160, 90, 64), repeat=3, seed=s.seed))))
 
 
 QUICK = _quick()
@@ -150,7 +165,8 @@ GPU_CHECK = FULL.changed(
     temporal=dict(frames=0), rendered=dict(cutoffs=(), cutoff_scenes=(), caps_scenes=()),
     sampling=dict(scenes=()),
     papers=dict(size=None), cpu=dict(lights=()), growth=dict(lights=(), frames=2),
-    gpu_build=dict(lights=()), c_reference=dict(lights=()), stereo=dict(scenes=()))
+    gpu_build=dict(lights=()), c_reference=dict(lights=()), stereo=dict(scenes=()),
+    transparent=dict(scenes=()), fog=dict(scenes=()))
 
 PRESETS = {"quick": QUICK, "full": FULL, "gpu-check": GPU_CHECK}
 
@@ -226,6 +242,13 @@ def preset_from_args(args) -> Preset:
         ch["stereo"]["lights"] = min(int_list(args.lights, "--lights"))
     if args.repeat is not None:
         ch["stereo"]["repeat"] = args.repeat
+    for study in ("transparent", "fog"):   # their own scenes; the frame overrides reach them
+        if args.size:
+            ch[study]["size"] = tuple(args.size)
+        if args.lights:
+            ch[study]["lights"] = min(int_list(args.lights, "--lights"))
+        if args.repeat is not None:
+            ch[study]["repeat"] = args.repeat
     return preset.changed(**ch)
 
 

@@ -17,7 +17,10 @@ believe), validation (the model beside the papers' measurements), tradeoff (the 
 figure: image and temporal error against frame cost over cutoffs, cap policies and
 stochastic culling), sampling (samplers against culling on one frame; reads
 DIR/sampling.csv, app.bench.sampling), stereo (two eyes, a structure per view or one over
-both frusta; reads DIR/stereo.csv, app.bench.stereo).
+both frusta; reads DIR/stereo.csv, app.bench.stereo), transparent (the frame with its
+transparent layers against the opaque-only frame; reads DIR/transparent.csv,
+app.bench.transparent), fog (froxel light sets and the banding case; reads DIR/fog.csv and
+DIR/fog_banding.npz, app.bench.fog).
 """
 from __future__ import annotations
 
@@ -43,6 +46,8 @@ from .tables import floor_table, summary_table
 from .tradeoff import EXPLANATION as TRADEOFF_EXPLANATION, fig_tradeoff
 from .sampling import CSV as SAMPLING_CSV, sampling_section
 from .stereo import CSV as STEREO_CSV, stereo_section
+from .transparent import CSV as TRANSPARENT_CSV, transparent_section
+from .fog import CSV as FOG_CSV, fog_section
 from .model import model_section
 from .validation import validation
 
@@ -75,6 +80,12 @@ def write_report(out: Path, rows: list[dict], maps: dict, info: dict) -> list[st
             *sampling_section(srows, out, roles))
     strows = read_csv(out / STEREO_CSV) if (out / STEREO_CSV).exists() else []
     section("Two eyes: a structure per view or one over both frusta", *stereo_section(strows))
+    trrows = read_csv(out / TRANSPARENT_CSV) if (out / TRANSPARENT_CSV).exists() else []
+    section("Transparent layers: each technique's frame with its layers against its opaque-only "
+            "frame", *transparent_section(trrows, out))
+    fgrows = read_csv(out / FOG_CSV) if (out / FOG_CSV).exists() else []
+    section("Fog: froxel light sets from each technique's structure, and the banding case",
+            *fog_section(fgrows, out))
     section("What accuracy costs: culling waste vs frame cost", *fig_accuracy(rows, out, colors, roles))
     section("Modelled GPU cost at 1920x1080, per scene and GPU (app/model)",
             *fig_gpu_scenes(rows, out, colors, roles))
