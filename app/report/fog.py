@@ -99,7 +99,7 @@ def _lines(scene, mine) -> list[str]:
     served = sel(mine, kind="froxels")
     cands = {r["technique"]: Spread.of(r, "sets_cpu") for r in served}
     if cands:
-        text.append(f"{scene}: " + lowest_phrase(cands, "building the froxel sets"))
+        text.append(f"{scene}: " + lowest_phrase(cands, "building the froxel sets") + ".")
     for r in served:
         if not math.isnan(num(r["unneeded_pf_matched"])):
             text.append(f"{scene}: {r['technique']}'s not-needed candidates a froxel: "

@@ -15,6 +15,7 @@ from .spread import Spread, below, lowest_phrase
 CSV = "transparent.csv"       # the study's file in the run's folder (app.bench.transparent writes it)
 PNG = "transparent.png"
 LOOKED_UP = "looked up"       # the study's `serves` values (app.bench.transparent)
+CULLING = "technique"         # the role of the culling techniques (app.techniques.base.ROLES)
 
 EXPLANATION = (
     "Frame 0 of a scene with transparent surfaces, every technique, the frame with its layers "
@@ -121,10 +122,12 @@ def _lines(scene, mine) -> list[str]:
             r["technique"] + (f" ({r['rebuilt']})" if _text(r.get("rebuilt")) else ""))
     for serves, names in how.items():
         text.append(f"{scene}: {serves}: {', '.join(names)}.")
-    cands = {r["technique"]: Spread.of(r, "layers_gpu") for r in mine
+    culling = [r for r in mine if r.get("role") == CULLING] or mine
+    cands = {r["technique"]: Spread.of(r, "layers_gpu") for r in culling
              if not math.isnan(num(r["layers_gpu_ms"]))}
     if cands:
-        text.append(f"{scene}: " + lowest_phrase(cands, "the layers' extra GPU time"))
+        among = " among the culling techniques" if culling is not mine else ""
+        text.append(f"{scene}: " + lowest_phrase(cands, f"the layers' extra GPU time{among}") + ".")
     kinds = [(r["technique"], num(r["waste_layers"]) / num(r["waste"])) for r in mine
              if num(r["waste"]) > 0 and not math.isnan(num(r["waste_layers"]))]
     if kinds:

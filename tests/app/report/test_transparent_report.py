@@ -46,6 +46,6 @@ def test_how_each_serves_the_layers_and_the_cheapest_layers():
     assert png is None and table.count("\n| ") == 3           # header rule + a row each
     assert any("rebuilt per layer: tiled (its tiles' light lists)" in t for t in text)
     assert any("looked up: clustered." in t for t in text)
-    assert any("extra GPU time is lowest at clustered" in t for t in text)
+    assert any("extra GPU time among the culling techniques is lowest at clustered" in t for t in text)
     assert any("from 0.50x (clustered) to 0.75x (tiled)" in t for t in text)
     assert "2 of at most 4 layers used (100, 100 fragments" in table
