@@ -52,3 +52,20 @@ def test_the_banding_sentence_gives_both_grids():
     assert "on the 40x23x16 grid 11.87% of the pixels" in line and "0.32% of the brightest" in line
     assert "on the matched grid 0.00% of the pixels" in line and "radii x0.2" in line
     assert banding_line("hangar-fog", []) == ""
+
+
+def test_write_report_holds_the_section_and_the_banding_images(tmp_path):
+    import numpy as np
+    from app.report import write_report
+    from app.report.fog import BANDING, CSV, KINDS, PNG
+    from app.results import write_csv
+    rows = [served(), band("40x23x16", 0.0032, 0.1187), band("matched", 0.0, 0.0), refused("tiled")]
+    cols = list(dict.fromkeys(k for r in rows for k in r))
+    write_csv(rows, tmp_path / CSV, cols)
+    image = np.zeros((9, 16, 3), np.uint8)
+    np.savez(tmp_path / BANDING, **{f"hangar-fog/{g}/{k}": image for g in ("40x23x16", "matched")
+                                    for k in KINDS})
+    write_report(tmp_path, [], {}, {})
+    md = (tmp_path / "report.md").read_text()
+    assert "## Fog" in md and f"({PNG})" in md and (tmp_path / PNG).exists()
+    assert "| clustered | cells |" in md and "banding case" in md

@@ -49,3 +49,15 @@ def test_how_each_serves_the_layers_and_the_cheapest_layers():
     assert any("extra GPU time among the culling techniques is lowest at clustered" in t for t in text)
     assert any("from 0.50x (clustered) to 0.75x (tiled)" in t for t in text)
     assert "2 of at most 4 layers used (100, 100 fragments" in table
+
+
+def test_write_report_holds_the_section_after_the_stereo_one(tmp_path):
+    from app.report import write_report
+    from app.report.transparent import CSV, PNG
+    from app.results import write_csv
+    rows = [row(), row("clustered", "looked up")]
+    write_csv(rows, tmp_path / CSV, list(rows[0]))
+    write_report(tmp_path, [], {}, {})
+    md = (tmp_path / "report.md").read_text()
+    assert "## Transparent layers" in md and f"({PNG})" in md and (tmp_path / PNG).exists()
+    assert "| tiled | rebuilt per layer |" in md and "| clustered | looked up |" in md
