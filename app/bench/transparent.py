@@ -149,11 +149,11 @@ def layered_sample(meta: dict, peel_ms: float, composite_ms: float) -> dict:
     return {"cpu_ms": dict(meta["cpu_ms"]), "gpu_ms": gpu}
 
 
-def timed_layers(renderer) -> tuple[float, float]:
+def timed_layers(renderer, timer) -> tuple[float, float]:
     """(peel ms, compositing ms) of the layers over the frame the renderer just rendered,
-    timed by the renderer's own pass timer around the same GL work."""
-    from ..pipeline import gl
-    layers, timer = renderer.transparent, gl.PassTimer(renderer.ctx)
+    timed by `timer` (a gl.PassTimer of the renderer's context, the renderer's own kind)
+    around the same GL work."""
+    layers = renderer.transparent
     camera = renderer.frame_input(0, 64).camera
     timer.run("peel", lambda: layers.peel(renderer, camera))
     timer.run("composite", lambda: layers.composite(renderer))
@@ -168,8 +168,10 @@ def _prefixed(cells: dict, prefix: str) -> dict:
 
 def run_scene(glass, opaque, c: TransparentConfig, log=None) -> list[dict]:
     """The rows of one scene's frame 0 (its layered and opaque-only renderers)."""
+    from ..pipeline import gl
     from ..techniques import with_role
     log = log or sys.stderr
+    timer = gl.PassTimer(glass.ctx)
     reference = with_role("reference")
     ref = glass.render(reference)
     rows = []
@@ -181,7 +183,7 @@ def run_scene(glass, opaque, c: TransparentConfig, log=None) -> list[dict]:
         layered, plain, extra = [], [], []
         for _ in range(c.repeat):                       # interleaved rounds
             res = glass.render(t, readback=False)
-            layered.append(layered_sample(res.meta, *timed_layers(glass)))
+            layered.append(layered_sample(res.meta, *timed_layers(glass, timer)))
             plain += measure.samples_of(opaque.render(t, readback=False).meta)
             extra.append(sum(layered[-1]["cpu_ms"].values()) - sum(plain[-1]["cpu_ms"].values()))
         cells, ocells = measure.timing_cells(layered), measure.timing_cells(plain)

@@ -110,10 +110,12 @@ def _lines(scene, mine) -> list[str]:
     if served:
         text.append(f"{scene}: every serving technique's froxel sets and pixels equal brute's."
                     if not bad else f"{scene}: NOT exact: {', '.join(bad)}.")
-    refused = sel(mine, kind="refused")
-    if refused:
-        text.append(f"{scene}: refuse a fog scene (they do not serve froxels): "
-                    f"{', '.join(r['technique'] for r in refused)}; e.g. \"{refused[0]['refusal']}\".")
+    groups: dict[str, list[dict]] = {}     # refusals alike but for the technique's name
+    for r in sel(mine, kind="refused"):
+        groups.setdefault(str(r["refusal"]).replace(r["technique"], ""), []).append(r)
+    for refused in groups.values():
+        text.append(f"{scene}: refuse the fog frame: {', '.join(r['technique'] for r in refused)}"
+                    f" (\"{refused[0]['refusal']}\").")
     line = banding_line(scene, sel(mine, kind="banding"))
     if line:
         text.append(line)

@@ -82,7 +82,7 @@ def test_the_report_section_tables_the_serving_techniques_and_draws_the_banding(
         assert sum(line.startswith(f"| {t.name} |") for line in table.splitlines()) == \
             (1 if source_of(t) else 0)
     assert "no (" not in table
-    assert any("refuse a fog scene" in t for t in text)
+    assert any("refuse the fog frame" in t for t in text)
     assert any("banding case" in t and "matched grid 0.00%" in t for t in text)
     assert fog_section([]) == (None, [], "")
 

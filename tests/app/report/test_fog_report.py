@@ -43,7 +43,10 @@ def test_the_table_the_matched_grid_and_the_refusing_techniques():
     assert "| 915 | 877 |  |  | yes |" in brute          # no matched grid for every light
     assert "| 4x2x16 | 23.8 | yes |" in next(l for l in table.splitlines() if l.startswith("| clustered |"))
     assert any("85 on the 40x23x16 grid, 23.8 on its matched grid (4x2x16)" in t for t in text)
-    assert any("refuse a fog scene" in t and "tiled, zbin" in t for t in text)
+    assert any("refuse the fog frame: tiled, zbin (" in t for t in text)
+    other = dict(refused("hybrid"), refusal="hybrid: --build gpu with a fog scene")
+    lines = [t for t in fog_section(rows + [other])[1] if "refuse the fog frame" in t]
+    assert len(lines) == 2 and lines[1].endswith('hybrid ("hybrid: --build gpu with a fog scene").')
     assert "| tiled |" not in table
 
 
