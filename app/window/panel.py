@@ -23,6 +23,7 @@ from ..errors import UserError
 from ..display import DISPLAY, DISPLAY_FLAGS
 from ..given_options import GivenOptions, flag
 from ..views import HEAT_OF, SPLIT_VIEWS, views_of
+from .views import STEREO_VIEWS
 
 DISTRIBUTIONS = ("uniform", "geometry")
 # the exposure slider is in EV: log2 of the exposure factor's declared range
@@ -58,13 +59,16 @@ class LabState:
     panel: bool = True
     version: int = 0                        # bumped by every change
     messages: list = field(default_factory=list)
+    scene_views: tuple = ()                 # the scene's views (app.window.views.WINDOW_VIEWS): froxels in fog
+    stereo: bool = False                    # --views stereo / B: both eyes side by side (stereo_view.py)
 
     @property
     def tech(self):
         return self.registry[self.technique]
 
     def views(self) -> tuple[str, ...]:
-        return views_of(self.tech)
+        own = views_of(self.tech) + self.scene_views
+        return tuple(v for v in own if v in STEREO_VIEWS) if self.stereo else own
 
     def changed(self, message: str | None = None) -> None:
         self.version += 1
