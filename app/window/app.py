@@ -127,6 +127,7 @@ class LabWindow(mglw.WindowConfig):
             self._start_fastest(setup["candidates"])
         self.state.split_with = self.state.default_split()
         self.state.scene_views = (FROXEL_VIEW,) if self.scene.fog is not None else ()
+        self.composer.froxels.k = getattr(a, "froxel_slice", 0)
         if feats["stereo"]:
             self._set_stereo(True)
         if self.state.view not in self.state.views():
@@ -486,7 +487,7 @@ class LabWindow(mglw.WindowConfig):
                             fog=fog_figures(m, self.features["fog"], self.composer.held_since))
         if s.view == FROXEL_VIEW:
             self.figures["froxel_note"] = self.composer.froxels.note()
-            self.figures["froxel_slice"] = self.composer.froxels.k
+            self.figures["froxel_slice"] = self.composer.froxels.figures()
         if s.stereo:
             self.figures["model"] = "modelled GPU ms: mono frames only (B)"
             return plan, c, fc, key

@@ -112,6 +112,14 @@ class FroxelView:
                 f"meeting each froxel, {mean:.2f} on average, 0 .. {top:g}, log2(1 + n) "
                 f"turbo (< > slice)")
 
+    def figures(self) -> dict | None:
+        """The slice shown, for the frame's JSON line."""
+        if self.shown is None:
+            return None
+        k, d, z0, z1, top, mean = self.shown
+        return {"k": k, "slices": d, "depth": [round(z0, 4), round(z1, 4)], "top": top,
+                "mean": round(mean, 4)}
+
     def map_of(self, renderer, scene, result, size):
         """(pixels (h, w) GL rows, top of the scale, label) of slice k of this frame."""
         if scene.fog is None or "froxel_stats" not in renderer.provided():
@@ -121,7 +129,7 @@ class FroxelView:
         fg = pfog.froxel_grid(result.build, scene.fog, fo)
         w, h, d = fg.dims
         counts = renderer.read("froxel_stats")["count"].reshape(d, h, w)
-        self.k %= d
+        self.k = min(self.k, d - 1)          # --froxel-slice past the grid: its farthest
         top = images.heat_top(int(counts.max(initial=0)))
         k = self.k
         self.shown = (k, d, float(fg.zs[k]), float(fg.zs[k + 1]), top, float(counts[k].mean()))

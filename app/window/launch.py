@@ -99,6 +99,8 @@ def add_feature_args(p) -> None:
                       f"{w}x{h}x{d}, coarser than capture's: the sets are built every frame; W and "
                       f"H at most the render's pixels; 'matched': a froxel per cell of the "
                       f"technique's own grid)")
+    p.add_argument("--froxel-slice", type=int, default=0, metavar="K",
+                   help="the froxels view's starting depth slice (0 the nearest; < > step it)")
     p.add_argument("--fog-hold", type=_bool, default=True, metavar="on|off",
                    help="a fog scene: while the camera, lights and settings rest, show the last "
                         "frame again instead of rebuilding its froxel sets (default on)")
@@ -111,6 +113,8 @@ def check_features(args, scene, candidates, given) -> tuple[dict, list[str]]:
     from ..techniques import REGISTRY
     from .stereo_view import refusal
     fo = fog.fog_options(args, scene)               # a scene without fog refuses its flags
+    if args.froxel_slice < 0:
+        raise UserError(f"--froxel-slice {args.froxel_slice}: expected a slice, 0 or more")
     if args.view in WINDOW_VIEWS and scene.fog is None:
         raise UserError(f"--view {args.view}: the scene has no fog (the builtin hangar-fog, or a "
                         f"scene file's `fog` block)")
