@@ -42,7 +42,8 @@ from . import keys, probe, progress
 from .camera import FlyCamera
 from .compose import REF_SETTLE_S, FrameComposer, Screenshots
 from .figures import UIModel, frame_figures, heat_scale
-from .fog_view import FROXEL_VIEW, fog_figures, transparent_figures, window_renderer
+from .fog_view import (FROXEL_VIEW, LAYERS_VIEW, fog_figures, scene_views, transparent_figures,
+                       window_renderer)
 from .stereo_view import StereoComposer, eye_size, refusal as stereo_refusal
 from .. import stereo
 from .hud import inspect_lines, technique_lines, title, window_hud
@@ -126,7 +127,7 @@ class LabWindow(mglw.WindowConfig):
         if setup["technique"] is None:
             self._start_fastest(setup["candidates"])
         self.state.split_with = self.state.default_split()
-        self.state.scene_views = (FROXEL_VIEW,) if self.scene.fog is not None else ()
+        self.state.scene_views = scene_views(self.scene)
         self.composer.froxels.k = getattr(a, "froxel_slice", 0)
         if feats["stereo"]:
             self._set_stereo(True)
@@ -486,8 +487,11 @@ class LabWindow(mglw.WindowConfig):
         self.figures.update(stereo=st, transparent=transparent_figures(m),
                             fog=fog_figures(m, self.features["fog"], self.composer.held_since))
         if s.view == FROXEL_VIEW:
-            self.figures["froxel_note"] = self.composer.froxels.note()
+            self.figures["scene_note"] = self.composer.froxels.note()
             self.figures["froxel_slice"] = self.composer.froxels.figures()
+        elif s.view == LAYERS_VIEW:
+            self.figures["scene_note"] = self.composer.layers_note
+            self.figures["layers_top"] = self.composer.map_shown[2]
         if s.stereo:
             self.figures["model"] = "modelled GPU ms: mono frames only (B)"
             return plan, c, fc, key

@@ -32,7 +32,7 @@ from .figures import frame_sums, split_figures
 from .inspect import Inspection, inspect
 from . import variant_view
 from ..views import HEAT_OF, PASS_VIEWS, VIEWS
-from .fog_view import FROXEL_VIEW, FroxelView
+from .fog_view import FROXEL_VIEW, LAYERS_VIEW, FroxelView, layers_map, layers_note
 from .views import Overlay, present_view
 
 REF_SETTLE_S = 0.3            # interactive: the reference renders once the view is this still
@@ -80,6 +80,7 @@ class FrameComposer:
         self.uniforms: dict = {}
         self._still = (None, time.perf_counter())     # the view's key, and since when
         self.froxels = FroxelView()       # the froxels view's slice (fog scenes)
+        self.layers_note = ""             # the layers view's HUD line (transparent surfaces)
         self.hold = False                 # a fog scene: hold a frame while nothing moved
         self._held = None                 # (what it rendered, FrameResult, frame) of the last render
         self.held_since = None            # the frame number a held frame was rendered at
@@ -140,8 +141,7 @@ class FrameComposer:
             self._upload_map(plan.technique, result, size)
         if state.view == "variants":
             self._upload_variants(result)
-        if state.view == FROXEL_VIEW:
-            self.upload_froxels(r.scene, result, size)
+        self.upload_scene_view(state.view, result, size)
         exposure = images.exposure_from_histogram(extra["hist"]) if state.exposure_auto else state.exposure_manual
         state.exposure_now = exposure
         ins = self._inspect(result, debug_pixel, size) if debug_pixel is not None else None
@@ -204,11 +204,18 @@ class FrameComposer:
             self._map_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._map_tex.write(np.ascontiguousarray(pixels, np.float32).tobytes())
 
-    def upload_froxels(self, scene, result, size) -> None:
-        """The froxels view: slice k's froxel light counts (fog_view.FroxelView) as the map."""
-        pixels, top, label = self.froxels.map_of(self.renderer, scene, result, size)
+    def upload_scene_view(self, view, result, size) -> None:
+        """The froxels view (slice k's froxel light counts, fog_view.FroxelView) or the
+        layers view (lights evaluated over the opaque surface and its layers) as the map."""
+        if view == FROXEL_VIEW:
+            pixels, top, label = self.froxels.map_of(self.renderer, self.renderer.scene, result, size)
+        elif view == LAYERS_VIEW:
+            pixels, top, label, used = layers_map(self.renderer)
+            self.layers_note = layers_note(top, used)
+        else:
+            return
         self._write_map(pixels, size)
-        self.map_shown = ("froxels", label, top)
+        self.map_shown = (view, label, top)
 
     def _upload_variants(self, result) -> None:
         """The variants view: each variant tile's colour (VARIANT_VIEW) from this frame's

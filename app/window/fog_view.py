@@ -25,6 +25,43 @@ from ..pipeline.fog import FogOptions
 
 WINDOW_FROXELS = (40, 23, 32)
 FROXEL_VIEW = "froxels"
+LAYERS_VIEW = "layers"
+
+
+def scene_views(scene) -> tuple[str, ...]:
+    """The window's views a scene has: froxels in fog, layers with transparent surfaces."""
+    return tuple(v for v, has in ((LAYERS_VIEW, bool(scene.transparent_meshes())),
+                                  (FROXEL_VIEW, scene.fog is not None)) if has)
+
+
+def refuse_view(view: str, scene) -> None:
+    """--view froxels / layers on a scene without that feature: one line."""
+    if view == FROXEL_VIEW and scene.fog is None:
+        raise UserError(f"--view {view}: the scene has no fog (the builtin hangar-fog, or a "
+                        f"scene file's `fog` block)")
+    if view == LAYERS_VIEW and not scene.transparent_meshes():
+        raise UserError(f"--view {view}: the scene has no transparent surfaces (the builtin "
+                        f"city-glass, or a mesh with opacity below 1)")
+
+
+def layers_map(renderer):
+    """The layers view of the frame just rendered: (lights evaluated per pixel over the
+    opaque surface and every transparent layer, (h, w) GL rows; top; label; layers)."""
+    from cpu_prep import layouts
+    t = renderer.transparent
+    w, h = renderer.size
+    total = renderer.read("out_stats")["evaluated"][:w * h].astype(np.float32)
+    n = w * h * layouts.PIXEL_STATS.itemsize
+    used = t.used if t is not None else 0
+    for k in range(used):           # 0 where a layer has no fragment
+        total += np.frombuffer(t.stats.read(size=n, offset=k * n), layouts.PIXEL_STATS)["evaluated"]
+    top = images.heat_top(float(total.max(initial=0.0)))
+    return total.reshape(h, w), top, f"lights evaluated, opaque + {used} layers", used
+
+
+def layers_note(top: float, used: int) -> str:
+    return (f"layers: lights evaluated per pixel, the opaque surface and its {used} transparent "
+            f"layers summed (the pixel's shading work), 0 .. {top:g}, log2(1 + n) turbo")
 
 
 def window_options(given: FogOptions | None, size) -> FogOptions:
@@ -53,8 +90,8 @@ def feature_lines(f: dict) -> list[str]:
     if t:
         gpu = sum(t["gpu_ms"].values())
         out.append(f"transparent: {t['layers']} layers (of {t['max_layers']}) over the opaque "
-                   f"image, GPU {gpu:.1f} ms (not in the GPU line); heat, diff, tiles: the opaque "
-                   f"surface's")
+                   f"image, GPU {gpu:.1f} ms (not in the GPU line); heat and diff: the opaque "
+                   f"surface's (view layers: with the layers)")
     g = f.get("fog")
     if g:
         out.append(f"fog {g['froxels']} froxels ({g['grid']}): {g['lights_mean']:g} lights a "

@@ -6,8 +6,8 @@ import math
 
 from .keys import help_line
 from .probe import SLOW_MS, duration
-from .fog_view import FROXEL_VIEW, feature_lines
-from .views import view_note
+from .fog_view import feature_lines
+from .views import WINDOW_VIEWS, view_note
 
 HELP = help_line()
 
@@ -111,8 +111,10 @@ def window_hud(f: dict, state, *, message: str, warning: str, predicted_ms, stat
                      overlay_mode=f["heat_overlay"], reference=reference, differ=f["differ"],
                      split=s.split_with, split_view=s.split_view, map_name=map_name,
                      map_label=map_label, map_top=map_top)
-    if f["view"] == FROXEL_VIEW:
-        note = f.get("froxel_note") or note
+    if f["view"] in WINDOW_VIEWS:
+        note = f.get("scene_note") or note
+    elif f["view"] == "heat" and f.get("transparent"):
+        note += " (the opaque surface's; view layers: with its transparent layers)"
     names = list(s.registry)
     lines = hud_lines(f, position=f"{names.index(s.technique) + 1}/{len(names)}", role=s.tech.role,
                       software=software, playing=playing, options=s.options.hud_line(s.tech),

@@ -111,13 +111,12 @@ def check_features(args, scene, candidates, given) -> tuple[dict, list[str]]:
     candidates that can render them; one line and exit 2 for what cannot be."""
     from .. import fog, stereo, stereo_capture
     from ..techniques import REGISTRY
+    from .fog_view import refuse_view
     from .stereo_view import refusal
     fo = fog.fog_options(args, scene)               # a scene without fog refuses its flags
     if args.froxel_slice < 0:
         raise UserError(f"--froxel-slice {args.froxel_slice}: expected a slice, 0 or more")
-    if args.view in WINDOW_VIEWS and scene.fog is None:
-        raise UserError(f"--view {args.view}: the scene has no fog (the builtin hangar-fog, or a "
-                        f"scene file's `fog` block)")
+    refuse_view(args.view, scene)                  # froxels, layers: the scene's features
     on = stereo_capture.wanted(args)                # a stereo flag without --views stereo: refused
     way = args.stereo_way or "per-view"
     sep = stereo.check_separation(stereo.DEFAULT_SEPARATION if args.eye_separation is None
@@ -143,7 +142,8 @@ def build_parser():
                    help="measure the techniques again at start-up (without --technique the window "
                         "starts on the one the last probe found fastest for this scene and size)")
     p.add_argument("--view", choices=ALL_VIEWS + tuple(WINDOW_VIEWS), default="shaded",
-                   help="starting view (one the technique has; froxels: a fog scene's)")
+                   help="starting view (one the technique has; froxels: a fog scene's, layers: "
+                        "a scene's with transparent surfaces)")
     cli.add_display_args(p)
     add_scale_args(p)
     p.add_argument("--frames", type=_positive, help="exit after N frames (scripted run)")

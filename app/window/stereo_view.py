@@ -26,7 +26,6 @@ from ..errors import UserError
 from . import passes
 from .compose import Composed
 from .figures import frame_sums, heat_top
-from .fog_view import FROXEL_VIEW
 from .views import Overlay, present_view
 
 FOG_UNION = ("--stereo-way union: a fog scene's froxels take their candidates from cells in the "
@@ -98,8 +97,7 @@ class StereoComposer:
                 scale["heat"] = heat_top(state, sums, None)
             comp = Composed(result, sums, extra, scale["exposure"], False, None, None,
                             Overlay.of(result.build.grid), 0.0)
-            if state.view == FROXEL_VIEW:
-                c.upload_froxels(scene, result, size)
+            c.upload_scene_view(state.view, result, size)
             c.present(comp, state, fc, size, scale["heat"], size[0] + 1)
             self._present_eye(eye, size, state.view)
             eyes[eye] = comp

@@ -51,15 +51,23 @@ def test_fog_frame_held_at_rest_and_the_froxels_view_is_captures_slice(tmp_path)
 
 
 def test_transparent_scene_shows_its_layers(tmp_path):
-    shot, ref = tmp_path / "window.png", tmp_path / "capture.png"
+    # K: the shaded frame, composited; then the layers view: lights evaluated over the opaque
+    # surface and every layer, per pixel
     common = ["--scene", "city-glass", "--size", "160x90", "--technique", "clustered"]
-    frames, _, _ = run_window(common + ["--frames", "1", "--no-hud", "--screenshot", str(shot)])
+    frames, summary, _ = run_window(common + ["--frames", "3", "--no-hud", "--keys", "k,view=layers",
+                                              "--shot-dir", str(tmp_path / "shots"),
+                                              "--screenshot", str(tmp_path / "layers.png")])
     t = frames[0]["transparent"]
     assert t["layers"] >= 1 and t["max_layers"] == 4 and t["gpu_ms"]
-    assert frames[0]["fog"] is None
-    proc = run(["app.capture", *common, "--out", str(ref)])
+    assert frames[0]["fog"] is None and frames[2]["view"] == "layers"
+    proc = run(["app.capture", *common, "--out", str(tmp_path / "f.png"), "--dump", str(tmp_path / "f.npz")])
     assert proc.returncode == 0, proc.stderr
-    same_image(load_rgb(shot), load_rgb(ref))                 # the layers, composited
+    same_image(load_rgb(summary["screenshots"][0]), load_rgb(tmp_path / "f.png"))   # the layers, composited
+    d = np.load(tmp_path / "f.npz")
+    total = d["evaluated"].astype(np.int64) + d["evaluated_t"].astype(np.int64).sum(0)
+    assert (d["evaluated_t"].sum(0) > 0).any() and frames[2]["layers_top"] == float(total.max())
+    want = images.heat_rgb(total, np.ones(total.shape, bool), frames[2]["layers_top"]).astype(np.int16)
+    assert np.abs(load_rgb(tmp_path / "layers.png") - want).max() <= 2
 
 
 def test_window_grid_and_hud_lines():
@@ -76,3 +84,9 @@ def test_window_grid_and_hud_lines():
     assert lines[1].startswith("fog 40x23x32 froxels (window default): 14.5 lights a froxel")
     assert "held since frame 7" in lines[1]
     assert feature_lines({}) == []
+
+
+def test_a_scene_view_the_scene_lacks_is_one_line():
+    proc = run(["app.window", "--window", "headless", "--size", "32x18", "--view", "layers"])
+    err = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and len(err) == 1 and "no transparent surfaces" in err[0], proc.stderr
