@@ -46,6 +46,7 @@ from .fog_view import (FROXEL_VIEW, LAYERS_VIEW, fog_figures, scene_views, trans
                        window_renderer)
 from .stereo_view import StereoComposer, eye_size, refusal as stereo_refusal
 from .. import stereo
+from ..pipeline.fog import refusal as fog_refusal
 from .hud import inspect_lines, technique_lines, title, window_hud
 from .keys import CHAR_KEYS, MOVE_KEYS
 from .lightsets import LightSets
@@ -128,6 +129,7 @@ class LabWindow(mglw.WindowConfig):
             self._start_fastest(setup["candidates"])
         self.state.split_with = self.state.default_split()
         self.state.scene_views = scene_views(self.scene)
+        self.state.refusal = self._refusal
         self.composer.froxels.k = getattr(a, "froxel_slice", 0)
         if feats["stereo"]:
             self._set_stereo(True)
@@ -219,6 +221,16 @@ class LabWindow(mglw.WindowConfig):
             s.inspect = False
             notes.append("inspect is mono only: off")
         s.changed("; ".join([f"stereo {self.stereo.way}" if on else "mono"] + notes))
+
+    def _refusal(self, tech, opts) -> str | None:
+        """Why `tech` with `opts` cannot render this scene in this window: a fog scene's
+        froxels (app.pipeline.fog), stereo's way; None when it can."""
+        why = None
+        if self.scene.fog is not None:
+            why = fog_refusal(tech, tech.resolve_options(opts), self.renderer.fog_options)
+        if why is None and self.state.stereo:
+            why = stereo_refusal(self.scene, tech, opts, self.stereo.way)
+        return why
 
     def key_froxel_slice(self, name: str) -> None:
         if self.scene.fog is None:

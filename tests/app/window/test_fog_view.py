@@ -90,3 +90,15 @@ def test_a_scene_view_the_scene_lacks_is_one_line():
     proc = run(["app.window", "--window", "headless", "--size", "32x18", "--view", "layers"])
     err = proc.stderr.strip().splitlines()
     assert proc.returncode == 2 and len(err) == 1 and "no transparent surfaces" in err[0], proc.stderr
+
+
+def test_a_technique_that_cannot_serve_froxels_is_refused_in_the_hud():
+    # 2 (tiled serves no froxels): said, clustered stays; T: past tiled to the next that
+    # serves them; --build gpu through the panel: said, the option stays at its value
+    from app.techniques import REGISTRY
+    names = list(REGISTRY)
+    after = next(n for n in names[names.index("clustered") + 1:] if REGISTRY[n].froxels)
+    frames, _, proc = run_window(FOG + ["--frames", "4", "--keys", f"{names.index('tiled') + 1},t,build=gpu"])
+    assert [f["technique"] for f in frames] == ["clustered", after, after, after]
+    assert all(f["options"].get("build", 0) == 0 for f in frames)
+    assert "tiled does not serve froxels" in proc.stderr and "--build with a fog scene" in proc.stderr
