@@ -489,7 +489,7 @@ class LabWindow(mglw.WindowConfig):
         frame = (lights, fc, size, self.recorder.frame, self.args.path_frames, self.frame)
         st = None
         if s.stereo:
-            c, st = self.stereo.render(plan, s, frame, self.scene)
+            c, st = self.stereo.render(plan, s, frame, self.scene, key)
         else:
             c = self.composer.render(plan, s, frame, key, debug_pixel)
         self.composed = c

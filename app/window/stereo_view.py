@@ -14,7 +14,8 @@ the window's width, and shown side by side, left eye on the left.
 
 The views of an eye's own buffers are shown (views.STEREO_VIEWS); diff, split, maps,
 variants and inspect need a second frame or the mono frame's structure: mono only.  A fog
-scene is rendered per view only, as capture refuses the union way there.
+scene is rendered per view only, as capture refuses the union way there; at rest (nothing
+it was rendered from, nor the panel, changed) its two-eye frame is held as a mono one is.
 """
 from __future__ import annotations
 
@@ -75,13 +76,22 @@ class StereoComposer:
         self.separation = stereo.check_separation(separation)
         self.proxy = EyeRenderer(composer.renderer)
         self.eyes = {e: passes.Upscale(ctx) for e in stereo.EYES}
+        self._held = None                   # (what it rendered, Composed, figures, frame)
 
-    def render(self, plan, state, frame, scene):
+    def render(self, plan, state, frame, scene, key=None):
         """Both eyes of `frame` ((lights, centre frame camera, eye size, path frame, path
-        frames)): (Composed of the two-eye frame, the stereo figures)."""
+        frames, window frame)): (Composed of the two-eye frame, the stereo figures).  A fog
+        scene at rest (the composer's hold, `key` and the state as they were): the last
+        two-eye frame again, its eyes' views as they were presented."""
         lights, fc, size, path_frame, frames = frame[:5]
         c = self.composer
+        what = (plan.technique.name, tuple(sorted(plan.opts.as_dict().items())), key, tuple(size),
+                state.version, self.way, self.separation)
+        if c.hold and key is not None and self._held is not None and self._held[0] == what:
+            c._held, c.held_since = None, self._held[3]
+            return self._held[1], self._held[2]
         c.invalidate()                      # the renderer's buffers are the eyes' from here
+        self._held = None
         why = refusal(scene, plan.technique, plan.opts, self.way)
         if why:
             raise UserError(why)
@@ -108,7 +118,10 @@ class StereoComposer:
         render_ms = (time.perf_counter() - t0) * 1e3
         state.exposure_now = scale["exposure"]
         left, right = (eyes[e] for e in stereo.EYES)
-        return self._both(sf, left, right, render_ms), self._figures(sf, eyes, size)
+        out = self._both(sf, left, right, render_ms), self._figures(sf, eyes, size)
+        if c.hold:
+            self._held = (what, *out, frame[5] if len(frame) > 5 else 0)
+        return out
 
     def _present_eye(self, eye, size, view) -> None:
         c = self.composer

@@ -102,3 +102,14 @@ def test_a_technique_that_cannot_serve_froxels_is_refused_in_the_hud():
     assert [f["technique"] for f in frames] == ["clustered", after, after, after]
     assert all(f["options"].get("build", 0) == 0 for f in frames)
     assert "tiled does not serve froxels" in proc.stderr and "--build with a fog scene" in proc.stderr
+
+
+def test_fog_in_stereo_each_eye_its_froxels_and_held_at_rest(tmp_path):
+    frames, summary, _ = run_window(FOG + ["--views", "stereo", "--eye-separation", "2", "--frames", "3",
+                                           "--target-fps", "0", "--no-hud", "--screenshot", str(tmp_path / "s.png")])
+    assert [f["fog"]["held"] for f in frames] == [None, 0, 0]
+    eyes = frames[0]["stereo"]["eyes"]
+    assert frames[0]["stereo"]["eye_size"] == [80, 90] and frames[0]["fog"]["froxels"] == "20x9x8"
+    assert eyes["left"]["evaluated_per_pixel"] != eyes["right"]["evaluated_per_pixel"]
+    img = load_rgb(tmp_path / "s.png")
+    assert np.abs(img[:, :80] - img[:, 80:]).mean() > 1
