@@ -519,6 +519,8 @@ class LabWindow(mglw.WindowConfig):
         slow = self.costs.slow(self.renderer, plan, LightSets.key(self.state), lights, cam)
         if not slow:
             return
+        if self.state.stereo:                # the renderer is at one eye's size
+            slow = [f"{line} per eye, two eyes a frame" for line in slow]
         self.warning = "slow: " + "; ".join(slow) + " (rendering ...)"
         self.say(self.warning, 2 * MESSAGE_S)
         fbo = self.wnd.fbo
