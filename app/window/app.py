@@ -395,8 +395,8 @@ class LabWindow(mglw.WindowConfig):
         held = self.composer.held_since is not None      # a fog frame shown again: no measure
         if full and config in self.seen and not held and not self.state.stereo:
             self.costs.record(tech.name, c.render_ms, size[0] * size[1], len(lights))
-        if config not in self.seen or self.shots.pending:
-            self.scaler.skip()                    # compiles or saves: not a frame's time
+        if config not in self.seen or self.shots.pending or held:
+            self.scaler.skip()                    # compiles, saves, a held frame: not a frame's time
         self.seen.add(config)
         shown_frame = self.recorder.frame
         self.recorder.advance()
