@@ -204,9 +204,11 @@ class FrameComposer:
             self._map_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._map_tex.write(np.ascontiguousarray(pixels, np.float32).tobytes())
 
-    def upload_scene_view(self, view, result, size) -> None:
+    def upload_scene_view(self, view, result, size, top: float | None = None) -> None:
         """The froxels view (slice k's froxel light counts, fog_view.FroxelView) or the
-        layers view (lights evaluated over the opaque surface and its layers) as the map."""
+        layers view (lights evaluated over the opaque surface and its layers) as the map;
+        `top`: its scale's top instead of its own (stereo's right eye: the left's)."""
+        fixed = top
         if view == FROXEL_VIEW:
             pixels, top, label = self.froxels.map_of(self.renderer, self.renderer.scene, result, size)
         elif view == LAYERS_VIEW:
@@ -215,7 +217,7 @@ class FrameComposer:
         else:
             return
         self._write_map(pixels, size)
-        self.map_shown = (view, label, top)
+        self.map_shown = (view, label, top if fixed is None else fixed)
 
     def _upload_variants(self, result) -> None:
         """The variants view: each variant tile's colour (VARIANT_VIEW) from this frame's

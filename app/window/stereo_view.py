@@ -101,13 +101,14 @@ class StereoComposer:
         def on_eye(eye, result):
             stats, extra = c._view_stats(False)
             sums = frame_sums(stats, extra)
-            if not scale:                   # the left eye's exposure and heat scale for both
+            if "exposure" not in scale:     # the left eye's exposure and heat scale for both
                 scale["exposure"] = (images.exposure_from_histogram(extra["hist"])
                                      if state.exposure_auto else state.exposure_manual)
                 scale["heat"] = heat_top(state, sums, None)
             comp = Composed(result, sums, extra, scale["exposure"], False, None, None,
                             Overlay.of(result.build.grid), 0.0)
-            c.upload_scene_view(state.view, result, size)
+            c.upload_scene_view(state.view, result, size, scale.get("map"))
+            scale.setdefault("map", c.map_shown[2])
             c.present(comp, state, fc, size, scale["heat"], size[0] + 1)
             self._present_eye(eye, size, state.view)
             eyes[eye] = comp
