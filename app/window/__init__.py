@@ -6,6 +6,8 @@ panel (imgui-bundle, through moderngl-window's integration).
                          [--target-fps 10] [--move-scale auto|S]
                          [--record PATH.json | --replay PATH.json] [--inspect XxY]
                          [--frames N] [--screenshot PATH] [--keys "3,v,tile=32"]
+                         [--views mono|stereo] [--eye-separation M] [--stereo-way per-view|union]
+                         [--transparent-layers L] [--froxels WxHxD] [--froxel-slice K] [--fog-hold on|off]
                          [technique options] [--window pyglet|glfw|headless] [--backend egl]
 
 Start: without --technique, the fastest exact technique for the scene (probe.fastest: every
@@ -34,7 +36,14 @@ full-size frame's (app.py says which frames and why).
 
 Views (views.py): shaded, heat, tiles, slices, classes, diff (pixels whose light set differs
 from the reference's), split (two techniques side by side); a technique offers the ones its
-`views` attribute names.
+`views` attribute names.  A scene adds its own (fog_view.py): layers (lights evaluated over
+the opaque surface and its transparent layers) and froxels (a fog scene's froxel light counts,
+one depth slice, < > step it).
+
+Two eyes (stereo_view.py, --views stereo or B): both eyes rendered by app.stereo from the fly
+camera every frame, each at half the window's width, side by side.  Fog: the window's froxel
+grid is coarser than capture's (fog_view.WINDOW_FROXELS) and a frame is held while nothing
+it was rendered from changes (compose.py), so that the CPU's froxel sets are not rebuilt.
 
 The window drives the renderer through its public API only: render(readback=False) for the
 frame's figures and Build, then its own declared passes (app.window.passes) through
@@ -54,7 +63,8 @@ to an EGL framebuffer with no display (backend egl by default).
     inspect.py  what is under the cursor              lightsets.py the light draws
     probe.py    start-up probe, frame costs           timers.py   timer history
     progress.py console lines for slow work           variant_view.py the variants view, legend
-    scale.py    dynamic resolution's controller
+    scale.py    dynamic resolution's controller      stereo_view.py  two eyes side by side
+    fog_view.py fog's grid, froxels and layers views
 """
 from .camera import FlyCamera
 from .keys import KEY_NAMES, key_names, parse_keys

@@ -42,6 +42,11 @@ from . import keys, probe, progress
 from .camera import FlyCamera
 from .compose import REF_SETTLE_S, FrameComposer, Screenshots
 from .figures import UIModel, frame_figures, heat_scale
+from .fog_view import (FROXEL_VIEW, LAYERS_VIEW, fog_figures, scene_views, transparent_figures,
+                       window_renderer)
+from .stereo_view import StereoComposer, eye_size, refusal as stereo_refusal
+from .. import stereo
+from ..pipeline.fog import refusal as fog_refusal
 from .hud import inspect_lines, technique_lines, title, window_hud
 from .keys import CHAR_KEYS, MOVE_KEYS
 from .lightsets import LightSets
@@ -59,7 +64,7 @@ STARTED_FRAMES = 600          # the panel says how the start chose the technique
 # the figures a reduced frame takes from the last full-size one (frame_figures' statistics)
 STAT_KEYS = ("visible_lights", "evaluated_per_pixel", "exact_per_pixel", "max_evaluated",
              "max_exact", "covered", "lit", "cpu_ms", "cpu_threads", "gpu_ms", "setup_ms",
-             "capped", "grid", "heat_max")
+             "capped", "grid", "heat_max", "stereo", "transparent", "fog")
 
 
 class LabWindow(mglw.WindowConfig):
@@ -76,7 +81,11 @@ class LabWindow(mglw.WindowConfig):
         a = self.args = setup["args"]
         self.scene = setup["scene"]
         gl.use_context(self.ctx)          # the window's context is the process's one context
-        self.renderer = Renderer(self.scene, self._buffer_size())
+        feats = self.features = setup.get("features") or {"stereo": False, "way": "per-view",
+                                                          "separation": stereo.DEFAULT_SEPARATION,
+                                                          "fog": None}
+        self.renderer = window_renderer(self.scene, self._buffer_size(), feats["fog"],
+                                        getattr(a, "transparent_layers", None))
         self.reference = with_role("reference")
         self.state = self._initial_state(setup)
         self.state.target_fps, self.state.move_scale = a.target_fps, a.move_scale
@@ -90,6 +99,8 @@ class LabWindow(mglw.WindowConfig):
         self.speed = max(float(self.scene.max_depth or self.scene.camera.far) / 40.0, 1.0)   # m/s
         self.recorder = PathRecorder(self.scene, a, self.say)
         self.composer = FrameComposer(self.ctx, self.renderer, self.reference)
+        self.composer.hold = self.scene.fog is not None and getattr(a, "fog_hold", True)
+        self.stereo = StereoComposer(self.ctx, self.composer, feats["way"], feats["separation"])
         self.composed = None              # the last frame's compose.Composed
         self.figures: dict = {}
         self.ui = LabUI(self.wnd)
@@ -117,6 +128,11 @@ class LabWindow(mglw.WindowConfig):
         if setup["technique"] is None:
             self._start_fastest(setup["candidates"])
         self.state.split_with = self.state.default_split()
+        self.state.scene_views = scene_views(self.scene)
+        self.state.refusal = self._refusal
+        self.composer.froxels.k = getattr(a, "froxel_slice", 0)
+        if feats["stereo"]:
+            self._set_stereo(True)
         if self.state.view not in self.state.views():
             raise UserError(f"--view {self.state.view}: {self.state.technique} has no such view")
         self.state.version = 0
@@ -182,6 +198,47 @@ class LabWindow(mglw.WindowConfig):
 
     def key_inspect(self, _: str) -> None:
         self.state.inspect = not self.state.inspect
+        self.state.changed()
+
+    def key_stereo(self, _: str) -> None:
+        self._set_stereo(not self.state.stereo)
+
+    def _set_stereo(self, on: bool) -> None:
+        """Both eyes side by side (stereo_view.py) or one view; a view or inspect that needs
+        the mono frame is left for shaded / off, and said."""
+        s = self.state
+        if on:
+            opts = s.options.for_technique(s.tech)[0]
+            why = stereo_refusal(self.scene, s.tech, opts, self.stereo.way)
+            if why:
+                raise UserError(why)
+        s.stereo = on
+        notes = []
+        if s.view not in s.views():
+            notes.append(f"{s.view} is a mono view: shaded")
+            s.view = "shaded"
+        if on and s.inspect:
+            s.inspect = False
+            notes.append("inspect is mono only: off")
+        s.changed("; ".join([f"stereo {self.stereo.way}" if on else "mono"] + notes))
+
+    def _refusal(self, tech, opts) -> str | None:
+        """Why `tech` with `opts` cannot render this scene in this window: a fog scene's
+        froxels (app.pipeline.fog), stereo's way; None when it can."""
+        why = None
+        if self.scene.fog is not None:
+            why = fog_refusal(tech, tech.resolve_options(opts), self.renderer.fog_options)
+        if why is None and self.state.stereo:
+            why = stereo_refusal(self.scene, tech, opts, self.stereo.way)
+        return why
+
+    def key_froxel_slice(self, name: str) -> None:
+        if self.scene.fog is None:
+            raise UserError("froxel slices: the scene has no fog (hangar-fog has)")
+        shown = self.composer.froxels.shown
+        self.composer.froxels.step(1 if name == ">" else -1, shown[1] if shown else None)
+        if self.state.view != FROXEL_VIEW:
+            self.state.view = FROXEL_VIEW
         self.state.changed()
 
     def key_next_map(self, _: str) -> None:
@@ -323,20 +380,23 @@ class LabWindow(mglw.WindowConfig):
                            self.args.path_frames)
         tech = self.state.tech
         opts = self.state.options.for_technique(tech)[0]
-        config = (tech.name, tuple(sorted(opts.as_dict().items())), LightSets.key(self.state), size)
+        config = (tech.name, tuple(sorted(opts.as_dict().items())), LightSets.key(self.state), size,
+                  self.state.stereo)
         self.scale = self._frame_scale(cam, config)
         full = self.scale >= 1.0
-        render_size = scaled_size(size, self.scale)
+        render_size = scaled_size(eye_size(size) if self.state.stereo else size, self.scale)
         if render_size != self.renderer.size:
             self.renderer.resize(render_size)
         plan, c, fc, key = self._compose(cam, lights, render_size)
         self._scale_figures(config, render_size)
-        self.figures["model"] = self.model.line((config, key))     # the HUD shows it this frame
+        if not self.state.stereo:
+            self.figures["model"] = self.model.line((config, key))     # the HUD shows it this frame
         self._draw(self.wnd.fbo, size)
-        if full and config in self.seen:          # its first frame compiles: not a measure
+        held = self.composer.held_since is not None      # a fog frame shown again: no measure
+        if full and config in self.seen and not held and not self.state.stereo:
             self.costs.record(tech.name, c.render_ms, size[0] * size[1], len(lights))
-        if config not in self.seen or self.shots.pending:
-            self.scaler.skip()                    # compiles or saves: not a frame's time
+        if config not in self.seen or self.shots.pending or held:
+            self.scaler.skip()                    # compiles, saves, a held frame: not a frame's time
         self.seen.add(config)
         shown_frame = self.recorder.frame
         self.recorder.advance()
@@ -346,16 +406,17 @@ class LabWindow(mglw.WindowConfig):
             name = f"window-{self.scene.name}-{tech.name}-{self.state.view}-{self.frame:05d}.png"
             self._write_screenshot(Path(self.args.shot_dir) / name)
         wall_ms = (time.perf_counter() - t_start) * 1e3
-        if full:
+        if full and not held:
             self.timers.add(config, c.result.meta["gpu_ms"], c.result.meta["cpu_ms"], wall_ms)
         self.figures["wall_ms"] = round(wall_ms, 2)
         r = self.renderer
         rerender = lambda: (r, tech, opts, r.render(tech, shown_frame, opts, frames=self.args.path_frames,
                                                    lights=lights, readback=False, camera=fc, figures=True))
         t_model = time.perf_counter()
-        if full and self.model.update((config, key), self.composer.still_s(key), self.scripted, rerender):
+        if full and not self.state.stereo and self.model.update((config, key), self.composer.still_s(key), self.scripted, rerender):
             self.scaler.exclude(time.perf_counter() - t_model)     # the replay: not the frame's time
-        self.figures["model"] = self.model.line((config, key))
+        if not self.state.stereo:
+            self.figures["model"] = self.model.line((config, key))
         self._log(step)
         if self.quitting:
             self._write_screenshot(self.args.screenshot)
@@ -425,11 +486,27 @@ class LabWindow(mglw.WindowConfig):
         self._announce_slow(plan.renders(), lights, cam)
         self.warning = ""                    # announced (and rendered): said
         debug_pixel = self._cursor_pixel(size) if s.inspect else None
-        c = self.composer.render(plan, s, (lights, fc, size, self.recorder.frame, self.args.path_frames),
-                                 key, debug_pixel)
+        frame = (lights, fc, size, self.recorder.frame, self.args.path_frames, self.frame)
+        st = None
+        if s.stereo:
+            c, st = self.stereo.render(plan, s, frame, self.scene, key)
+        else:
+            c = self.composer.render(plan, s, frame, key, debug_pixel)
         self.composed = c
         self.figures = frame_figures(c, s, lights=int(len(lights)), size=self.full_size,
                                      recorder=self.recorder, cam=cam, reference=self.reference.name)
+        m = c.result.meta
+        self.figures.update(stereo=st, transparent=transparent_figures(m),
+                            fog=fog_figures(m, self.features["fog"], self.composer.held_since))
+        if s.view == FROXEL_VIEW:
+            self.figures["scene_note"] = self.composer.froxels.note()
+            self.figures["froxel_slice"] = self.composer.froxels.figures()
+        elif s.view == LAYERS_VIEW:
+            self.figures["scene_note"] = self.composer.layers_note
+            self.figures["layers_top"] = self.composer.map_shown[2]
+        if s.stereo:
+            self.figures["model"] = "modelled GPU ms: mono frames only (B)"
+            return plan, c, fc, key
         if s.view == "maps":
             self.figures["map"] = self.composer.map_shown[0]
         self.composer.present(c, s, fc, size, self.figures["heat_max"], self._split_x(size))
@@ -442,6 +519,8 @@ class LabWindow(mglw.WindowConfig):
         slow = self.costs.slow(self.renderer, plan, LightSets.key(self.state), lights, cam)
         if not slow:
             return
+        if self.state.stereo:                # the renderer is at one eye's size
+            slow = [f"{line} per eye, two eyes a frame" for line in slow]
         self.warning = "slow: " + "; ".join(slow) + " (rendering ...)"
         self.say(self.warning, 2 * MESSAGE_S)
         fbo = self.wnd.fbo
@@ -502,7 +581,10 @@ class LabWindow(mglw.WindowConfig):
         """The current view and the UI over it into `target` (a moderngl framebuffer)."""
         if self.figures:
             self.wnd.title = title(self.figures)
-        self.composer.draw(target, viewport)
+        if self.state.stereo and self.composed is not None:
+            self.stereo.draw(target, viewport)
+        else:
+            self.composer.draw(target, viewport)
         model = self.ui_model(for_shot)
         self.ui.frame(model, target, viewport, for_shot=for_shot)
         return model

@@ -32,7 +32,8 @@ from .figures import frame_sums, split_figures
 from .inspect import Inspection, inspect
 from . import variant_view
 from ..views import HEAT_OF, PASS_VIEWS, VIEWS
-from .views import Overlay
+from .fog_view import FROXEL_VIEW, LAYERS_VIEW, FroxelView, layers_map, layers_note
+from .views import Overlay, present_view
 
 REF_SETTLE_S = 0.3            # interactive: the reference renders once the view is this still
 
@@ -78,6 +79,15 @@ class FrameComposer:
         self.view_shown = "shaded"
         self.uniforms: dict = {}
         self._still = (None, time.perf_counter())     # the view's key, and since when
+        self.froxels = FroxelView()       # the froxels view's slice (fog scenes)
+        self.layers_note = ""             # the layers view's HUD line (transparent surfaces)
+        self.hold = False                 # a fog scene: hold a frame while nothing moved
+        self._held = None                 # (what it rendered, FrameResult, frame) of the last render
+        self.held_since = None            # the frame number a held frame was rendered at
+
+    def invalidate(self) -> None:
+        """Other frames rendered since the last one (stereo's eyes): none is held."""
+        self._held, self.held_since = None, None
 
     def still_s(self, key) -> float:
         """How long the view (camera, lights, size: `key`) has been as it is now."""
@@ -98,7 +108,8 @@ class FrameComposer:
     def render(self, plan: Plan, state, frame, key, debug_pixel) -> Composed:
         """frame: (lights, frame camera, size, path frame, path frames); debug_pixel: the
         cursor's pixel (GL coordinates) when inspecting."""
-        lights, fc, size, path_frame, frames = frame
+        lights, fc, size, path_frame, frames = frame[:5]
+        frame_no = frame[5] if len(frame) > 5 else 0
         r = self.renderer
         run = lambda t, opts, **kw: r.render(t, path_frame, opts, frames=frames, lights=lights,
                                              readback=False, camera=fc, **kw)
@@ -111,8 +122,18 @@ class FrameComposer:
             self._stash(self.split_stash, res, size)
             split = split_figures(plan.split[0], res.meta, *self._view_stats(False))
         t0 = time.perf_counter()
-        result = run(plan.technique, plan.opts, debug_pixel=None if debug_pixel is None else
-                     (debug_pixel[0], size[1] - 1 - debug_pixel[1]))
+        # a fog scene at rest: the last frame again when nothing it was rendered from changed
+        # and nothing rendered since (its buffers are still the renderer's), so that its
+        # froxel sets are not rebuilt on the CPU every frame
+        what = (plan.technique.name, tuple(sorted(plan.opts.as_dict().items())), key, tuple(size))
+        fresh = plan.reference is not None or plan.split is not None or debug_pixel is not None
+        if self.hold and not fresh and self._held is not None and self._held[0] == what:
+            result, self.held_since = self._held[1], self._held[2]
+        else:
+            result = run(plan.technique, plan.opts, debug_pixel=None if debug_pixel is None else
+                         (debug_pixel[0], size[1] - 1 - debug_pixel[1]))
+            self._held, self.held_since = ((what, result, frame_no) if self.hold and not fresh
+                                           else None), None
         ref_valid = state.view == "diff" and self.ref_stash.key == key
         stats, extra = self._view_stats(ref_valid)
         render_ms = (time.perf_counter() - t0) * 1e3
@@ -120,6 +141,7 @@ class FrameComposer:
             self._upload_map(plan.technique, result, size)
         if state.view == "variants":
             self._upload_variants(result)
+        self.upload_scene_view(state.view, result, size)
         exposure = images.exposure_from_histogram(extra["hist"]) if state.exposure_auto else state.exposure_manual
         state.exposure_now = exposure
         ins = self._inspect(result, debug_pixel, size) if debug_pixel is not None else None
@@ -170,13 +192,32 @@ class FrameComposer:
         name = names[self.map_index % len(names)]
         values, label = maps[name]
         full = images.cells_to_pixels(np.asarray(values, np.float32), size)[::-1]     # GL rows
+        self._write_map(full, size)
+        self.map_shown = (name, label, images.maps_top(maps))
+
+    def _write_map(self, pixels, size) -> None:
+        """A per-pixel count (GL rows) into the map texture at MAP_UNIT."""
         if self._map_tex is None or self._map_tex.size != size:
             if self._map_tex is not None:
                 self._map_tex.release()
             self._map_tex = self.ctx.texture(size, 1, dtype="f4")
             self._map_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self._map_tex.write(np.ascontiguousarray(full).tobytes())
-        self.map_shown = (name, label, images.maps_top(maps))
+        self._map_tex.write(np.ascontiguousarray(pixels, np.float32).tobytes())
+
+    def upload_scene_view(self, view, result, size, top: float | None = None) -> None:
+        """The froxels view (slice k's froxel light counts, fog_view.FroxelView) or the
+        layers view (lights evaluated over the opaque surface and its layers) as the map;
+        `top`: its scale's top instead of its own (stereo's right eye: the left's)."""
+        fixed = top
+        if view == FROXEL_VIEW:
+            pixels, top, label = self.froxels.map_of(self.renderer, self.renderer.scene, result, size)
+        elif view == LAYERS_VIEW:
+            pixels, top, label, used = layers_map(self.renderer)
+            self.layers_note = layers_note(top, used)
+        else:
+            return
+        self._write_map(pixels, size)
+        self.map_shown = (view, label, top if fixed is None else fixed)
 
     def _upload_variants(self, result) -> None:
         """The variants view: each variant tile's colour (VARIANT_VIEW) from this frame's
@@ -231,7 +272,7 @@ class FrameComposer:
             self._upscale.ensure(r.size)
             into, at = self._upscale.fbo, r.size
         own = self.view_shown in PASS_VIEWS      # drawn over the shaded view by a pass of its own
-        steps = [passes.present_pass(into, r.size, at, "shaded" if own else self.view_shown,
+        steps = [passes.present_pass(into, r.size, at, "shaded" if own else present_view(self.view_shown),
                                      self.uniforms)]
         if self.view_shown == "variants" and self._variants is not None:
             steps.append(variant_view.overlay_pass(into, r.size, at, self._variants))

@@ -76,7 +76,7 @@ def heat_scale(f: dict, view_shown: str, state, map_shown) -> tuple[float, str] 
     (both log2(1 + n) on turbo), else None."""
     if not f:
         return None
-    if view_shown == "maps":
+    if view_shown in ("maps", "froxels", "layers"):
         name, label, top = map_shown
         return (float(top), f"{name}: {label}, log2(1 + n)") if name else None
     if not (view_shown == "heat" or (view_shown == "split" and state.split_view == "heat")):

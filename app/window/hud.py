@@ -6,7 +6,8 @@ import math
 
 from .keys import help_line
 from .probe import SLOW_MS, duration
-from .views import view_note
+from .fog_view import feature_lines
+from .views import WINDOW_VIEWS, view_note
 
 HELP = help_line()
 
@@ -110,12 +111,20 @@ def window_hud(f: dict, state, *, message: str, warning: str, predicted_ms, stat
                      overlay_mode=f["heat_overlay"], reference=reference, differ=f["differ"],
                      split=s.split_with, split_view=s.split_view, map_name=map_name,
                      map_label=map_label, map_top=map_top)
+    if f["view"] in WINDOW_VIEWS:
+        note = f.get("scene_note") or note
+    elif f["view"] == "heat" and f.get("transparent"):
+        note += " (the opaque surface's; view layers: with its transparent layers)"
     names = list(s.registry)
     lines = hud_lines(f, position=f"{names.index(s.technique) + 1}/{len(names)}", role=s.tech.role,
                       software=software, playing=playing, options=s.options.hud_line(s.tech),
                       note=note, message=message,
                       exposure=exposure_text(f["exposure"], s.exposure_auto, s.ambient),
                       status="   ".join(status), warning=warning)
+    more = stereo_lines(f.get("stereo")) + feature_lines(f)
+    if more:
+        at = next((i + 1 for i, l in enumerate(lines) if l.startswith("GPU ")), len(lines))
+        lines[at:at] = more
     if s.panel:
         lines = [l for l in lines if l != HELP]     # the panel lists the keys
     if s.inspect:
@@ -126,6 +135,20 @@ def window_hud(f: dict, state, *, message: str, warning: str, predicted_ms, stat
         lines.insert(2, f"right: {sp['technique']}   evaluated/px {sp['evaluated_per_pixel']:.2f}   "
                         f"GPU {sum(sp['gpu_ms'].values()):.1f} ms   CPU {sum(sp['cpu_ms'].values()):.1f} ms")
     return lines
+
+
+def stereo_lines(st: dict | None) -> list[str]:
+    """The HUD's lines of a stereo frame (stereo_view.py): the way, then each eye's figures."""
+    if not st:
+        return []
+    shared = (f"; shared CPU stage ({st['share']}) {sum(st['shared_cpu_ms'].values()):.1f} ms"
+              if st.get("shared_cpu_ms") else "")
+    out = [f"stereo {st['way']}, eyes {st['separation']:g} m apart, each {st['eye_size'][0]}x"
+           f"{st['eye_size'][1]} (B: mono); CPU and GPU above: both eyes summed{shared}"]
+    for eye, e in st["eyes"].items():
+        out.append(f"{eye}: visible {e['visible_lights']}   evaluated/px {e['evaluated_per_pixel']:.2f}   "
+                   f"exact/px {e['exact_per_pixel']:.2f}   CPU {e['cpu_ms']:.1f} ms   GPU {e['gpu_ms']:.1f} ms")
+    return out
 
 
 def technique_lines(state, started: list[str], predicted_ms) -> list[str]:

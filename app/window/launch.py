@@ -14,6 +14,7 @@ from ..errors import UserError
 from ..views import ALL_VIEWS, views_of, with_view
 from . import progress
 from .keys import parse_keys
+from .views import WINDOW_VIEWS
 from .scale import MIN_SCALE
 
 DESCRIPTION = ("Live window: the capture pipeline, every frame, with a panel of every option "
@@ -74,6 +75,61 @@ def add_scale_args(p) -> None:
                         f"moving frame takes, {MIN_SCALE:g}..1 (1: always full size)")
 
 
+def add_feature_args(p) -> None:
+    """Two eyes (app.stereo), transparent layers and fog: capture's flags, the window's
+    defaults (a coarser froxel grid: fog_view.WINDOW_FROXELS)."""
+    from .. import fog, stereo
+    from ..pipeline import transparent
+    from .fog_view import WINDOW_FROXELS
+    g = p.add_argument_group("views (app.stereo)")
+    g.add_argument("--views", choices=stereo.VIEWS, default="mono",
+                   help="mono: one frame (default); stereo: both eyes every frame, side by side, "
+                        "each at half the window's width (B toggles)")
+    g.add_argument("--eye-separation", type=float, default=None, metavar="M",
+                   help=f"--views stereo: metres between the eyes (default {stereo.DEFAULT_SEPARATION})")
+    g.add_argument("--stereo-way", choices=stereo.WAYS, default=None,
+                   help="--views stereo: per-view (the structure built per eye, default) or union "
+                        "(one CPU stage over both frusta; docs/usage.md)")
+    transparent.add_args(p)
+    fog.add_fog_args(p)
+    w, h, d = WINDOW_FROXELS
+    for a in p._actions:
+        if "--froxels" in a.option_strings:
+            a.help = (f"froxel grid, depth exponential from near to fog.far (the window's default "
+                      f"{w}x{h}x{d}, coarser than capture's: the sets are built every frame; W and "
+                      f"H at most the render's pixels; 'matched': a froxel per cell of the "
+                      f"technique's own grid)")
+    p.add_argument("--froxel-slice", type=int, default=0, metavar="K",
+                   help="the froxels view's starting depth slice (0 the nearest; < > step it)")
+    p.add_argument("--fog-hold", type=_bool, default=True, metavar="on|off",
+                   help="a fog scene: while the camera, lights and settings rest, show the last "
+                        "frame again instead of rebuilding its froxel sets (default on)")
+
+
+def check_features(args, scene, candidates, given) -> tuple[dict, list[str]]:
+    """The features' settings of a command line ({views, way, separation, fog}) and the
+    candidates that can render them; one line and exit 2 for what cannot be."""
+    from .. import fog, stereo, stereo_capture
+    from ..techniques import REGISTRY
+    from .fog_view import refuse_view
+    from .stereo_view import refusal
+    fo = fog.fog_options(args, scene)               # a scene without fog refuses its flags
+    if args.froxel_slice < 0:
+        raise UserError(f"--froxel-slice {args.froxel_slice}: expected a slice, 0 or more")
+    refuse_view(args.view, scene)                  # froxels, layers: the scene's features
+    on = stereo_capture.wanted(args)                # a stereo flag without --views stereo: refused
+    way = args.stereo_way or "per-view"
+    sep = stereo.check_separation(stereo.DEFAULT_SEPARATION if args.eye_separation is None
+                                  else args.eye_separation)
+    if on:
+        why = {n: refusal(scene, REGISTRY[n], REGISTRY[n].Options.make(given, n), way) for n in candidates}
+        ok = [n for n in candidates if why[n] is None]
+        if not ok:
+            raise UserError(next(iter(why.values())))
+        candidates = ok
+    return {"stereo": on, "way": way, "separation": sep, "fog": fo}, candidates
+
+
 def build_parser():
     from ..techniques import REGISTRY
     from .panel import panel_keys
@@ -85,7 +141,9 @@ def build_parser():
     p.add_argument("--reprobe", action="store_true",
                    help="measure the techniques again at start-up (without --technique the window "
                         "starts on the one the last probe found fastest for this scene and size)")
-    p.add_argument("--view", choices=ALL_VIEWS, default="shaded", help="starting view (one the technique has)")
+    p.add_argument("--view", choices=ALL_VIEWS + tuple(WINDOW_VIEWS), default="shaded",
+                   help="starting view (one the technique has; froxels: a fog scene's, layers: "
+                        "a scene's with transparent surfaces)")
     cli.add_display_args(p)
     add_scale_args(p)
     p.add_argument("--frames", type=_positive, help="exit after N frames (scripted run)")
@@ -107,6 +165,7 @@ def build_parser():
     p.add_argument("--json", action="store_true", help="print a JSON line per frame (default with --frames)")
     p.add_argument("--shot-dir", default=".", help="folder of K/F12 screenshots and unnamed recordings")
     cli.add_option_args(p)
+    add_feature_args(p)
     w = p.add_argument_group("window system (moderngl-window)")
     w.add_argument("--window", "-wnd", choices=WINDOW_TYPES, default=None,
                    help="window type (default pyglet; MODERNGL_WINDOW overrides; headless: EGL, no display)")
@@ -164,14 +223,15 @@ def start_candidates(args, given: dict) -> tuple[str | None, list[str]]:
     if args.technique:
         t = get(args.technique)
         cli.options_for(t, args)                     # the starting technique takes every flag given
-        if args.view not in views_of(t):
+        if args.view not in views_of(t) + tuple(WINDOW_VIEWS):
             raise UserError(f"--view {args.view}: {t.name} has no {args.view} view (its views: "
                             f"{', '.join(views_of(t))}; techniques with it: "
                             f"{', '.join(with_view(REGISTRY, args.view))})")
         return t.name, [t.name]
     names = set(given)
     plain = [t for t in REGISTRY.values() if t.role == "technique"]
-    named = [t for t in plain if names <= set(t.Options.names()) and args.view in views_of(t)]
+    named = [t for t in plain if names <= set(t.Options.names())
+             and args.view in views_of(t) + tuple(WINDOW_VIEWS)]
     refusals = {t.name: _refusal(t, given) for t in named}
     ok = [name for name, why in refusals.items() if why is None]
     if not ok:
@@ -201,6 +261,7 @@ def main(argv=None) -> None:
     if args.replay:
         from scenes.camera_path import load
         load(args.replay)                            # a bad file: one line before any window
+    features, candidates = check_features(args, scene, candidates, given)
     size = args.size or tuple(scene.resolution)
 
     import weakref
@@ -209,7 +270,7 @@ def main(argv=None) -> None:
     window, name = open_window(args, size)
     from .app import LabWindow
     setup = {"args": args, "scene": scene, "technique": technique, "candidates": candidates,
-             "given": given, "builtin": args.scene in BUILTIN_SCENES}
+             "given": given, "builtin": args.scene in BUILTIN_SCENES, "features": features}
     t0 = time.perf_counter()
     app = LabWindow(setup, ctx=window.ctx, wnd=window, timer=Timer())
     # as moderngl_window.create_window_config_instance does: the window's events go to

@@ -23,6 +23,7 @@ from ..errors import UserError
 from ..display import DISPLAY, DISPLAY_FLAGS
 from ..given_options import GivenOptions, flag
 from ..views import HEAT_OF, SPLIT_VIEWS, views_of
+from .views import STEREO_VIEWS
 
 DISTRIBUTIONS = ("uniform", "geometry")
 # the exposure slider is in EV: log2 of the exposure factor's declared range
@@ -58,13 +59,18 @@ class LabState:
     panel: bool = True
     version: int = 0                        # bumped by every change
     messages: list = field(default_factory=list)
+    scene_views: tuple = ()                 # the scene's views (app.window.views.WINDOW_VIEWS): froxels in fog
+    stereo: bool = False                    # --views stereo / B: both eyes side by side (stereo_view.py)
+    # why a technique with its options cannot render this scene (fog, stereo's way): a line, or None
+    refusal: Callable | None = None
 
     @property
     def tech(self):
         return self.registry[self.technique]
 
     def views(self) -> tuple[str, ...]:
-        return views_of(self.tech)
+        own = views_of(self.tech) + self.scene_views
+        return tuple(v for v in own if v in STEREO_VIEWS) if self.stereo else own
 
     def changed(self, message: str | None = None) -> None:
         self.version += 1
@@ -75,6 +81,9 @@ class LabState:
     def set_technique(self, name: str) -> None:
         if name not in self.registry:
             raise UserError(f"unknown technique '{name}' (choose from {', '.join(self.registry)})")
+        why = self.refused(name)
+        if why:
+            raise UserError(why)
         self.technique = name
         self.options.for_technique(self.tech)          # its options exist and are valid
         note = None
@@ -84,6 +93,13 @@ class LabState:
         if self.split_with == name:
             self.split_with = self.default_split()
         self.changed(note)
+
+    def refused(self, name: str) -> str | None:
+        """Why technique `name` with its options cannot render here (self.refusal), or None."""
+        if self.refusal is None:
+            return None
+        t = self.registry[name]
+        return self.refusal(t, self.options.for_technique(t)[0])
 
     def set_view(self, view: str) -> None:
         if view not in self.views():
@@ -106,7 +122,10 @@ class LabState:
     def next_technique(self) -> None:
         """The next technique in registry order, every one (past the ninth too), then the first."""
         names = list(self.registry)
-        self.set_technique(names[(names.index(self.technique) + 1) % len(names)])
+        at = names.index(self.technique)
+        later = names[at + 1:] + names[:at + 1]
+        # past the ones that cannot render here (a fog scene's, stereo's way)
+        self.set_technique(next((n for n in later if self.refused(n) is None), later[0]))
 
     def double_lights(self) -> None:
         self.set_lights(min(max(1, self.lights * 2), self.max_lights if self.builtin else self.file_lights))
@@ -339,7 +358,12 @@ class Panel:
 
     def _set_option(self, name: str, value) -> None:
         s = self.state
+        before = s.options.for_technique(s.tech)[0].as_dict().get(name)
         s.options.set(s.tech, name, value)
+        why = s.refused(s.technique)
+        if why:                                  # not for this scene: the value it had
+            s.options.set(s.tech, name, before)
+            raise UserError(why)
         s.changed()
 
     def _defaults(self, _=None) -> None:

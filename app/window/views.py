@@ -8,6 +8,19 @@ from dataclasses import dataclass
 from ..views import VIEWS
 
 
+# the window's own views, beyond app.views (not a technique's: the scene's), and the view of
+# present.frag that draws each (a count per pixel in the map texture, as the maps view):
+# froxels (fog scenes) and layers (transparent surfaces), app.window.fog_view
+WINDOW_VIEWS = {"froxels": "maps", "layers": "maps"}
+# the views the two eyes of stereo show (each eye's own buffers; no second frame)
+STEREO_VIEWS = ("shaded", "heat", "tiles", "slices", "classes", "layers", "froxels")
+
+
+def present_view(view: str) -> str:
+    """The present.frag view that draws `view`."""
+    return WINDOW_VIEWS.get(view, view)
+
+
 def view_defines() -> dict[str, int]:
     """VIEW_<NAME> ids for present.frag."""
     return {f"VIEW_{v.upper()}": i for i, v in enumerate(VIEWS)}
