@@ -33,11 +33,16 @@ or more; accept: inside all six) and, between, the exact distance to the nearest
 faces (each a planar convex quad: the plane's distance where the point projects inside it,
 else the nearest of its edges).
 
-Light sets come from candidates: brute's are every visible light (froxel_sets_all: per
-light, its plane tests against each column, row and slice, then the exact test on the
-froxels that pass all three), a cell technique's the union of the lists of the cells its
-froxel overlaps (froxel_sets_from_cells); both keep exactly the candidates that meet the
-froxel, each froxel's list in light-buffer order.
+Light sets come from candidates: brute's are every visible light (froxel_sets_all), a cell
+technique's the union of the lists of the cells its froxel overlaps (froxel_sets_from_cells);
+both keep exactly the candidates that meet the froxel, each froxel's list in light-buffer
+order.  The build (_sets_run) goes froxel by froxel, a row at a time: the column, row and
+slice tests are each the light's against the froxel's own column, row or slice alone, made
+once a frame per light (_axis_tables); the froxels of a row that overlap the same cells share
+their candidates, gathered once and passed through the row's and slice's tests once; a froxel
+then reads its column's test of each and measures the sphere against its cell where the
+light's centre is not inside it: a corner within r accepts, a sphere clearly off the cell's
+bounding box rejects (BOX_MARGIN), else the faces decide.
 """
 from __future__ import annotations
 
@@ -186,6 +191,11 @@ def light_bounds(pl) -> LightBounds:
 
 # ---- the exact test ------------------------------------------------------------------------
 
+# a sphere whose squared distance to a froxel's bounding box passes r^2 by this share of the
+# squared scale of the coordinates (|c|_1 + r + the froxel's far depth) misses the froxel,
+# decided without the faces: float64's rounding of those distances is some 1e-15 of it
+BOX_MARGIN = 1e-9
+
 @numba.njit(inline="always")
 def _seg_d2(px, py, pz, ax, ay, az, bx, by, bz):
     ex, ey, ez = bx - ax, by - ay, bz - az
@@ -259,17 +269,10 @@ FACES = np.array([[0, 1, 3, 2], [4, 5, 7, 6],       # near, far
 
 
 @numba.njit(inline="always")
-def _sphere_meets_cell(c, r, q, faces, fp):
-    """Past the plane tests and not inside all six planes: the distance from c to the cell
-    (corners q, face planes fp: _face_planes) below r.  A corner within r answers at once;
-    else the nearest point of a convex cell to a point outside it lies on a face whose
-    outer side holds the point, so only the faces that c lies above by less than r are
+def _sphere_faces(c, r, q, faces, fp):
+    """_sphere_meets_cell past its corners: the faces that c lies above by less than r
     measured; c above none lies inside the cell."""
     r2 = r * r
-    for n in range(8):
-        dx, dy, dz = q[n, 0] - c[0], q[n, 1] - c[1], q[n, 2] - c[2]
-        if dx * dx + dy * dy + dz * dz < r2:
-            return True
     above = False
     for f in range(6):
         h = fp[f, 0] * c[0] + fp[f, 1] * c[1] + fp[f, 2] * c[2] - fp[f, 3]
@@ -282,6 +285,21 @@ def _sphere_meets_cell(c, r, q, faces, fp):
                     fp[f, 0], fp[f, 1], fp[f, 2], h) < r2:
             return True
     return not above
+
+
+@numba.njit(inline="always")
+def _sphere_meets_cell(c, r, q, faces, fp):
+    """Past the plane tests and not inside all six planes: the distance from c to the cell
+    (corners q, face planes fp: _face_planes) below r.  A corner within r answers at once;
+    else the nearest point of a convex cell to a point outside it lies on a face whose
+    outer side holds the point, so only the faces that c lies above by less than r are
+    measured (_sphere_faces); c above none lies inside the cell."""
+    r2 = r * r
+    for n in range(8):
+        dx, dy, dz = q[n, 0] - c[0], q[n, 1] - c[1], q[n, 2] - c[2]
+        if dx * dx + dy * dy + dz * dz < r2:
+            return True
+    return _sphere_faces(c, r, q, faces, fp)
 
 
 @numba.njit(inline="always")
@@ -321,92 +339,6 @@ def _depth_test(c, r, z0, z1, d0, d1):
 
 
 @numba.njit(inline="always")
-def _froxel_test(c, r, rect, dep, xs, ys, us, vs, zs, tx, ty, i, j, k, q, faces, fp):
-    """meets (the module's definition) for one light and froxel; q, fp: its corners
-    (_corners) and face planes (_face_planes)."""
-    a = _axis_test(c, r, xs[i], xs[i + 1], us[i], us[i + 1], tx, 0, rect[0], rect[1])
-    b = _axis_test(c, r, ys[j], ys[j + 1], vs[j], vs[j + 1], ty, 1, rect[2], rect[3])
-    z = _depth_test(c, r, zs[k], zs[k + 1], dep[0], dep[1])
-    if (a & b & z & 1) == 0:
-        return False
-    if a & b & z & 2:
-        return True
-    return _sphere_meets_cell(c, r, q, faces, fp)
-
-
-@numba.njit(inline="always")
-def _passing(p):
-    """[first, last + 1) of the indices whose test passed (bit 1); empty: (0, 0)."""
-    a = 0
-    while a < p.shape[0] and (p[a] & 1) == 0:
-        a += 1
-    b = p.shape[0]
-    while b > a and (p[b - 1] & 1) == 0:
-        b -= 1
-    return a, b
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _sets_all(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty, faces):
-    """Every light against every froxel (brute): per light the column, row and slice tests
-    (each the froxel's own, separable), then the exact sphere test where all three pass;
-    CSR by froxel, each list in light order.  -> (offsets (F+1,), entries)."""
-    W, H, D = us.shape[0] - 1, vs.shape[0] - 1, zs.shape[0] - 1
-    n = C.shape[0]
-    px, py, pz = np.empty(W, np.int64), np.empty(H, np.int64), np.empty(D, np.int64)
-    q = np.empty((8, 3))
-    fp = np.empty((6, 4))
-    cap = max(1024, 4 * n)
-    pf = np.empty(cap, np.int64)
-    plight = np.empty(cap, np.int64)
-    m = 0
-    counts = np.zeros(W * H * D + 1, np.int64)
-    for l in range(n):
-        c, r = C[l], R[l]
-        for k in range(D):
-            pz[k] = _depth_test(c, r, zs[k], zs[k + 1], DEP[l, 0], DEP[l, 1])
-        for i in range(W):
-            px[i] = _axis_test(c, r, xs[i], xs[i + 1], us[i], us[i + 1], tx, 0, RECT[l, 0], RECT[l, 1])
-        for j in range(H):
-            py[j] = _axis_test(c, r, ys[j], ys[j + 1], vs[j], vs[j + 1], ty, 1, RECT[l, 2], RECT[l, 3])
-        k0, k1 = _passing(pz)
-        j0, j1 = _passing(py)
-        i0, i1 = _passing(px)
-        for k in range(k0, k1):
-            if (pz[k] & 1) == 0:
-                continue
-            for j in range(j0, j1):
-                if (py[j] & 1) == 0:
-                    continue
-                for i in range(i0, i1):
-                    if (px[i] & 1) == 0:
-                        continue
-                    ok = True
-                    if (px[i] & py[j] & pz[k] & 2) == 0:
-                        _corners(us, vs, zs, tx, ty, i, j, k, q)
-                        _face_planes(q, faces, fp)
-                        ok = _sphere_meets_cell(c, r, q, faces, fp)
-                    if ok:
-                        if m == cap:
-                            cap *= 2
-                            nf, nl = np.empty(cap, np.int64), np.empty(cap, np.int64)
-                            nf[:m], nl[:m] = pf[:m], plight[:m]
-                            pf, plight = nf, nl
-                        f = (k * H + j) * W + i
-                        pf[m], plight[m] = f, l
-                        counts[f + 1] += 1
-                        m += 1
-    offsets = np.cumsum(counts)
-    cursor = offsets[:-1].copy()
-    entries = np.empty(m, np.uint32)
-    for p in range(m):                   # lights in order: each froxel's list in light order
-        f = pf[p]
-        entries[cursor[f]] = plight[p]
-        cursor[f] += 1
-    return offsets, entries
-
-
-@numba.njit(inline="always")
 def _span(lo, hi, edges):
     """First and last t whose [edges[t], edges[t+1]) overlaps the open interval (lo, hi)."""
     n = edges.shape[0] - 1
@@ -420,64 +352,156 @@ def _span(lo, hi, edges):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _sets_from_cells(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty, faces, tile_x, tile_y,
-                     s_edges, cell_spans, spans, cell_entries, tiles_x, slices, exact):
-    """Per froxel the union of the lists of the cells it overlaps (tiles by its pixel
-    rectangle, slices by its depth range), sorted, without repeats, then the exact test on
-    each (exact=False: the union as it is).  A cell's list is its spans (cell_spans[cell]:
-    first, count into spans; a span: first entry, count, and the depth range it covers,
-    whose froxels alone take it: a tree's leaf and its bounding interval).
-    -> (offsets, entries, candidates)."""
+def _spans_of(froxel_edges, cell_edges):
+    """_span of each froxel interval [froxel_edges[t], froxel_edges[t+1]] among the cells'."""
+    out = np.empty((froxel_edges.shape[0] - 1, 2), np.int64)
+    for t in range(froxel_edges.shape[0] - 1):
+        out[t, 0], out[t, 1] = _span(froxel_edges[t], froxel_edges[t + 1], cell_edges)
+    return out
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _axis_tables(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty):
+    """Each light's column, row and slice tests (_axis_test, _depth_test: each separable, the
+    froxel's own column, row or slice alone), once a frame: PX[i, l], PY[j, l], PZ[k, l]."""
     W, H, D = us.shape[0] - 1, vs.shape[0] - 1, zs.shape[0] - 1
     n = C.shape[0]
+    PX, PY, PZ = np.empty((W, n), np.uint8), np.empty((H, n), np.uint8), np.empty((D, n), np.uint8)
+    for l in range(n):
+        c, r = C[l], R[l]
+        for i in range(W):
+            PX[i, l] = _axis_test(c, r, xs[i], xs[i + 1], us[i], us[i + 1], tx, 0, RECT[l, 0], RECT[l, 1])
+        for j in range(H):
+            PY[j, l] = _axis_test(c, r, ys[j], ys[j + 1], vs[j], vs[j + 1], ty, 1, RECT[l, 2], RECT[l, 3])
+        for k in range(D):
+            PZ[k, l] = _depth_test(c, r, zs[k], zs[k + 1], DEP[l, 0], DEP[l, 1])
+    return PX, PY, PZ
+
+
+@numba.njit(inline="always")
+def _cell_union(c0, c1, r0, r1, s0, s1, z0, z1, tiles_x, slices, cell_spans, spans,
+                cell_entries, stamp, key, out):
+    """The union of the lists of cells (tiles c0..c1 x r0..r1, slices s0..s1; each cell's
+    spans whose depth interval overlaps (z0, z1)), without repeats, sorted unless it is one
+    span (in order already).  -> its size, in out[:size]."""
+    nb = 0
+    runs = 0
+    for cy in range(r0, r1 + 1):
+        for cx in range(c0, c1 + 1):
+            for s in range(s0, s1 + 1):
+                cell = (cy * tiles_x + cx) * slices + s
+                for p in range(cell_spans[cell, 0], cell_spans[cell, 0] + cell_spans[cell, 1]):
+                    if not (spans[p, 2] < z1 and z0 < spans[p, 3]):
+                        continue
+                    runs += 1
+                    first, cnt = np.int64(spans[p, 0]), np.int64(spans[p, 1])
+                    for e in range(first, first + cnt):
+                        l = cell_entries[e]
+                        if stamp[l] != key:
+                            stamp[l] = key
+                            out[nb] = l
+                            nb += 1
+    if runs > 1:
+        out[:nb] = np.sort(out[:nb])
+    return nb
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _sets_run(C, R, xs, ys, us, vs, zs, tx, ty, faces, PX, PY, PZ, k0, k1, from_cells,
+              col_t, row_t, slice_s, cell_spans, spans, cell_entries, tiles_x, slices, exact):
+    """The sets of slices k0..k1-1, froxel-major (CSR, each list in light order): per froxel
+    its candidates (from_cells: the union of the cells it overlaps, col_t / row_t / slice_s
+    its tiles and slices, cell_spans / spans / cell_entries the cells' lists as in
+    froxel_sets_from_spans; else every light), each kept where it meets the froxel (exact;
+    else all kept).  A row of froxels shares its row and slice tests, and the froxels of a
+    row that overlap the same tiles share their candidates: each such run's candidates are
+    gathered once and the row's and slice's tests (PY, PZ: _axis_tables) applied to them
+    once; a froxel then reads its column's test (PX) of each, and the sphere test (corners,
+    then faces: _sphere_meets_cell's, the face planes made only when a corner does not
+    answer) where the centre is not inside it.  -> (offsets, entries, candidates)."""
+    W, H = us.shape[0] - 1, vs.shape[0] - 1
+    n = C.shape[0]
     stamp = np.full(max(n, 1), -1, np.int64)
-    buf = np.empty(max(n, 1), np.int64)
+    union = np.empty(max(n, 1), np.int64)
+    row = np.empty(max(n, 1), np.int64)
     q = np.empty((8, 3))
     fp = np.empty((6, 4))
-    offsets = np.zeros(W * H * D + 1, np.int64)
-    cap = max(1024, 4 * n)
+    offsets = np.zeros((k1 - k0) * H * W + 1, np.int64)
+    cap = max(1024, 16 * n)
     entries = np.empty(cap, np.uint32)
     m = 0
     candidates = 0
-    for k in range(D):
-        s0, s1 = _span(zs[k], zs[k + 1], s_edges)
+    key = 0
+    for k in range(k0, k1):
         for j in range(H):
-            ty0, ty1 = _span(ys[j], ys[j + 1], tile_y)
+            nu = 0
+            nr = 0
+            last = (-1, -1)
             for i in range(W):
-                tx0, tx1 = _span(xs[i], xs[i + 1], tile_x)
-                f = (k * H + j) * W + i
-                nb = 0
-                runs = 0
-                for cy in range(ty0, ty1 + 1):
-                    for cx in range(tx0, tx1 + 1):
-                        for s in range(s0, s1 + 1):
-                            cell = (cy * tiles_x + cx) * slices + s
-                            for p in range(cell_spans[cell, 0], cell_spans[cell, 0] + cell_spans[cell, 1]):
-                                if not (spans[p, 2] < zs[k + 1] and zs[k] < spans[p, 3]):
-                                    continue
-                                runs += 1
-                                first, cnt = np.int64(spans[p, 0]), np.int64(spans[p, 1])
-                                for e in range(first, first + cnt):
-                                    l = cell_entries[e]
-                                    if stamp[l] != f:
-                                        stamp[l] = f
-                                        buf[nb] = l
-                                        nb += 1
-                candidates += nb
-                sel = buf[:nb] if runs <= 1 else np.sort(buf[:nb])   # one list: in order already
-                if exact:
-                    _corners(us, vs, zs, tx, ty, i, j, k, q)
-                    _face_planes(q, faces, fp)
-                for t in range(nb):
-                    l = sel[t]
-                    if exact and not _froxel_test(C[l], R[l], RECT[l], DEP[l], xs, ys, us, vs,
-                                                  zs, tx, ty, i, j, k, q, faces, fp):
-                        continue
-                    if m == cap:
-                        cap *= 2
-                        ne = np.empty(cap, np.uint32)
-                        ne[:m] = entries[:m]
-                        entries = ne
+                f = ((k - k0) * H + j) * W + i
+                cur = (col_t[i, 0], col_t[i, 1]) if from_cells else (0, 0)
+                if cur != last:                      # this run's candidates, the row's tests
+                    last = cur
+                    if from_cells:
+                        key += 1
+                        nu = _cell_union(cur[0], cur[1], row_t[j, 0], row_t[j, 1],
+                                         slice_s[k, 0], slice_s[k, 1], zs[k], zs[k + 1],
+                                         tiles_x, slices, cell_spans, spans, cell_entries,
+                                         stamp, key, union)
+                    else:
+                        nu = n
+                        for t in range(n):
+                            union[t] = t
+                    nr = 0
+                    for t in range(nu):
+                        l = union[t]
+                        if not exact or (PY[j, l] & PZ[k, l] & 1):
+                            row[nr] = l
+                            nr += 1
+                candidates += nu
+                if m + nr > cap:
+                    cap = max(2 * cap, m + nr)
+                    ne = np.empty(cap, np.uint32)
+                    ne[:m] = entries[:m]
+                    entries = ne
+                have_q = False
+                have_fp = False
+                for t in range(nr):
+                    l = row[t]
+                    if exact:
+                        a = PX[i, l]
+                        if (a & 1) == 0:
+                            continue
+                        if (a & PY[j, l] & PZ[k, l] & 2) == 0:
+                            c, r = C[l], R[l]
+                            if not have_q:
+                                _corners(us, vs, zs, tx, ty, i, j, k, q)
+                                bx0, bx1 = min(q[0, 0], q[4, 0]), max(q[1, 0], q[5, 0])
+                                by0, by1 = min(q[0, 1], q[4, 1]), max(q[2, 1], q[6, 1])
+                                bz0, bz1 = q[4, 2], q[0, 2]
+                                have_q = True
+                            r2 = r * r
+                            # the box around the cell: a sphere clearly off it misses the cell
+                            # (the margin far past the rounding of the faces' distances)
+                            ex = max(bx0 - c[0], c[0] - bx1, 0.0)
+                            ey = max(by0 - c[1], c[1] - by1, 0.0)
+                            ez = max(bz0 - c[2], c[2] - bz1, 0.0)
+                            scale = abs(c[0]) + abs(c[1]) + abs(c[2]) + r + zs[k + 1]
+                            if ex * ex + ey * ey + ez * ez > r2 + BOX_MARGIN * scale * scale:
+                                continue
+                            ok = False
+                            for nn in range(8):
+                                dx, dy, dz = q[nn, 0] - c[0], q[nn, 1] - c[1], q[nn, 2] - c[2]
+                                if dx * dx + dy * dy + dz * dz < r2:
+                                    ok = True
+                                    break
+                            if not ok:
+                                if not have_fp:
+                                    _face_planes(q, faces, fp)
+                                    have_fp = True
+                                ok = _sphere_faces(c, r, q, faces, fp)
+                            if not ok:
+                                continue
                     entries[m] = l
                     m += 1
                 offsets[f + 1] = m
@@ -497,25 +521,26 @@ class FroxelSets:
         return np.diff(self.offsets)
 
 
-def _args(fg: FroxelGrid, lb: LightBounds):
+def _sets(fg: FroxelGrid, lb: LightBounds, cells=None, exact: bool = True):
+    """_sets_run over runs of slices, on the CPU stage's threads (parallel(): each run its own
+    kernel call, the GIL released), joined in slice order: froxel ids are slice-major, so the
+    runs' CSR lists follow one another.  cells: None (every light a candidate) or
+    (col_t, row_t, slice_s, cell_spans, spans, cell_entries, tiles_x, slices).
+    -> (offsets, entries, candidates)."""
     us, vs = fg.ndc()
-    return (lb.centre, lb.radius, lb.rect, lb.depth, fg.xs, fg.ys, us, vs, fg.zs, fg.tan_x,
-            fg.tan_y, FACES)
-
-
-def _by_slices(fg: FroxelGrid, kernel, args, rest) -> tuple[np.ndarray, np.ndarray, int]:
-    """kernel(*args with fg.zs cut to a run of slices, *rest) over runs of slices, on the CPU
-    stage's threads (parallel(): each run its own kernel call, the GIL released), joined in
-    slice order: froxel ids are slice-major, so the runs' CSR lists follow one another."""
+    base = (lb.centre, lb.radius, lb.rect, lb.depth, fg.xs, fg.ys, us, vs, fg.zs,
+            fg.tan_x, fg.tan_y)
+    tables = _axis_tables(*base)
+    from_cells = cells is not None
+    if not from_cells:
+        none = np.zeros((1, 2), np.int64)
+        cells = (none, none, none, none, np.zeros((1, 4)), np.zeros(1, np.int64), 1, 1)
     d = fg.dims[2]
     runs = min(d, 4 * threads()) if parallel() else 1
     cuts = [d * t // runs for t in range(runs + 1)]
-    zi = 8                                               # zs's place in _args
     def one(t):
-        a = list(args)
-        a[zi] = np.ascontiguousarray(fg.zs[cuts[t]:cuts[t + 1] + 1])
-        out = kernel(*a, *rest)
-        return out if len(out) == 3 else (*out, 0)
+        return _sets_run(lb.centre, lb.radius, *base[4:], FACES, *tables, cuts[t], cuts[t + 1],
+                         from_cells, *cells, exact)
     if runs == 1:
         parts = [one(0)]
     else:
@@ -531,7 +556,7 @@ def _by_slices(fg: FroxelGrid, kernel, args, rest) -> tuple[np.ndarray, np.ndarr
 
 def froxel_sets_all(fg: FroxelGrid, lb: LightBounds) -> FroxelSets:
     """brute: every visible light a candidate of every froxel, the exact test keeps it."""
-    offsets, entries, _ = _by_slices(fg, _sets_all, _args(fg, lb), ())
+    offsets, entries, _ = _sets(fg, lb)
     return FroxelSets(offsets, entries, fg.count * len(lb))
 
 
@@ -563,10 +588,10 @@ def froxel_sets_from_spans(fg: FroxelGrid, grid: Grid, cell_spans, spans, cell_e
     """froxel_sets_from_cells() of cells whose lists are spans (a tree's leaves, each with
     its depth interval: a froxel takes the leaves whose interval overlaps its depths)."""
     tx, ty, s = cell_edges(grid)
-    offsets, entries, cand = _by_slices(fg, _sets_from_cells, _args(fg, lb), (
-        tx, ty, s, np.ascontiguousarray(cell_spans, np.int64),
-        np.ascontiguousarray(spans, np.float64), np.ascontiguousarray(cell_entries, np.int64),
-        grid.tiles_x, grid.slices, exact))
+    offsets, entries, cand = _sets(fg, lb, (
+        _spans_of(fg.xs, tx), _spans_of(fg.ys, ty), _spans_of(fg.zs, s),
+        np.ascontiguousarray(cell_spans, np.int64), np.ascontiguousarray(spans, np.float64),
+        np.ascontiguousarray(cell_entries, np.int64), grid.tiles_x, grid.slices), exact)
     return FroxelSets(offsets, entries, int(cand))
 
 
