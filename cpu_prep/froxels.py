@@ -413,19 +413,39 @@ def _sets_run(C, R, xs, ys, us, vs, zs, tx, ty, faces, PX, PY, PZ, k0, k1, from_
     its candidates (from_cells: the union of the cells it overlaps, col_t / row_t / slice_s
     its tiles and slices, cell_spans / spans / cell_entries the cells' lists as in
     froxel_sets_from_spans; else every light), each kept where it meets the froxel (exact;
-    else all kept).  A row of froxels shares its row and slice tests, and the froxels of a
-    row that overlap the same tiles share their candidates: each such run's candidates are
-    gathered once and the row's and slice's tests (PY, PZ: _axis_tables) applied to them
-    once; a froxel then reads its column's test (PX) of each, and the sphere test (corners,
-    then faces: _sphere_meets_cell's, the face planes made only when a corner does not
-    answer) where the centre is not inside it.  -> (offsets, entries, candidates)."""
+    else all kept).
+
+    A row of froxels is cut into runs that overlap the same cells (every light: one run);
+    a run's candidates are gathered once and the row's and slice's tests (PY, PZ:
+    _axis_tables) applied to them once.  Then light by light, along the columns its column
+    test (PX) passes within the run, the meets decision of each froxel: the centre inside it
+    (all three tests' bit 2) accepts; else the sphere against the cell, a sphere clearly off
+    the cell's bounding box rejects (BOX_MARGIN), a corner within r accepts, the faces decide
+    the rest (_sphere_faces, each froxel's face planes made once, when first needed).  Along
+    a light's columns the outcome changes in few places, so its branches are predicted; the
+    corners are those _corners makes, the same float64 expressions.  The run's lists are then
+    written froxel by froxel, each in light order.  -> (offsets, entries, candidates)."""
     W, H = us.shape[0] - 1, vs.shape[0] - 1
     n = C.shape[0]
-    stamp = np.full(max(n, 1), -1, np.int64)
-    union = np.empty(max(n, 1), np.int64)
-    row = np.empty(max(n, 1), np.int64)
+    n1 = max(n, 1)
+    stamp = np.full(n1, -1, np.int64)
+    union = np.empty(n1, np.int64)
+    row = np.empty(n1, np.int64)
+    xlo, xhi = np.empty(n1, np.int64), np.empty(n1, np.int64)   # the columns PX passes
+    for l in range(n):
+        a = 0
+        while a < W and (PX[a, l] & 1) == 0:
+            a += 1
+        b = W
+        while b > a and (PX[b - 1, l] & 1) == 0:
+            b -= 1
+        xlo[l], xhi[l] = a, b
+    keep = np.zeros((n1, W), np.uint8)                # a run's decisions, light x column
+    xe = np.empty((W + 1, 2))                          # corner x at column edge e, near / far
+    yv = np.empty((2, 2))                              # corner y at the row's edges
     q = np.empty((8, 3))
-    fp = np.empty((6, 4))
+    fps = np.empty((W, 6, 4))
+    have_fp = np.zeros(W, np.bool_)
     offsets = np.zeros((k1 - k0) * H * W + 1, np.int64)
     cap = max(1024, 16 * n)
     entries = np.empty(cap, np.uint32)
@@ -433,78 +453,98 @@ def _sets_run(C, R, xs, ys, us, vs, zs, tx, ty, faces, PX, PY, PZ, k0, k1, from_
     candidates = 0
     key = 0
     for k in range(k0, k1):
+        for e in range(W + 1):
+            for zb in range(2):
+                xe[e, zb] = us[e] * tx * zs[k + zb]
+        bz0, bz1 = -zs[k + 1], -zs[k]
         for j in range(H):
-            nu = 0
-            nr = 0
-            last = (-1, -1)
-            for i in range(W):
-                f = ((k - k0) * H + j) * W + i
-                cur = (col_t[i, 0], col_t[i, 1]) if from_cells else (0, 0)
-                if cur != last:                      # this run's candidates, the row's tests
-                    last = cur
-                    if from_cells:
-                        key += 1
-                        nu = _cell_union(cur[0], cur[1], row_t[j, 0], row_t[j, 1],
-                                         slice_s[k, 0], slice_s[k, 1], zs[k], zs[k + 1],
-                                         tiles_x, slices, cell_spans, spans, cell_entries,
-                                         stamp, key, union)
-                    else:
-                        nu = n
-                        for t in range(n):
-                            union[t] = t
-                    nr = 0
-                    for t in range(nu):
-                        l = union[t]
-                        if not exact or (PY[j, l] & PZ[k, l] & 1):
-                            row[nr] = l
-                            nr += 1
-                candidates += nu
-                if m + nr > cap:
-                    cap = max(2 * cap, m + nr)
-                    ne = np.empty(cap, np.uint32)
-                    ne[:m] = entries[:m]
-                    entries = ne
-                have_q = False
-                have_fp = False
-                for t in range(nr):
-                    l = row[t]
-                    if exact:
-                        a = PX[i, l]
-                        if (a & 1) == 0:
-                            continue
-                        if (a & PY[j, l] & PZ[k, l] & 2) == 0:
-                            c, r = C[l], R[l]
-                            if not have_q:
-                                _corners(us, vs, zs, tx, ty, i, j, k, q)
-                                bx0, bx1 = min(q[0, 0], q[4, 0]), max(q[1, 0], q[5, 0])
-                                by0, by1 = min(q[0, 1], q[4, 1]), max(q[2, 1], q[6, 1])
-                                bz0, bz1 = q[4, 2], q[0, 2]
-                                have_q = True
-                            r2 = r * r
-                            # the box around the cell: a sphere clearly off it misses the cell
-                            # (the margin far past the rounding of the faces' distances)
-                            ex = max(bx0 - c[0], c[0] - bx1, 0.0)
-                            ey = max(by0 - c[1], c[1] - by1, 0.0)
-                            ez = max(bz0 - c[2], c[2] - bz1, 0.0)
-                            scale = abs(c[0]) + abs(c[1]) + abs(c[2]) + r + zs[k + 1]
-                            if ex * ex + ey * ey + ez * ez > r2 + BOX_MARGIN * scale * scale:
+            for vb in range(2):
+                for zb in range(2):
+                    yv[vb, zb] = vs[j + vb] * ty * zs[k + zb]
+            by0, by1 = min(yv[0, 0], yv[0, 1]), max(yv[1, 0], yv[1, 1])
+            ia = 0
+            while ia < W:
+                ib = ia + 1
+                if from_cells:
+                    while ib < W and col_t[ib, 0] == col_t[ia, 0] and col_t[ib, 1] == col_t[ia, 1]:
+                        ib += 1
+                    key += 1
+                    nu = _cell_union(col_t[ia, 0], col_t[ia, 1], row_t[j, 0], row_t[j, 1],
+                                     slice_s[k, 0], slice_s[k, 1], zs[k], zs[k + 1],
+                                     tiles_x, slices, cell_spans, spans, cell_entries,
+                                     stamp, key, union)
+                else:
+                    ib = W
+                    nu = n
+                    for t in range(n):
+                        union[t] = t
+                candidates += nu * (ib - ia)
+                nr = 0
+                for t in range(nu):
+                    l = union[t]
+                    if not exact or (PY[j, l] & PZ[k, l] & 1):
+                        row[nr] = l
+                        nr += 1
+                if exact:
+                    have_fp[ia:ib] = False
+                    for t in range(nr):
+                        l = row[t]
+                        keep[t, ia:ib] = 0
+                        lo, hi = max(ia, xlo[l]), min(ib, xhi[l])
+                        inside = PY[j, l] & PZ[k, l] & 2
+                        c0, c1, c2 = C[l, 0], C[l, 1], C[l, 2]
+                        r = R[l]
+                        r2 = r * r
+                        scale = abs(c0) + abs(c1) + abs(c2) + r + zs[k + 1]
+                        slack = r2 + BOX_MARGIN * scale * scale
+                        ey = max(by0 - c1, c1 - by1, 0.0)
+                        ez = max(bz0 - c2, c2 - bz1, 0.0)
+                        eyz = ey * ey + ez * ez
+                        for i in range(lo, hi):
+                            a = PX[i, l]
+                            if (a & 1) == 0:
+                                continue
+                            if a & inside:
+                                keep[t, i] = 1
+                                continue
+                            # the box around the cell: a sphere clearly off it misses the
+                            # cell (the margin far past the rounding of the faces' distances)
+                            ex = max(min(xe[i, 0], xe[i, 1]) - c0, c0 - max(xe[i + 1, 0], xe[i + 1, 1]), 0.0)
+                            if ex * ex + eyz > slack:
                                 continue
                             ok = False
                             for nn in range(8):
-                                dx, dy, dz = q[nn, 0] - c[0], q[nn, 1] - c[1], q[nn, 2] - c[2]
+                                dx = xe[i + (nn & 1), nn >> 2 & 1] - c0
+                                dy = yv[nn >> 1 & 1, nn >> 2 & 1] - c1
+                                dz = -zs[k + (nn >> 2 & 1)] - c2
                                 if dx * dx + dy * dy + dz * dz < r2:
                                     ok = True
                                     break
                             if not ok:
-                                if not have_fp:
-                                    _face_planes(q, faces, fp)
-                                    have_fp = True
-                                ok = _sphere_faces(c, r, q, faces, fp)
-                            if not ok:
-                                continue
-                    entries[m] = l
-                    m += 1
-                offsets[f + 1] = m
+                                _corners(us, vs, zs, tx, ty, i, j, k, q)
+                                if not have_fp[i]:
+                                    _face_planes(q, faces, fps[i])
+                                    have_fp[i] = True
+                                ok = _sphere_faces(C[l], r, q, faces, fps[i])
+                            if ok:
+                                keep[t, i] = 1
+                need = m + nr * (ib - ia)
+                if need > cap:
+                    cap = max(2 * cap, need)
+                    ne = np.empty(cap, np.uint32)
+                    ne[:m] = entries[:m]
+                    entries = ne
+                for i in range(ia, ib):
+                    if exact:
+                        for t in range(nr):             # branchless: written, kept or not
+                            entries[m] = row[t]
+                            m += keep[t, i]
+                    else:
+                        for t in range(nr):
+                            entries[m] = row[t]
+                            m += 1
+                    offsets[((k - k0) * H + j) * W + i + 1] = m
+                ia = ib
     return offsets, entries[:m].copy(), candidates
 
 
