@@ -36,13 +36,15 @@ else the nearest of its edges).
 Light sets come from candidates: brute's are every visible light (froxel_sets_all), a cell
 technique's the union of the lists of the cells its froxel overlaps (froxel_sets_from_cells);
 both keep exactly the candidates that meet the froxel, each froxel's list in light-buffer
-order.  The build (_sets_run) goes froxel by froxel, a row at a time: the column, row and
-slice tests are each the light's against the froxel's own column, row or slice alone, made
-once a frame per light (_axis_tables); the froxels of a row that overlap the same cells share
-their candidates, gathered once and passed through the row's and slice's tests once; a froxel
-then reads its column's test of each and measures the sphere against its cell where the
-light's centre is not inside it: a corner within r accepts, a sphere clearly off the cell's
-bounding box rejects (BOX_MARGIN), else the faces decide.
+order.  The build (_sets_run) goes a row of froxels at a time: the column, row and slice
+tests are each the light's against the froxel's own column, row or slice alone, made once a
+frame per light (_axis_tables); the froxels of a row that overlap the same cells share their
+candidates, gathered once and passed through the row's and slice's tests once; then light by
+light along the columns its column test passes, the sphere against each froxel's cell where
+the light's centre is not inside it: a sphere clearly off the cell's bounding box rejects
+(BOX_MARGIN), a corner within r accepts, else the faces decide; the lists are written froxel
+by froxel.  Every decision is the definition's float64 expression, so the sets do not depend
+on the order the build takes.
 """
 from __future__ import annotations
 
