@@ -547,7 +547,7 @@ def _sets_run(C, R, xs, ys, us, vs, zs, tx, ty, faces, PX, PY, PZ, k0, k1, from_
                             m += 1
                     offsets[((k - k0) * H + j) * W + i + 1] = m
                 ia = ib
-    return offsets, entries[:m].copy(), candidates
+    return offsets, entries[:m], candidates          # a view: the join copies it once
 
 
 @dataclass
@@ -592,8 +592,8 @@ def _sets(fg: FroxelGrid, lb: LightBounds, cells=None, exact: bool = True):
     for o, _, _ in parts:
         offsets.append(o[1:] + shift)
         shift += int(o[-1])
-    return (np.concatenate(offsets), np.concatenate([p[1] for p in parts]),
-            sum(int(p[2]) for p in parts))
+    entries = parts[0][1] if len(parts) == 1 else np.concatenate([p[1] for p in parts])
+    return np.concatenate(offsets), entries, sum(int(p[2]) for p in parts)
 
 
 def froxel_sets_all(fg: FroxelGrid, lb: LightBounds) -> FroxelSets:
