@@ -410,12 +410,12 @@ def _cell_union(c0, c1, r0, r1, s0, s1, z0, z1, tiles_x, slices, cell_spans, spa
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _sets_run(C, R, xs, ys, us, vs, zs, tx, ty, faces, PX, PY, PZ, k0, k1, from_cells,
-              col_t, row_t, slice_s, cell_spans, spans, cell_entries, tiles_x, slices, exact):
+              col_t, row_t, slice_s, cell_spans, spans, cell_entries, tiles_x, slices,
+              offsets, entries, base):
     """The sets of slices k0..k1-1, froxel-major (CSR, each list in light order): per froxel
     its candidates (from_cells: the union of the cells it overlaps, col_t / row_t / slice_s
     its tiles and slices, cell_spans / spans / cell_entries the cells' lists as in
-    froxel_sets_from_spans; else every light), each kept where it meets the froxel (exact;
-    else all kept).
+    froxel_sets_from_spans; else every light), each kept where it meets the froxel.
 
     A row of froxels is cut into runs that overlap the same cells (every light: one run);
     a run's candidates are gathered once and the row's and slice's tests (PY, PZ:
@@ -448,9 +448,6 @@ def _sets_run(C, R, xs, ys, us, vs, zs, tx, ty, faces, PX, PY, PZ, k0, k1, from_
     q = np.empty((8, 3))
     fps = np.empty((W, 6, 4))
     have_fp = np.zeros(W, np.bool_)
-    offsets = np.zeros((k1 - k0) * H * W + 1, np.int64)
-    cap = max(1024, 16 * n)
-    entries = np.empty(cap, np.uint32)
     m = 0
     candidates = 0
     key = 0
@@ -484,70 +481,75 @@ def _sets_run(C, R, xs, ys, us, vs, zs, tx, ty, faces, PX, PY, PZ, k0, k1, from_
                 nr = 0
                 for t in range(nu):
                     l = union[t]
-                    if not exact or (PY[j, l] & PZ[k, l] & 1):
+                    if PY[j, l] & PZ[k, l] & 1:
                         row[nr] = l
                         nr += 1
-                if exact:
-                    have_fp[ia:ib] = False
-                    for t in range(nr):
-                        l = row[t]
-                        keep[t, ia:ib] = 0
-                        lo, hi = max(ia, xlo[l]), min(ib, xhi[l])
-                        inside = PY[j, l] & PZ[k, l] & 2
-                        c0, c1, c2 = C[l, 0], C[l, 1], C[l, 2]
-                        r = R[l]
-                        r2 = r * r
-                        scale = abs(c0) + abs(c1) + abs(c2) + r + zs[k + 1]
-                        slack = r2 + BOX_MARGIN * scale * scale
-                        ey = max(by0 - c1, c1 - by1, 0.0)
-                        ez = max(bz0 - c2, c2 - bz1, 0.0)
-                        eyz = ey * ey + ez * ez
-                        for i in range(lo, hi):
-                            a = PX[i, l]
-                            if (a & 1) == 0:
-                                continue
-                            if a & inside:
-                                keep[t, i] = 1
-                                continue
-                            # the box around the cell: a sphere clearly off it misses the
-                            # cell (the margin far past the rounding of the faces' distances)
-                            ex = max(min(xe[i, 0], xe[i, 1]) - c0, c0 - max(xe[i + 1, 0], xe[i + 1, 1]), 0.0)
-                            if ex * ex + eyz > slack:
-                                continue
-                            ok = False
-                            for nn in range(8):
-                                dx = xe[i + (nn & 1), nn >> 2 & 1] - c0
-                                dy = yv[nn >> 1 & 1, nn >> 2 & 1] - c1
-                                dz = -zs[k + (nn >> 2 & 1)] - c2
-                                if dx * dx + dy * dy + dz * dz < r2:
-                                    ok = True
-                                    break
-                            if not ok:
-                                _corners(us, vs, zs, tx, ty, i, j, k, q)
-                                if not have_fp[i]:
-                                    _face_planes(q, faces, fps[i])
-                                    have_fp[i] = True
-                                ok = _sphere_faces(C[l], r, q, faces, fps[i])
-                            if ok:
-                                keep[t, i] = 1
-                need = m + nr * (ib - ia)
-                if need > cap:
-                    cap = max(2 * cap, need)
-                    ne = np.empty(cap, np.uint32)
-                    ne[:m] = entries[:m]
-                    entries = ne
+                have_fp[ia:ib] = False
+                for t in range(nr):
+                    l = row[t]
+                    keep[t, ia:ib] = 0
+                    lo, hi = max(ia, xlo[l]), min(ib, xhi[l])
+                    inside = PY[j, l] & PZ[k, l] & 2
+                    c0, c1, c2 = C[l, 0], C[l, 1], C[l, 2]
+                    r = R[l]
+                    r2 = r * r
+                    scale = abs(c0) + abs(c1) + abs(c2) + r + zs[k + 1]
+                    slack = r2 + BOX_MARGIN * scale * scale
+                    ey = max(by0 - c1, c1 - by1, 0.0)
+                    ez = max(bz0 - c2, c2 - bz1, 0.0)
+                    eyz = ey * ey + ez * ez
+                    for i in range(lo, hi):
+                        a = PX[i, l]
+                        if (a & 1) == 0:
+                            continue
+                        if a & inside:
+                            keep[t, i] = 1
+                            continue
+                        # the box around the cell: a sphere clearly off it misses the
+                        # cell (the margin far past the rounding of the faces' distances)
+                        ex = max(min(xe[i, 0], xe[i, 1]) - c0, c0 - max(xe[i + 1, 0], xe[i + 1, 1]), 0.0)
+                        if ex * ex + eyz > slack:
+                            continue
+                        ok = False
+                        for nn in range(8):
+                            dx = xe[i + (nn & 1), nn >> 2 & 1] - c0
+                            dy = yv[nn >> 1 & 1, nn >> 2 & 1] - c1
+                            dz = -zs[k + (nn >> 2 & 1)] - c2
+                            if dx * dx + dy * dy + dz * dz < r2:
+                                ok = True
+                                break
+                        if not ok:
+                            _corners(us, vs, zs, tx, ty, i, j, k, q)
+                            if not have_fp[i]:
+                                _face_planes(q, faces, fps[i])
+                                have_fp[i] = True
+                            ok = _sphere_faces(C[l], r, q, faces, fps[i])
+                        if ok:
+                            keep[t, i] = 1
                 for i in range(ia, ib):
-                    if exact:
-                        for t in range(nr):             # branchless: written, kept or not
-                            entries[m] = row[t]
-                            m += keep[t, i]
-                    else:
-                        for t in range(nr):
-                            entries[m] = row[t]
-                            m += 1
-                    offsets[((k - k0) * H + j) * W + i + 1] = m
+                    for t in range(nr):                 # branchless: written, kept or not
+                        entries[base + m] = row[t]
+                        m += keep[t, i]
+                    offsets[(k * H + j) * W + i + 1] = m
                 ia = ib
-    return offsets, entries[:m], candidates          # a view: the join copies it once
+    return m, candidates
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _compact(entries, offsets, bases, sizes, cuts):
+    """The runs' lists, each written at its own base, moved to follow one another (forward:
+    each lands at or before where it was written) and their offsets, counted from their
+    base, made global (cuts: the runs' first froxels)."""
+    dst = 0
+    for t in range(bases.shape[0]):
+        src = bases[t]
+        if src != dst:
+            for e in range(sizes[t]):
+                entries[dst + e] = entries[src + e]
+        for f in range(cuts[t] + 1, cuts[t + 1] + 1):
+            offsets[f] += dst
+        dst += sizes[t]
+    return dst
 
 
 @dataclass
@@ -563,11 +565,13 @@ class FroxelSets:
         return np.diff(self.offsets)
 
 
-def _sets(fg: FroxelGrid, lb: LightBounds, cells=None, exact: bool = True):
+def _sets(fg: FroxelGrid, lb: LightBounds, cells=None):
     """_sets_run over runs of slices, on the CPU stage's threads (parallel(): each run its own
-    kernel call, the GIL released), joined in slice order: froxel ids are slice-major, so the
-    runs' CSR lists follow one another.  cells: None (every light a candidate) or
-    (col_t, row_t, slice_s, cell_spans, spans, cell_entries, tiles_x, slices).
+    kernel call, the GIL released), into one array: each run writes at its own base, then
+    _compact closes the gaps in slice order (froxel ids are slice-major, so the runs' CSR
+    lists follow one another): the lists are written once and moved once.  cells: None
+    (every light a candidate) or (col_t, row_t, slice_s, cell_spans, spans, cell_entries,
+    tiles_x, slices).
     -> (offsets, entries, candidates)."""
     us, vs = fg.ndc()
     base = (lb.centre, lb.radius, lb.rect, lb.depth, fg.xs, fg.ys, us, vs, fg.zs,
@@ -577,23 +581,31 @@ def _sets(fg: FroxelGrid, lb: LightBounds, cells=None, exact: bool = True):
     if not from_cells:
         none = np.zeros((1, 2), np.int64)
         cells = (none, none, none, none, np.zeros((1, 4)), np.zeros(1, np.int64), 1, 1)
-    d = fg.dims[2]
+    w, h, d = fg.dims
     runs = min(d, 4 * threads()) if parallel() else 1
-    cuts = [d * t // runs for t in range(runs + 1)]
+    cuts = np.array([d * t // runs for t in range(runs + 1)], np.int64)
+    offsets = np.zeros(fg.count + 1, np.int64)
+    # each run writes at a base past the most its slices can hold (a kept light passes its
+    # column, row and slice tests there), and n more (its lists are written without a
+    # branch, up to n entries past their end)
+    n = len(lb)
+    px, py = ((p & 1).sum(0, dtype=np.int64) for p in tables[:2])
+    most = np.add.reduceat((tables[2] & 1).astype(np.int64) @ (px * py), cuts[:-1]) if n \
+        else np.zeros(runs, np.int64)
+    bound = most + n
+    bases = np.concatenate([[0], np.cumsum(bound)[:-1]]).astype(np.int64)
+    entries = np.empty(int(bound.sum()), np.uint32)
     def one(t):
         return _sets_run(lb.centre, lb.radius, *base[4:], FACES, *tables, cuts[t], cuts[t + 1],
-                         from_cells, *cells, exact)
+                         from_cells, *cells, offsets, entries, bases[t])
     if runs == 1:
         parts = [one(0)]
     else:
         with ThreadPoolExecutor(threads()) as pool:
             parts = list(pool.map(one, range(runs)))
-    offsets, shift = [np.zeros(1, np.int64)], 0
-    for o, _, _ in parts:
-        offsets.append(o[1:] + shift)
-        shift += int(o[-1])
-    entries = parts[0][1] if len(parts) == 1 else np.concatenate([p[1] for p in parts])
-    return np.concatenate(offsets), entries, sum(int(p[2]) for p in parts)
+    sizes = np.array([p[0] for p in parts], np.int64)
+    total = _compact(entries, offsets, bases, sizes, cuts * (w * h))
+    return offsets, entries[:total], sum(int(p[1]) for p in parts)
 
 
 def froxel_sets_all(fg: FroxelGrid, lb: LightBounds) -> FroxelSets:
@@ -614,26 +626,26 @@ def cell_edges(grid: Grid):
     return tx, ty, s
 
 
-def froxel_sets_from_cells(fg: FroxelGrid, grid: Grid, ranges, cell_entries, lb: LightBounds,
-                           exact: bool = True) -> FroxelSets:
+def froxel_sets_from_cells(fg: FroxelGrid, grid: Grid, ranges, cell_entries,
+                           lb: LightBounds) -> FroxelSets:
     """A cell technique: the union of the cells each froxel overlaps (ranges (cells, 2)
     first / count into cell_entries, cells of `grid`), then the exact test."""
     ranges = np.asarray(ranges, np.int64)
     spans = np.empty((len(ranges), 4))
     spans[:, 0], spans[:, 1], spans[:, 2], spans[:, 3] = ranges[:, 0], ranges[:, 1], -np.inf, np.inf
     cell_spans = np.stack([np.arange(len(ranges)), np.ones(len(ranges), np.int64)], 1)
-    return froxel_sets_from_spans(fg, grid, cell_spans, spans, cell_entries, lb, exact)
+    return froxel_sets_from_spans(fg, grid, cell_spans, spans, cell_entries, lb)
 
 
 def froxel_sets_from_spans(fg: FroxelGrid, grid: Grid, cell_spans, spans, cell_entries,
-                           lb: LightBounds, exact: bool = True) -> FroxelSets:
+                           lb: LightBounds) -> FroxelSets:
     """froxel_sets_from_cells() of cells whose lists are spans (a tree's leaves, each with
     its depth interval: a froxel takes the leaves whose interval overlaps its depths)."""
     tx, ty, s = cell_edges(grid)
     offsets, entries, cand = _sets(fg, lb, (
         _spans_of(fg.xs, tx), _spans_of(fg.ys, ty), _spans_of(fg.zs, s),
         np.ascontiguousarray(cell_spans, np.int64), np.ascontiguousarray(spans, np.float64),
-        np.ascontiguousarray(cell_entries, np.int64), grid.tiles_x, grid.slices), exact)
+        np.ascontiguousarray(cell_entries, np.int64), grid.tiles_x, grid.slices))
     return FroxelSets(offsets, entries, int(cand))
 
 
