@@ -426,7 +426,8 @@ def _sets_run(C, R, xs, ys, us, vs, zs, tx, ty, faces, PX, PY, PZ, k0, k1, from_
     the rest (_sphere_faces, each froxel's face planes made once, when first needed).  Along
     a light's columns the outcome changes in few places, so its branches are predicted; the
     corners are those _corners makes, the same float64 expressions.  The run's lists are then
-    written froxel by froxel, each in light order.  -> (offsets, entries, candidates)."""
+    written froxel by froxel, each in light order, at entries[base:], offsets[f + 1] (f the
+    froxel's id) counted from base.  -> (entries written, candidates)."""
     W, H = us.shape[0] - 1, vs.shape[0] - 1
     n = C.shape[0]
     n1 = max(n, 1)
