@@ -33,11 +33,18 @@ or more; accept: inside all six) and, between, the exact distance to the nearest
 faces (each a planar convex quad: the plane's distance where the point projects inside it,
 else the nearest of its edges).
 
-Light sets come from candidates: brute's are every visible light (froxel_sets_all: per
-light, its plane tests against each column, row and slice, then the exact test on the
-froxels that pass all three), a cell technique's the union of the lists of the cells its
-froxel overlaps (froxel_sets_from_cells); both keep exactly the candidates that meet the
-froxel, each froxel's list in light-buffer order.
+Light sets come from candidates: brute's are every visible light (froxel_sets_all), a cell
+technique's the union of the lists of the cells its froxel overlaps (froxel_sets_from_cells);
+both keep exactly the candidates that meet the froxel, each froxel's list in light-buffer
+order.  The build (_sets_run) goes a row of froxels at a time: the column, row and slice
+tests are each the light's against the froxel's own column, row or slice alone, made once a
+frame per light (_axis_tables); the froxels of a row that overlap the same cells share their
+candidates, gathered once and passed through the row's and slice's tests once; then light by
+light along the columns its column test passes, the sphere against each froxel's cell where
+the light's centre is not inside it: a sphere clearly off the cell's bounding box rejects
+(BOX_MARGIN), a corner within r accepts, else the faces decide; the lists are written froxel
+by froxel.  Every decision is the definition's float64 expression, so the sets do not depend
+on the order the build takes.
 """
 from __future__ import annotations
 
@@ -186,6 +193,11 @@ def light_bounds(pl) -> LightBounds:
 
 # ---- the exact test ------------------------------------------------------------------------
 
+# a sphere whose squared distance to a froxel's bounding box passes r^2 by this share of the
+# squared scale of the coordinates (|c|_1 + r + the froxel's far depth) misses the froxel,
+# decided without the faces: float64's rounding of those distances is some 1e-15 of it
+BOX_MARGIN = 1e-9
+
 @numba.njit(inline="always")
 def _seg_d2(px, py, pz, ax, ay, az, bx, by, bz):
     ex, ey, ez = bx - ax, by - ay, bz - az
@@ -259,17 +271,10 @@ FACES = np.array([[0, 1, 3, 2], [4, 5, 7, 6],       # near, far
 
 
 @numba.njit(inline="always")
-def _sphere_meets_cell(c, r, q, faces, fp):
-    """Past the plane tests and not inside all six planes: the distance from c to the cell
-    (corners q, face planes fp: _face_planes) below r.  A corner within r answers at once;
-    else the nearest point of a convex cell to a point outside it lies on a face whose
-    outer side holds the point, so only the faces that c lies above by less than r are
+def _sphere_faces(c, r, q, faces, fp):
+    """_sphere_meets_cell past its corners: the faces that c lies above by less than r
     measured; c above none lies inside the cell."""
     r2 = r * r
-    for n in range(8):
-        dx, dy, dz = q[n, 0] - c[0], q[n, 1] - c[1], q[n, 2] - c[2]
-        if dx * dx + dy * dy + dz * dz < r2:
-            return True
     above = False
     for f in range(6):
         h = fp[f, 0] * c[0] + fp[f, 1] * c[1] + fp[f, 2] * c[2] - fp[f, 3]
@@ -282,6 +287,21 @@ def _sphere_meets_cell(c, r, q, faces, fp):
                     fp[f, 0], fp[f, 1], fp[f, 2], h) < r2:
             return True
     return not above
+
+
+@numba.njit(inline="always")
+def _sphere_meets_cell(c, r, q, faces, fp):
+    """Past the plane tests and not inside all six planes: the distance from c to the cell
+    (corners q, face planes fp: _face_planes) below r.  A corner within r answers at once;
+    else the nearest point of a convex cell to a point outside it lies on a face whose
+    outer side holds the point, so only the faces that c lies above by less than r are
+    measured (_sphere_faces); c above none lies inside the cell."""
+    r2 = r * r
+    for n in range(8):
+        dx, dy, dz = q[n, 0] - c[0], q[n, 1] - c[1], q[n, 2] - c[2]
+        if dx * dx + dy * dy + dz * dz < r2:
+            return True
+    return _sphere_faces(c, r, q, faces, fp)
 
 
 @numba.njit(inline="always")
@@ -321,92 +341,6 @@ def _depth_test(c, r, z0, z1, d0, d1):
 
 
 @numba.njit(inline="always")
-def _froxel_test(c, r, rect, dep, xs, ys, us, vs, zs, tx, ty, i, j, k, q, faces, fp):
-    """meets (the module's definition) for one light and froxel; q, fp: its corners
-    (_corners) and face planes (_face_planes)."""
-    a = _axis_test(c, r, xs[i], xs[i + 1], us[i], us[i + 1], tx, 0, rect[0], rect[1])
-    b = _axis_test(c, r, ys[j], ys[j + 1], vs[j], vs[j + 1], ty, 1, rect[2], rect[3])
-    z = _depth_test(c, r, zs[k], zs[k + 1], dep[0], dep[1])
-    if (a & b & z & 1) == 0:
-        return False
-    if a & b & z & 2:
-        return True
-    return _sphere_meets_cell(c, r, q, faces, fp)
-
-
-@numba.njit(inline="always")
-def _passing(p):
-    """[first, last + 1) of the indices whose test passed (bit 1); empty: (0, 0)."""
-    a = 0
-    while a < p.shape[0] and (p[a] & 1) == 0:
-        a += 1
-    b = p.shape[0]
-    while b > a and (p[b - 1] & 1) == 0:
-        b -= 1
-    return a, b
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _sets_all(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty, faces):
-    """Every light against every froxel (brute): per light the column, row and slice tests
-    (each the froxel's own, separable), then the exact sphere test where all three pass;
-    CSR by froxel, each list in light order.  -> (offsets (F+1,), entries)."""
-    W, H, D = us.shape[0] - 1, vs.shape[0] - 1, zs.shape[0] - 1
-    n = C.shape[0]
-    px, py, pz = np.empty(W, np.int64), np.empty(H, np.int64), np.empty(D, np.int64)
-    q = np.empty((8, 3))
-    fp = np.empty((6, 4))
-    cap = max(1024, 4 * n)
-    pf = np.empty(cap, np.int64)
-    plight = np.empty(cap, np.int64)
-    m = 0
-    counts = np.zeros(W * H * D + 1, np.int64)
-    for l in range(n):
-        c, r = C[l], R[l]
-        for k in range(D):
-            pz[k] = _depth_test(c, r, zs[k], zs[k + 1], DEP[l, 0], DEP[l, 1])
-        for i in range(W):
-            px[i] = _axis_test(c, r, xs[i], xs[i + 1], us[i], us[i + 1], tx, 0, RECT[l, 0], RECT[l, 1])
-        for j in range(H):
-            py[j] = _axis_test(c, r, ys[j], ys[j + 1], vs[j], vs[j + 1], ty, 1, RECT[l, 2], RECT[l, 3])
-        k0, k1 = _passing(pz)
-        j0, j1 = _passing(py)
-        i0, i1 = _passing(px)
-        for k in range(k0, k1):
-            if (pz[k] & 1) == 0:
-                continue
-            for j in range(j0, j1):
-                if (py[j] & 1) == 0:
-                    continue
-                for i in range(i0, i1):
-                    if (px[i] & 1) == 0:
-                        continue
-                    ok = True
-                    if (px[i] & py[j] & pz[k] & 2) == 0:
-                        _corners(us, vs, zs, tx, ty, i, j, k, q)
-                        _face_planes(q, faces, fp)
-                        ok = _sphere_meets_cell(c, r, q, faces, fp)
-                    if ok:
-                        if m == cap:
-                            cap *= 2
-                            nf, nl = np.empty(cap, np.int64), np.empty(cap, np.int64)
-                            nf[:m], nl[:m] = pf[:m], plight[:m]
-                            pf, plight = nf, nl
-                        f = (k * H + j) * W + i
-                        pf[m], plight[m] = f, l
-                        counts[f + 1] += 1
-                        m += 1
-    offsets = np.cumsum(counts)
-    cursor = offsets[:-1].copy()
-    entries = np.empty(m, np.uint32)
-    for p in range(m):                   # lights in order: each froxel's list in light order
-        f = pf[p]
-        entries[cursor[f]] = plight[p]
-        cursor[f] += 1
-    return offsets, entries
-
-
-@numba.njit(inline="always")
 def _span(lo, hi, edges):
     """First and last t whose [edges[t], edges[t+1]) overlaps the open interval (lo, hi)."""
     n = edges.shape[0] - 1
@@ -420,68 +354,203 @@ def _span(lo, hi, edges):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _sets_from_cells(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty, faces, tile_x, tile_y,
-                     s_edges, cell_spans, spans, cell_entries, tiles_x, slices, exact):
-    """Per froxel the union of the lists of the cells it overlaps (tiles by its pixel
-    rectangle, slices by its depth range), sorted, without repeats, then the exact test on
-    each (exact=False: the union as it is).  A cell's list is its spans (cell_spans[cell]:
-    first, count into spans; a span: first entry, count, and the depth range it covers,
-    whose froxels alone take it: a tree's leaf and its bounding interval).
-    -> (offsets, entries, candidates)."""
+def _spans_of(froxel_edges, cell_edges):
+    """_span of each froxel interval [froxel_edges[t], froxel_edges[t+1]] among the cells'."""
+    out = np.empty((froxel_edges.shape[0] - 1, 2), np.int64)
+    for t in range(froxel_edges.shape[0] - 1):
+        out[t, 0], out[t, 1] = _span(froxel_edges[t], froxel_edges[t + 1], cell_edges)
+    return out
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _axis_tables(C, R, RECT, DEP, xs, ys, us, vs, zs, tx, ty):
+    """Each light's column, row and slice tests (_axis_test, _depth_test: each separable, the
+    froxel's own column, row or slice alone), once a frame: PX[i, l], PY[j, l], PZ[k, l]."""
     W, H, D = us.shape[0] - 1, vs.shape[0] - 1, zs.shape[0] - 1
     n = C.shape[0]
-    stamp = np.full(max(n, 1), -1, np.int64)
-    buf = np.empty(max(n, 1), np.int64)
+    PX, PY, PZ = np.empty((W, n), np.uint8), np.empty((H, n), np.uint8), np.empty((D, n), np.uint8)
+    for l in range(n):
+        c, r = C[l], R[l]
+        for i in range(W):
+            PX[i, l] = _axis_test(c, r, xs[i], xs[i + 1], us[i], us[i + 1], tx, 0, RECT[l, 0], RECT[l, 1])
+        for j in range(H):
+            PY[j, l] = _axis_test(c, r, ys[j], ys[j + 1], vs[j], vs[j + 1], ty, 1, RECT[l, 2], RECT[l, 3])
+        for k in range(D):
+            PZ[k, l] = _depth_test(c, r, zs[k], zs[k + 1], DEP[l, 0], DEP[l, 1])
+    return PX, PY, PZ
+
+
+@numba.njit(inline="always")
+def _cell_union(c0, c1, r0, r1, s0, s1, z0, z1, tiles_x, slices, cell_spans, spans,
+                cell_entries, stamp, key, out):
+    """The union of the lists of cells (tiles c0..c1 x r0..r1, slices s0..s1; each cell's
+    spans whose depth interval overlaps (z0, z1)), without repeats, sorted unless it is one
+    span (in order already).  -> its size, in out[:size]."""
+    nb = 0
+    runs = 0
+    for cy in range(r0, r1 + 1):
+        for cx in range(c0, c1 + 1):
+            for s in range(s0, s1 + 1):
+                cell = (cy * tiles_x + cx) * slices + s
+                for p in range(cell_spans[cell, 0], cell_spans[cell, 0] + cell_spans[cell, 1]):
+                    if not (spans[p, 2] < z1 and z0 < spans[p, 3]):
+                        continue
+                    runs += 1
+                    first, cnt = np.int64(spans[p, 0]), np.int64(spans[p, 1])
+                    for e in range(first, first + cnt):
+                        l = cell_entries[e]
+                        if stamp[l] != key:
+                            stamp[l] = key
+                            out[nb] = l
+                            nb += 1
+    if runs > 1:
+        out[:nb] = np.sort(out[:nb])
+    return nb
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _sets_run(C, R, xs, ys, us, vs, zs, tx, ty, faces, PX, PY, PZ, k0, k1, from_cells,
+              col_t, row_t, slice_s, cell_spans, spans, cell_entries, tiles_x, slices,
+              offsets, entries, base):
+    """The sets of slices k0..k1-1, froxel-major (CSR, each list in light order): per froxel
+    its candidates (from_cells: the union of the cells it overlaps, col_t / row_t / slice_s
+    its tiles and slices, cell_spans / spans / cell_entries the cells' lists as in
+    froxel_sets_from_spans; else every light), each kept where it meets the froxel.
+
+    A row of froxels is cut into runs that overlap the same cells (every light: one run);
+    a run's candidates are gathered once and the row's and slice's tests (PY, PZ:
+    _axis_tables) applied to them once.  Then light by light, along the columns its column
+    test (PX) passes within the run, the meets decision of each froxel: the centre inside it
+    (all three tests' bit 2) accepts; else the sphere against the cell, a sphere clearly off
+    the cell's bounding box rejects (BOX_MARGIN), a corner within r accepts, the faces decide
+    the rest (_sphere_faces, each froxel's face planes made once, when first needed).  Along
+    a light's columns the outcome changes in few places, so its branches are predicted; the
+    corners are those _corners makes, the same float64 expressions.  The run's lists are then
+    written froxel by froxel, each in light order, at entries[base:], offsets[f + 1] (f the
+    froxel's id) counted from base.  -> (entries written, candidates)."""
+    W, H = us.shape[0] - 1, vs.shape[0] - 1
+    n = C.shape[0]
+    n1 = max(n, 1)
+    stamp = np.full(n1, -1, np.int64)
+    union = np.empty(n1, np.int64)
+    row = np.empty(n1, np.int64)
+    xlo, xhi = np.empty(n1, np.int64), np.empty(n1, np.int64)   # the columns PX passes
+    for l in range(n):
+        a = 0
+        while a < W and (PX[a, l] & 1) == 0:
+            a += 1
+        b = W
+        while b > a and (PX[b - 1, l] & 1) == 0:
+            b -= 1
+        xlo[l], xhi[l] = a, b
+    keep = np.zeros((n1, W), np.uint8)                # a run's decisions, light x column
+    xe = np.empty((W + 1, 2))                          # corner x at column edge e, near / far
+    yv = np.empty((2, 2))                              # corner y at the row's edges
     q = np.empty((8, 3))
-    fp = np.empty((6, 4))
-    offsets = np.zeros(W * H * D + 1, np.int64)
-    cap = max(1024, 4 * n)
-    entries = np.empty(cap, np.uint32)
+    fps = np.empty((W, 6, 4))
+    have_fp = np.zeros(W, np.bool_)
     m = 0
     candidates = 0
-    for k in range(D):
-        s0, s1 = _span(zs[k], zs[k + 1], s_edges)
+    key = 0
+    for k in range(k0, k1):
+        for e in range(W + 1):
+            for zb in range(2):
+                xe[e, zb] = us[e] * tx * zs[k + zb]
+        bz0, bz1 = -zs[k + 1], -zs[k]
         for j in range(H):
-            ty0, ty1 = _span(ys[j], ys[j + 1], tile_y)
-            for i in range(W):
-                tx0, tx1 = _span(xs[i], xs[i + 1], tile_x)
-                f = (k * H + j) * W + i
-                nb = 0
-                runs = 0
-                for cy in range(ty0, ty1 + 1):
-                    for cx in range(tx0, tx1 + 1):
-                        for s in range(s0, s1 + 1):
-                            cell = (cy * tiles_x + cx) * slices + s
-                            for p in range(cell_spans[cell, 0], cell_spans[cell, 0] + cell_spans[cell, 1]):
-                                if not (spans[p, 2] < zs[k + 1] and zs[k] < spans[p, 3]):
-                                    continue
-                                runs += 1
-                                first, cnt = np.int64(spans[p, 0]), np.int64(spans[p, 1])
-                                for e in range(first, first + cnt):
-                                    l = cell_entries[e]
-                                    if stamp[l] != f:
-                                        stamp[l] = f
-                                        buf[nb] = l
-                                        nb += 1
-                candidates += nb
-                sel = buf[:nb] if runs <= 1 else np.sort(buf[:nb])   # one list: in order already
-                if exact:
-                    _corners(us, vs, zs, tx, ty, i, j, k, q)
-                    _face_planes(q, faces, fp)
-                for t in range(nb):
-                    l = sel[t]
-                    if exact and not _froxel_test(C[l], R[l], RECT[l], DEP[l], xs, ys, us, vs,
-                                                  zs, tx, ty, i, j, k, q, faces, fp):
-                        continue
-                    if m == cap:
-                        cap *= 2
-                        ne = np.empty(cap, np.uint32)
-                        ne[:m] = entries[:m]
-                        entries = ne
-                    entries[m] = l
-                    m += 1
-                offsets[f + 1] = m
-    return offsets, entries[:m].copy(), candidates
+            for vb in range(2):
+                for zb in range(2):
+                    yv[vb, zb] = vs[j + vb] * ty * zs[k + zb]
+            by0, by1 = min(yv[0, 0], yv[0, 1]), max(yv[1, 0], yv[1, 1])
+            ia = 0
+            while ia < W:
+                ib = ia + 1
+                if from_cells:
+                    while ib < W and col_t[ib, 0] == col_t[ia, 0] and col_t[ib, 1] == col_t[ia, 1]:
+                        ib += 1
+                    key += 1
+                    nu = _cell_union(col_t[ia, 0], col_t[ia, 1], row_t[j, 0], row_t[j, 1],
+                                     slice_s[k, 0], slice_s[k, 1], zs[k], zs[k + 1],
+                                     tiles_x, slices, cell_spans, spans, cell_entries,
+                                     stamp, key, union)
+                else:
+                    ib = W
+                    nu = n
+                    for t in range(n):
+                        union[t] = t
+                candidates += nu * (ib - ia)
+                nr = 0
+                for t in range(nu):
+                    l = union[t]
+                    if PY[j, l] & PZ[k, l] & 1:
+                        row[nr] = l
+                        nr += 1
+                have_fp[ia:ib] = False
+                for t in range(nr):
+                    l = row[t]
+                    keep[t, ia:ib] = 0
+                    lo, hi = max(ia, xlo[l]), min(ib, xhi[l])
+                    inside = PY[j, l] & PZ[k, l] & 2
+                    c0, c1, c2 = C[l, 0], C[l, 1], C[l, 2]
+                    r = R[l]
+                    r2 = r * r
+                    scale = abs(c0) + abs(c1) + abs(c2) + r + zs[k + 1]
+                    slack = r2 + BOX_MARGIN * scale * scale
+                    ey = max(by0 - c1, c1 - by1, 0.0)
+                    ez = max(bz0 - c2, c2 - bz1, 0.0)
+                    eyz = ey * ey + ez * ez
+                    for i in range(lo, hi):
+                        a = PX[i, l]
+                        if (a & 1) == 0:
+                            continue
+                        if a & inside:
+                            keep[t, i] = 1
+                            continue
+                        # the box around the cell: a sphere clearly off it misses the
+                        # cell (the margin far past the rounding of the faces' distances)
+                        ex = max(min(xe[i, 0], xe[i, 1]) - c0, c0 - max(xe[i + 1, 0], xe[i + 1, 1]), 0.0)
+                        if ex * ex + eyz > slack:
+                            continue
+                        ok = False
+                        for nn in range(8):
+                            dx = xe[i + (nn & 1), nn >> 2 & 1] - c0
+                            dy = yv[nn >> 1 & 1, nn >> 2 & 1] - c1
+                            dz = -zs[k + (nn >> 2 & 1)] - c2
+                            if dx * dx + dy * dy + dz * dz < r2:
+                                ok = True
+                                break
+                        if not ok:
+                            _corners(us, vs, zs, tx, ty, i, j, k, q)
+                            if not have_fp[i]:
+                                _face_planes(q, faces, fps[i])
+                                have_fp[i] = True
+                            ok = _sphere_faces(C[l], r, q, faces, fps[i])
+                        if ok:
+                            keep[t, i] = 1
+                for i in range(ia, ib):
+                    for t in range(nr):                 # branchless: written, kept or not
+                        entries[base + m] = row[t]
+                        m += keep[t, i]
+                    offsets[(k * H + j) * W + i + 1] = m
+                ia = ib
+    return m, candidates
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _compact(entries, offsets, bases, sizes, cuts):
+    """The runs' lists, each written at its own base, moved to follow one another (forward:
+    each lands at or before where it was written) and their offsets, counted from their
+    base, made global (cuts: the runs' first froxels)."""
+    dst = 0
+    for t in range(bases.shape[0]):
+        src = bases[t]
+        if src != dst:
+            for e in range(sizes[t]):
+                entries[dst + e] = entries[src + e]
+        for f in range(cuts[t] + 1, cuts[t + 1] + 1):
+            offsets[f] += dst
+        dst += sizes[t]
+    return dst
 
 
 @dataclass
@@ -497,41 +566,52 @@ class FroxelSets:
         return np.diff(self.offsets)
 
 
-def _args(fg: FroxelGrid, lb: LightBounds):
+def _sets(fg: FroxelGrid, lb: LightBounds, cells=None):
+    """_sets_run over runs of slices, on the CPU stage's threads (parallel(): each run its own
+    kernel call, the GIL released), into one array: each run writes at its own base, then
+    _compact closes the gaps in slice order (froxel ids are slice-major, so the runs' CSR
+    lists follow one another): the lists are written once and moved once.  cells: None
+    (every light a candidate) or (col_t, row_t, slice_s, cell_spans, spans, cell_entries,
+    tiles_x, slices).
+    -> (offsets, entries, candidates)."""
     us, vs = fg.ndc()
-    return (lb.centre, lb.radius, lb.rect, lb.depth, fg.xs, fg.ys, us, vs, fg.zs, fg.tan_x,
-            fg.tan_y, FACES)
-
-
-def _by_slices(fg: FroxelGrid, kernel, args, rest) -> tuple[np.ndarray, np.ndarray, int]:
-    """kernel(*args with fg.zs cut to a run of slices, *rest) over runs of slices, on the CPU
-    stage's threads (parallel(): each run its own kernel call, the GIL released), joined in
-    slice order: froxel ids are slice-major, so the runs' CSR lists follow one another."""
-    d = fg.dims[2]
+    base = (lb.centre, lb.radius, lb.rect, lb.depth, fg.xs, fg.ys, us, vs, fg.zs,
+            fg.tan_x, fg.tan_y)
+    tables = _axis_tables(*base)
+    from_cells = cells is not None
+    if not from_cells:
+        none = np.zeros((1, 2), np.int64)
+        cells = (none, none, none, none, np.zeros((1, 4)), np.zeros(1, np.int64), 1, 1)
+    w, h, d = fg.dims
     runs = min(d, 4 * threads()) if parallel() else 1
-    cuts = [d * t // runs for t in range(runs + 1)]
-    zi = 8                                               # zs's place in _args
+    cuts = np.array([d * t // runs for t in range(runs + 1)], np.int64)
+    offsets = np.zeros(fg.count + 1, np.int64)
+    # each run writes at a base past the most its slices can hold (a kept light passes its
+    # column, row and slice tests there), and n more (its lists are written without a
+    # branch, up to n entries past their end)
+    n = len(lb)
+    px, py = ((p & 1).sum(0, dtype=np.int64) for p in tables[:2])
+    most = np.add.reduceat((tables[2] & 1).astype(np.int64) @ (px * py), cuts[:-1]) if n \
+        else np.zeros(runs, np.int64)
+    bound = most + n
+    bases = np.concatenate([[0], np.cumsum(bound)[:-1]]).astype(np.int64)
+    entries = np.empty(int(bound.sum()), np.uint32)
     def one(t):
-        a = list(args)
-        a[zi] = np.ascontiguousarray(fg.zs[cuts[t]:cuts[t + 1] + 1])
-        out = kernel(*a, *rest)
-        return out if len(out) == 3 else (*out, 0)
+        return _sets_run(lb.centre, lb.radius, *base[4:], FACES, *tables, cuts[t], cuts[t + 1],
+                         from_cells, *cells, offsets, entries, bases[t])
     if runs == 1:
         parts = [one(0)]
     else:
         with ThreadPoolExecutor(threads()) as pool:
             parts = list(pool.map(one, range(runs)))
-    offsets, shift = [np.zeros(1, np.int64)], 0
-    for o, _, _ in parts:
-        offsets.append(o[1:] + shift)
-        shift += int(o[-1])
-    return (np.concatenate(offsets), np.concatenate([p[1] for p in parts]),
-            sum(int(p[2]) for p in parts))
+    sizes = np.array([p[0] for p in parts], np.int64)
+    total = _compact(entries, offsets, bases, sizes, cuts * (w * h))
+    return offsets, entries[:total], sum(int(p[1]) for p in parts)
 
 
 def froxel_sets_all(fg: FroxelGrid, lb: LightBounds) -> FroxelSets:
     """brute: every visible light a candidate of every froxel, the exact test keeps it."""
-    offsets, entries, _ = _by_slices(fg, _sets_all, _args(fg, lb), ())
+    offsets, entries, _ = _sets(fg, lb)
     return FroxelSets(offsets, entries, fg.count * len(lb))
 
 
@@ -547,26 +627,26 @@ def cell_edges(grid: Grid):
     return tx, ty, s
 
 
-def froxel_sets_from_cells(fg: FroxelGrid, grid: Grid, ranges, cell_entries, lb: LightBounds,
-                           exact: bool = True) -> FroxelSets:
+def froxel_sets_from_cells(fg: FroxelGrid, grid: Grid, ranges, cell_entries,
+                           lb: LightBounds) -> FroxelSets:
     """A cell technique: the union of the cells each froxel overlaps (ranges (cells, 2)
     first / count into cell_entries, cells of `grid`), then the exact test."""
     ranges = np.asarray(ranges, np.int64)
     spans = np.empty((len(ranges), 4))
     spans[:, 0], spans[:, 1], spans[:, 2], spans[:, 3] = ranges[:, 0], ranges[:, 1], -np.inf, np.inf
     cell_spans = np.stack([np.arange(len(ranges)), np.ones(len(ranges), np.int64)], 1)
-    return froxel_sets_from_spans(fg, grid, cell_spans, spans, cell_entries, lb, exact)
+    return froxel_sets_from_spans(fg, grid, cell_spans, spans, cell_entries, lb)
 
 
 def froxel_sets_from_spans(fg: FroxelGrid, grid: Grid, cell_spans, spans, cell_entries,
-                           lb: LightBounds, exact: bool = True) -> FroxelSets:
+                           lb: LightBounds) -> FroxelSets:
     """froxel_sets_from_cells() of cells whose lists are spans (a tree's leaves, each with
     its depth interval: a froxel takes the leaves whose interval overlaps its depths)."""
     tx, ty, s = cell_edges(grid)
-    offsets, entries, cand = _by_slices(fg, _sets_from_cells, _args(fg, lb), (
-        tx, ty, s, np.ascontiguousarray(cell_spans, np.int64),
-        np.ascontiguousarray(spans, np.float64), np.ascontiguousarray(cell_entries, np.int64),
-        grid.tiles_x, grid.slices, exact))
+    offsets, entries, cand = _sets(fg, lb, (
+        _spans_of(fg.xs, tx), _spans_of(fg.ys, ty), _spans_of(fg.zs, s),
+        np.ascontiguousarray(cell_spans, np.int64), np.ascontiguousarray(spans, np.float64),
+        np.ascontiguousarray(cell_entries, np.int64), grid.tiles_x, grid.slices))
     return FroxelSets(offsets, entries, int(cand))
 
 

@@ -22,7 +22,9 @@ avoid, not exact by design (its stats say so).
 """
 from __future__ import annotations
 
+from collections import OrderedDict
 from dataclasses import dataclass
+import hashlib
 import time
 
 import numpy as np
@@ -138,6 +140,67 @@ def froxel_sets(technique, build, fg: fx.FroxelGrid, lb, lookup: str = "exact") 
     return from_cells(technique, build, fg, lb)
 
 
+def sets_key(technique, build, fg: fx.FroxelGrid, lb, lookup: str = "exact") -> bytes:
+    """A digest of everything a frame's froxel sets depend on: the technique's source and the
+    lookup, the froxel grid, the lights' bounds (LightBounds: what "meets" reads) and, for a
+    technique of cells, its grid and the lists (or trees) the candidates come from.  Two
+    frames whose camera and lights did not change give the same key."""
+    h = hashlib.blake2b(digest_size=20)
+    src = source_of(technique)
+    h.update(f"{src}|{lookup}|{fg.width}x{fg.height}|{fg.tan_x!r}|{fg.tan_y!r}".encode())
+    arrays = [fg.xs, fg.ys, fg.zs, lb.centre, lb.radius, lb.rect, lb.depth]
+    if src in CELL_SOURCES:
+        g = build.grid
+        h.update(repr((g.width, g.height, g.tile, g.slices, g.log_min, g.log_max)).encode())
+        arrays += [fx.slice_edges(g), build.buffers["ranges"], build.buffers["entries"]]
+        if src == "trees":
+            arrays.append(build.buffers["nodes"])
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.dtype.str}{a.shape}".encode())
+        h.update(a.view(np.uint8).reshape(-1) if a.size else b"")
+    return h.digest()
+
+
+class FroxelSetCache:
+    """The last few frames' froxel sets by sets_key(): a frame whose camera and lights did
+    not change (a still window) takes its sets from here instead of building them again.
+    Opt-in: a renderer with `froxel_cache` set to one uses it (render_fog); capture and the
+    benchmark leave it unset, so each frame's cpu_ms.froxels is a build."""
+
+    def __init__(self, size: int = 4):
+        self.size = max(1, int(size))
+        self._sets: OrderedDict[bytes, fx.FroxelSets] = OrderedDict()
+        self.hits = 0
+        self.misses = 0
+
+    def get(self, key: bytes, build_sets):
+        """The sets of `key`, from build_sets() the first time.  -> (sets, reused)."""
+        sets = self._sets.get(key)
+        if sets is not None:
+            self._sets.move_to_end(key)
+            self.hits += 1
+            return sets, True
+        sets = build_sets()
+        self.misses += 1
+        self._sets[key] = sets
+        while len(self._sets) > self.size:
+            self._sets.popitem(last=False)
+        return sets, False
+
+    def clear(self) -> None:
+        self._sets.clear()
+
+
+def cached_sets(cache: FroxelSetCache | None, technique, build, fg: fx.FroxelGrid, lb,
+                lookup: str = "exact"):
+    """froxel_sets(), through `cache` where there is one.  -> (sets, reused)."""
+    make = lambda: froxel_sets(technique, build, fg, lb, lookup)
+    if cache is None:
+        return make(), False
+    return cache.get(sets_key(technique, build, fg, lb, lookup), make)
+
+
 def edges_array(fg: fx.FroxelGrid) -> np.ndarray:
     us, vs = fg.ndc()
     return np.concatenate([fg.xs, fg.ys, fg.zs, us, vs]).astype(np.float32)
@@ -173,7 +236,9 @@ def mean(total, n) -> float:
 
 
 def render_fog(renderer, technique, opts, build, result, fo: FogOptions | None, readback: bool) -> None:
-    """The fog of the frame just rendered: its froxel sets (CPU, timed as cpu_ms.froxels),
+    """The fog of the frame just rendered: its froxel sets (CPU, timed as cpu_ms.froxels;
+    a renderer whose `froxel_cache` is a FroxelSetCache takes a still frame's from there and
+    says so in meta['fog']['froxel_sets_reused']),
     their upload and three passes (timed: gpu_ms.fog_*), the figures in meta['stats'] and
     meta['fog'], and, read back, result.froxel_count / froxel_hash (D, H, W), row 0 the top."""
     fog = renderer.scene.fog
@@ -182,7 +247,8 @@ def render_fog(renderer, technique, opts, build, result, fo: FogOptions | None, 
     fg = froxel_grid(build, fog, fo)
     t0 = time.perf_counter()
     lb = fx.light_bounds(build.lights)
-    sets = froxel_sets(technique, build, fg, lb, fo.lookup)
+    cache = getattr(renderer, "froxel_cache", None)
+    sets, reused = cached_sets(cache, technique, build, fg, lb, fo.lookup)
     cpu_ms = (time.perf_counter() - t0) * 1e3
     longest = int(sets.counts().max(initial=0))
     budget = renderer.limits.loop_budget
@@ -200,7 +266,7 @@ def render_fog(renderer, technique, opts, build, result, fo: FogOptions | None, 
         raise UserError(str(exc)) from None
     t1 = time.perf_counter()
     renderer.upload("froxel_ranges", ranges)
-    renderer.upload("froxel_entries", sets.entries.astype(np.uint32))
+    renderer.upload("froxel_entries", np.asarray(sets.entries, np.uint32))
     renderer.upload("froxel_edges", edges_array(fg))
     upload_ms = (time.perf_counter() - t1) * 1e3
     features = feat.feature_set(build.lights.type, False)
@@ -222,7 +288,7 @@ def render_fog(renderer, technique, opts, build, result, fo: FogOptions | None, 
             f"{stats['froxel_unneeded_mean']} of them not needed")
     if source_of(technique) in CELL_SOURCES and fo.lookup == "exact":
         mg = fx.matched_grid(build.frame.camera, build.grid, fog.far)
-        ms = from_cells(technique, build, mg, lb)
+        ms, _ = cached_sets(cache, technique, build, mg, lb)
         mw, mh, md = mg.dims
         stats["froxels_matched"] = f"{mw}x{mh}x{md}"
         stats["froxel_unneeded_mean_matched"] = mean(ms.candidates - len(ms.entries), mg.count)
@@ -235,6 +301,8 @@ def render_fog(renderer, technique, opts, build, result, fo: FogOptions | None, 
     m["fog"] = {"density": fog.density, "albedo": list(fog.albedo), "far": fog.far,
                 "anisotropy": fog.anisotropy, "froxel_source": source_of(technique),
                 **fo.as_dict(), "mismatch": line}
+    if cache is not None:
+        m["fog"]["froxel_sets_reused"] = reused
     if readback:
         raw = renderer.read("froxel_stats")
         flip = lambda a: a.reshape(d, h, w)[:, ::-1, :].copy()

@@ -158,7 +158,7 @@ class Renderer:
     def upload(self, name: str, array: np.ndarray) -> None:
         buf = self.buffer(name, array.nbytes)
         if array.nbytes:
-            buf.write(np.ascontiguousarray(array).tobytes())
+            buf.write(np.ascontiguousarray(array))     # its memory as it is: no copy
         self._frame.provided[name] = (int(array.nbytes), array.dtype)
 
     def output(self, name: str) -> moderngl.Buffer:

@@ -186,3 +186,27 @@ def test_a_froxel_past_the_drivers_loop_budget_is_refused(gl):
         render(scene, "clustered", FogOptions((2, 2, 2), 8), size=(32, 18))
     _, ok = render(scene, "clustered", FogOptions((2, 2, 2), 1), size=(32, 18))
     assert int(ok.froxel_count.max()) == n    # one sample: within it, every light met
+
+
+def test_a_still_frame_takes_its_froxel_sets_from_the_cache(gl):
+    from app.pipeline.fog import FroxelSetCache
+    from app.pipeline.renderer import Renderer
+    from app.techniques import get
+    scene = load_scene("hangar-fog", 200)
+    r = Renderer(scene, SIZE)
+    r.fog_options = FogOptions((24, 12, 16))
+    r.froxel_cache = FroxelSetCache()
+    first, still = r.render(get("clustered")), r.render(get("clustered"))
+    assert first.meta["fog"]["froxel_sets_reused"] is False
+    assert still.meta["fog"]["froxel_sets_reused"] is True and same_froxels(first, still)
+    assert still.meta["stats"] == first.meta["stats"]
+    tree = r.render(get("tree"))                          # another technique: its own sets
+    assert tree.meta["fog"]["froxel_sets_reused"] is False and same_froxels(tree, first)
+    moved = r.render(get("clustered"), frame=9)           # the camera moved: built again
+    _, fresh = render(scene, "clustered", FogOptions((24, 12, 16)))
+    assert moved.meta["fog"]["froxel_sets_reused"] is False
+    r2 = Renderer(scene, SIZE)
+    r2.fog_options = FogOptions((24, 12, 16))
+    assert same_froxels(moved, r2.render(get("clustered"), frame=9))
+    assert not same_froxels(moved, first)
+    assert "froxel_sets_reused" not in fresh.meta["fog"]   # no cache: every frame built
