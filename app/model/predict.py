@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..pipeline import phases
 from ..techniques import parts
 from . import cost, counts, waves
 
@@ -51,6 +52,7 @@ def modelled_frame(renderer, technique, result, opts=None, sample: int = 1):
                      "waste": float(ev.sum() / ex.sum()) if ex.sum() else float("nan")}
 
 
+@phases.timed("replay")           # app.pipeline.phases: where a run's time goes
 def _figures(renderer, technique, result, opts, unbounded, widths, sample):
     opts = technique.resolve_options(opts)
     fr = waves.frame_data(renderer, result, opts, unbounded)

@@ -39,6 +39,7 @@ from cpu_prep.arena import Arena
 from cpu_prep.camera import frame_camera
 from cpu_prep.limits import WINDOW_ALL, LimitError
 from . import features as feat, gl, rawgl
+from . import phases
 from ..errors import FrameTimeout, UserError
 from .gbuffer import GBuffer, TEXTURE_UNITS
 from .passes import (DEPTH_FUNCS, DRAW_MODES, FRAME_OUTPUTS, OUT_CELL, OUT_STATS, Buffer, Build,
@@ -198,6 +199,12 @@ class Renderer:
         that only count figures for meta['stats'] and the technique's maps (passes.py).
         `deadline` (a time.perf_counter() value): FrameTimeout between two steps once it
         has passed, counting only the technique's passes (the module's docstring)."""
+        with phases.phase("render" if readback else "timing"):    # app.pipeline.phases: where time goes
+            return self._render(technique, frame, opts, frames, lights, readback, camera,
+                                defines, samples, debug_pixel, figures, deadline)
+
+    def _render(self, technique, frame, opts, frames, lights, readback, camera, defines,
+                samples, debug_pixel, figures, deadline) -> FrameResult:
         begun = time.perf_counter()
         opts = technique.resolve_options(opts)
         fin = self.frame_input(frame, frames, lights, camera)
@@ -256,7 +263,8 @@ class Renderer:
             self._run_pass(p, virtual, {}, {}, record=False)
         self.gbuffer.bind_textures()
         try:
-            build = technique.build(fin, opts)
+            with phases.phase("build"):
+                build = technique.build(fin, opts)
         except LimitError as exc:
             raise UserError(str(exc)) from None
         t0 = time.perf_counter()
@@ -389,8 +397,11 @@ class Renderer:
             self.ctx.finish()
             f.setup_ms[p.name] = f.setup_ms.get(p.name, 0.0) + (time.perf_counter() - t0) * 1e3
         self.ctx.memory_barrier()   # the next pass reads what this one wrote
-        if record and len(self.programs.sources) != programs:
-            self._hold(begun)       # it built its program: a compile (a software GL's at its first dispatch)
+        if len(self.programs.sources) != programs:
+            # it built its program: a compile (a software GL's at its first dispatch)
+            phases.move("compile", time.perf_counter() - begun)
+            if record:
+                self._hold(begun)
 
     @staticmethod
     def _set_uniforms(prog, uniforms) -> None:

@@ -42,6 +42,7 @@ from .tables import floor_table, summary_table
 from .tradeoff import EXPLANATION as TRADEOFF_EXPLANATION, fig_tradeoff
 from .sampling import CSV as SAMPLING_CSV, sampling_section
 from .model import model_section
+from .runtime import time_lines as run_time_lines
 from .validation import validation
 
 
@@ -121,6 +122,7 @@ def _head(rows, info, roles) -> list[str]:
         f"- CPU stage: {info.get('cpu_threads', '?')} numba thread(s) (the paper's figure 4 is "
         f"single threaded)",
         f"- run time: {info.get('elapsed_s', 0):.0f} s; {len(rows)} rows in results.csv",
+        *run_time_lines(info),
         "",
     ]
     head += believe_text(rows, info, roles)
