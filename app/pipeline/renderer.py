@@ -375,7 +375,7 @@ class Renderer:
             optional["DEBUG_PIXEL"] = 1
             uniforms = dict(uniforms, u_debug_pixel=f.debug_pixel)
         virtual = p.files(virtual)
-        begun, programs = time.perf_counter(), len(self.programs.sources)
+        begun, programs, built = time.perf_counter(), len(self.programs.sources), self.programs.built
         if p.kind == "compute":
             prog = self.programs.compute(p.shader, dict(p.defines), virtual, (), bindings, optional, where)
             work = (lambda: prog.run(*p.groups)) if p.indirect is None else \
@@ -397,11 +397,10 @@ class Renderer:
             self.ctx.finish()
             f.setup_ms[p.name] = f.setup_ms.get(p.name, 0.0) + (time.perf_counter() - t0) * 1e3
         self.ctx.memory_barrier()   # the next pass reads what this one wrote
-        if len(self.programs.sources) != programs:
-            # it built its program: a compile (a software GL's at its first dispatch)
+        if self.programs.built != built:     # it compiled its program (app.pipeline.phases)
             phases.move("compile", time.perf_counter() - begun)
-            if record:
-                self._hold(begun)
+        if record and len(self.programs.sources) != programs:
+            self._hold(begun)       # its program's first use here: a compile (a software GL's at its first dispatch)
 
     @staticmethod
     def _set_uniforms(prog, uniforms) -> None:
