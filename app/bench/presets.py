@@ -76,11 +76,14 @@ def _quick() -> Preset:
         # 6 frames x 19 configurations at 128x72: ~15 s on 2 cores (shaders warm)
         ("temporal", TemporalConfig(frames=6, seed=s.seed)),
         # caps: 6 list techniques x 7 policies (1,530 of 2,048 lights visible: every policy
-        # drops some)
+        # drops some); replay_segments: the wave replay walks at most ~4M segments a width
+        # (drops: sample-ris's modelled columns from every 8x8 group where its CDF searches
+        # pass that, 6-18M segments at 4,096 lights; replayed over every 2nd-5th, scaled)
         ("rendered", RenderedConfig(s, study_repeat=5, heavy_repeat=2, heavy_eval_pp=256.0,
                                     cutoffs=(256, 1024, 4096, 16384, 65536),
                                     cutoff_scenes=("arena", "city"), cutoff_lights=2048,
-                                    heat_scene="city", caps_scenes=("arena",), caps_lights=2048)),
+                                    heat_scene="city", caps_scenes=("arena",), caps_lights=2048,
+                                    replay_segments=4_000_000)),
         # samplers against culling on one frame: 2 scenes x (16 culling configurations x 3
         # samples + S in 1, 4, 16, 64 x 4 seeds) at 160x90 and the caps' 2,048 lights:
         # ~45 s on 2 loaded cores, most of it brute's and tiled's 300-1,900 lights a pixel

@@ -162,7 +162,7 @@ class Sweep:
         from ..model import predict        # GL: not at import (the command's parser has it)
         return measure.model_cells(predict.modelled_or_none(
             renderer, REGISTRY[job.technique], res, job.opts, unbounded=job.cutoff < 0,
-            budget=REPLAY_BUDGET))
+            budget=REPLAY_BUDGET, segments=self.rendered.replay_segments))
 
     def measure_group(self, renderer, group: list[Job], first: int, total: int) -> None:
         """Rows of a group of configurations compared with each other: each one's read-back

@@ -17,19 +17,21 @@ SHADE = "shade"        # the shading pass's name in the figures (its timed passe
 
 
 def frame_figures(renderer, technique, result, opts=None, unbounded: bool = False,
-                  widths=waves.WIDTHS, sample: int = 1, budget: int | None = None
-                  ) -> dict[int, dict[str, waves.Figures]]:
+                  widths=waves.WIDTHS, sample: int = 1, budget: int | None = None,
+                  segments: int = 0) -> dict[int, dict[str, waves.Figures]]:
     """Every timed pass's figures at each wave width, for the frame the renderer just
     rendered with read-back (its buffers are still there).  `sample` > 1 replays the
     shading pass over every sample-th 8x8 group only and scales (waves.sampled); `budget`
     chooses that sample from the frame's own counters: about `budget` lane iterations (the
-    lights and nodes its pixels visited) a width."""
+    lights and nodes its pixels visited) a width.  `segments` (0: no limit): a shading
+    program of more segments than that (a sampler's CDF searches are segments the counters
+    do not show) is replayed over a sample that many times sparser again, for every width."""
     if budget and getattr(result, "evaluated", None) is not None:
         work = int(result.evaluated.sum(dtype=np.int64))
         if getattr(result, "nodes", None) is not None:
             work += int(result.nodes.sum(dtype=np.int64))
         sample = max(sample, -(-work // budget))
-    return _figures(renderer, technique, result, opts, unbounded, widths, sample)[0]
+    return _figures(renderer, technique, result, opts, unbounded, widths, sample, segments)[0]
 
 
 def modelled_or_none(renderer, technique, result, opts=None, **kw):
@@ -53,7 +55,7 @@ def modelled_frame(renderer, technique, result, opts=None, sample: int = 1):
 
 
 @phases.timed("replay")           # app.pipeline.phases: where a run's time goes
-def _figures(renderer, technique, result, opts, unbounded, widths, sample):
+def _figures(renderer, technique, result, opts, unbounded, widths, sample, segments=0):
     opts = technique.resolve_options(opts)
     fr = waves.frame_data(renderer, result, opts, unbounded)
     part, share = waves.sampled(fr, sample)
@@ -61,6 +63,10 @@ def _figures(renderer, technique, result, opts, unbounded, widths, sample):
     for width in widths:
         passes = dict(parts.cull_figures(technique, fr, width))
         prog = parts.wave_program(technique, part, width)
+        if segments and not out and prog.segment_count() > segments:   # the first width decides
+            sample *= -(-prog.segment_count() // segments)
+            part, share = waves.sampled(fr, sample)
+            prog = parts.wave_program(technique, part, width)
         last = waves.replay(prog)
         shade = last.figures
         passes[SHADE] = shade if share >= 1.0 else shade.scaled(1.0 / max(share, 1e-9), prog.buffers)

@@ -178,6 +178,10 @@ class Program:
                           words=int(words), masked=bool(masked), scalarized=bool(scalarized),
                           printed=bool(printed))
 
+    def segment_count(self) -> int:
+        """The segments added so far (what the replay sorts and walks)."""
+        return sum(len(s[0]) for s in self._segs)
+
     def segments(self) -> tuple[dict[str, np.ndarray], np.ndarray]:
         """Every segment (lane, step, hoff, first, count, call), sorted by (wave, branch,
         step, lane), and the call table ((C, 8) int64: branch, kind, hbuf, hbytes, hscalar,
