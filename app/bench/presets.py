@@ -92,8 +92,12 @@ def _quick() -> Preset:
         # figure 7 along 16 frames of each path at 65,536 lights only (96 rows, ~1.7 s each
         # on 2 loaded cores, ~170 s; at two counts ~330 s), every 32nd 8x8 group replayed;
         # raster's rows of Drobot's tables only in --full (the cluster rasterizer's MARK /
-        # WALK draws at 1080p: ~25 s a row on llvmpipe, ~140 s the 8 rows)
-        ("papers", PapersConfig(s, lights=(65536,), path_sample=32, raster=False)),
+        # WALK draws at 1080p: ~25 s a row on llvmpipe, ~140 s the 8 rows); replay_segments as
+        # the rendered study's (drops: the samplers' paper_scenes replay over every 8th 8x8
+        # group where its program passes ~4M segments: sample-ris 28-80M, ~75 s a row, then
+        # ~22 s; its modelled lighting ms move by up to 6%, sample-list's and -tree's by 1%)
+        ("papers", PapersConfig(s, lights=(65536,), path_sample=32, raster=False,
+                                replay_segments=4_000_000)),
         # the CPU series runs at the paper's resolution even in --quick
         ("cpu", CpuConfig(s, scene="arena", lights=(1024, 4096, 16384, 65536),
                           size=(1920, 1080), repeat=5)),

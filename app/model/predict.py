@@ -43,11 +43,13 @@ def modelled_or_none(renderer, technique, result, opts=None, **kw):
         return None
 
 
-def modelled_frame(renderer, technique, result, opts=None, sample: int = 1):
+def modelled_frame(renderer, technique, result, opts=None, sample: int = 1, segments: int = 0):
     """(figures, per-pixel means the 64-lane replay implies over the shading pixels it
     replayed: evaluated_pp, exact_pp, nodes_pp, waste) of a frame rendered with the shading
-    passes' CELLS_ONLY switch (their light loops skipped: the replay stands for them)."""
-    figures, rp, shading = _figures(renderer, technique, result, opts, False, waves.WIDTHS, sample)
+    passes' CELLS_ONLY switch (their light loops skipped: the replay stands for them);
+    `segments` as frame_figures'."""
+    figures, rp, shading = _figures(renderer, technique, result, opts, False, waves.WIDTHS, sample,
+                                    segments)
     ev, ex, nd = (a[shading].astype(np.float64) for a in (rp.evaluated, rp.contrib, rp.nodes))
     mean = lambda a: float(a.mean()) if len(a) else 0.0
     return figures, {"evaluated_pp": mean(ev), "exact_pp": mean(ex), "nodes_pp": mean(nd),
