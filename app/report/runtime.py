@@ -1,5 +1,7 @@
-"""The report's line on where the run's time went: each study's wall seconds and share
-(run.json's study_s, and report_s), and within a study its phases (run.json's phase_s,
+"""The report's line on where the run's time went: each study's wall seconds and share of
+the studies' total (run.json's study_s; not the report's own time, report_s, which is known
+only once the report is written, so that a rebuilt report says the same), and within a study
+its phases (run.json's phase_s,
 app.pipeline.phases: compile, render, timing, build, check, replay, counts, other), the
 longest first."""
 from __future__ import annotations
@@ -10,8 +12,6 @@ def time_lines(info: dict) -> list[str]:
     spent = dict(info.get("study_s") or {})
     if not spent:
         return []
-    if "report_s" in info:
-        spent["report"] = info["report_s"]
     total = sum(spent.values()) or 1.0
     by_phase = info.get("phase_s") or {}
     out = []
