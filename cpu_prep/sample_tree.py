@@ -255,11 +255,13 @@ def draw_leaf(nodes, entries, gpu_lights, leaf, P, state):
     u = next_unit(state, draw)
     scan = draw & (count <= LEAF_SCAN)
     longest = int(count[scan].max(initial=0))
-    bound = lambda k: light_bounds(gpu_lights, entries[np.minimum(first + k, len(entries) - 1)], P)
+    # each position's bound, once: the sum and the search read the same values
+    bounds = [light_bounds(gpu_lights, entries[np.minimum(first + k, len(entries) - 1)], P)
+              for k in range(longest)]
     total = np.zeros(len(leaf), _F)
     for k in range(longest):                     # the sum in the shader's order
         m = scan & (k < count)
-        total = np.where(m, total + bound(k), total)
+        total = np.where(m, total + bounds[k], total)
     uniform = np.where(total > 0, _F(DEFENSIVE), _F(1))
     by_uniform = u < uniform
     e = first + np.minimum((u / uniform * count.astype(_F)).astype(np.int64), count - 1)
@@ -267,7 +269,7 @@ def draw_leaf(nodes, entries, gpu_lights, leaf, P, state):
     chosen, found = first + count - 1, np.zeros(len(leaf), bool)
     for k in range(longest):
         m = scan & ~by_uniform & (k < count) & ~found
-        w = bound(k)
+        w = bounds[k]
         hit = m & (t < w)
         chosen, found = np.where(hit, first + k, chosen), found | hit
         t = np.where(m & ~hit, t - w, t)

@@ -37,6 +37,8 @@ import numpy as np
 
 from cpu_prep import caps
 
+from ..pipeline import phases
+
 CAPS = "caps"                  # results.csv study of the series
 
 
@@ -88,6 +90,7 @@ def with_caps_jobs(jobs: list, p, light_counts, scene_of, log=None) -> list:
     return out
 
 
+@phases.timed("check")            # app.pipeline.phases: where a run's time goes
 def loss_cells(renderer, res, ref, stats: str, render_args: dict) -> dict:
     """A caps row's exactness and intended loss (module docstring): mismatch_count,
     mismatch_hash and the stats JSON `stats` with lost_pixels and lost_contributions, from

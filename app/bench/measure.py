@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from ..pipeline import phases
 from ..results import FRAME_PASS, STAGES, option_columns, stats
 
 
@@ -103,6 +104,7 @@ def evaluated_per_pixel(res) -> float:
     return float(res.evaluated[mask].mean()) if mask.any() else 0.0
 
 
+@phases.timed("check")            # app.pipeline.phases: where a run's time goes
 def image_error(res, ref) -> float:
     """RMSE of linear radiance over geometry pixels, relative to the reference's mean."""
     mask = ref.depth > 0
@@ -115,6 +117,7 @@ def image_error(res, ref) -> float:
     return rmse / mean if mean > 0 else rmse
 
 
+@phases.timed("check")
 def image_flip(res, ref) -> float:
     """Mean LDR FLIP (NVIDIA's perceptual difference metric, Andersson et al. 2020) between
     the tone-mapped images a user sees (app.images.tonemap, sRGB), over the whole frame."""
@@ -145,6 +148,7 @@ def _digest(img: np.ndarray) -> bytes:
     return hashlib.blake2b(np.ascontiguousarray(img).data, digest_size=16).digest()
 
 
+@phases.timed("check")
 def radiance_ratio(res, ref) -> float:
     """Mean linear radiance over the reference's geometry pixels, relative to the reference."""
     mask = ref.depth > 0
@@ -152,6 +156,7 @@ def radiance_ratio(res, ref) -> float:
     return float(res.image[mask].astype(np.float64).mean()) / b if b > 0 else 1.0
 
 
+@phases.timed("check")
 def mismatches(res, ref) -> tuple[int, int]:
     """Pixels whose contrib_count, contrib_hash differ from the reference's (a frame with
     transparent layers: those of every layer's pixels too, app/pipeline/transparent.py)."""

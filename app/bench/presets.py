@@ -80,21 +80,30 @@ def _quick() -> Preset:
         # 6 frames x 19 configurations at 128x72: ~15 s on 2 cores (shaders warm)
         ("temporal", TemporalConfig(frames=6, seed=s.seed)),
         # caps: 6 list techniques x 7 policies (1,530 of 2,048 lights visible: every policy
-        # drops some)
+        # drops some); replay_segments: the wave replay walks at most ~4M segments a width
+        # (drops: sample-ris's modelled columns from every 8x8 group where its CDF searches
+        # pass that, 6-18M segments at 4,096 lights; replayed over every 2nd-5th, scaled)
         ("rendered", RenderedConfig(s, study_repeat=5, heavy_repeat=2, heavy_eval_pp=256.0,
                                     cutoffs=(256, 1024, 4096, 16384, 65536),
                                     cutoff_scenes=("arena", "city"), cutoff_lights=2048,
-                                    heat_scene="city", caps_scenes=("arena",), caps_lights=2048)),
+                                    heat_scene="city", caps_scenes=("arena",), caps_lights=2048,
+                                    replay_segments=4_000_000)),
         # samplers against culling on one frame: 2 scenes x (16 culling configurations x 3
         # samples + S in 1, 4, 16, 64 x 4 seeds) at 160x90 and the caps' 2,048 lights:
-        # ~45 s on 2 loaded cores, most of it brute's and tiled's 300-1,900 lights a pixel
+        # ~45 s on 2 loaded cores, most of it brute's and tiled's 300-1,900 lights a pixel;
+        # replay_segments as the rendered study's (drops: sample-ris's whole-frame replay at
+        # S 16-64, its modelled lighting and shadow tests a pixel within 2% and 3%)
         ("sampling", SamplingConfig(("arena", "city"), 2048, (160, 90), (1, 4, 16, 64), seeds=4,
-                                    repeat=3, seed=s.seed)),
+                                    repeat=3, seed=s.seed, replay_segments=4_000_000)),
         # figure 7 along 16 frames of each path at 65,536 lights only (96 rows, ~1.7 s each
         # on 2 loaded cores, ~170 s; at two counts ~330 s), every 32nd 8x8 group replayed;
         # raster's rows of Drobot's tables only in --full (the cluster rasterizer's MARK /
-        # WALK draws at 1080p: ~25 s a row on llvmpipe, ~140 s the 8 rows)
-        ("papers", PapersConfig(s, lights=(65536,), path_sample=32, raster=False)),
+        # WALK draws at 1080p: ~25 s a row on llvmpipe, ~140 s the 8 rows); replay_segments as
+        # the rendered study's (drops: the samplers' paper_scenes replay over every 8th 8x8
+        # group where its program passes ~4M segments: sample-ris 28-80M, ~75 s a row, then
+        # ~22 s; its modelled lighting ms move by up to 6%, sample-list's and -tree's by 1%)
+        ("papers", PapersConfig(s, lights=(65536,), path_sample=32, raster=False,
+                                replay_segments=4_000_000)),
         # the CPU series runs at the paper's resolution even in --quick
         ("cpu", CpuConfig(s, scene="arena", lights=(1024, 4096, 16384, 65536),
                           size=(1920, 1080), repeat=5)),

@@ -28,6 +28,10 @@ class RenderedConfig:
     # report's lead figure holds both); () none
     caps_scenes: tuple[str, ...] = ()
     caps_lights: int = 2048
+    # the wave replay's limit on a shading program's segments (app.model.predict.frame_figures;
+    # 0: none): a program past it (sample-ris's CDF searches) is replayed over a sparser
+    # sample of 8x8 groups, scaled, as one past the sweep's REPLAY_BUDGET of lane iterations
+    replay_segments: int = 0
 
 
 class RenderedStudy(Study):

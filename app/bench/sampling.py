@@ -107,6 +107,8 @@ class SamplingConfig:
     # lane iterations a width the wave replay walks, as the rendered study's
     # (app.bench.sweep.REPLAY_BUDGET, held equal by the tests: sweep imports the presets)
     replay_budget: int = 4_000_000
+    replay_segments: int = 0       # the replay's limit on a program's segments (0: none; as
+                                   # app.bench.rendered's: predict.frame_figures)
 
 
 def configurations(samples, dropped: dict[str, int]) -> list[dict]:
@@ -228,12 +230,12 @@ def _first(st: dict, renderer, cfg, res, frame: Frame, c: SamplingConfig) -> Non
                   int((res.contrib_count != frame.ref.contrib_count).sum() +
                       (res.contrib_hash != frame.ref.contrib_hash).sum()),
                   st["draws"][0]["exact_pp"])
-    st["model"] = _model(renderer, cfg, res, c.replay_budget) if c.model else None
+    st["model"] = _model(renderer, cfg, res, c.replay_budget, c.replay_segments) if c.model else None
     if st["draws"][0]["evaluated_pp"] > c.heavy_eval_pp:
         st["wants"] = min(c.repeat, c.heavy_repeat)
 
 
-def _model(renderer, cfg, res, budget: int) -> tuple[dict, float] | None:
+def _model(renderer, cfg, res, budget: int, segments: int = 0) -> tuple[dict, float] | None:
     """({gpu key: modelled lighting ms}, the replay's affecting draws a geometry pixel) of the
     frame the renderer holds, None without a replay."""
     from ..model import predict
@@ -241,7 +243,8 @@ def _model(renderer, cfg, res, budget: int) -> tuple[dict, float] | None:
     work = int(res.evaluated.sum(dtype=np.int64)) + int(res.nodes.sum(dtype=np.int64))
     try:
         figures, means = predict.modelled_frame(renderer, REGISTRY[cfg["technique"]], res,
-                                                cfg["opts"], sample=max(1, -(-work // budget)))
+                                                cfg["opts"], sample=max(1, -(-work // budget)),
+                                                segments=segments)
     except (NotImplementedError, KeyError, ValueError):   # a technique the replay lacks
         return None
     cells = measure.model_cells(figures)

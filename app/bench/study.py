@@ -12,13 +12,16 @@
               file); `sweep` (app.bench.sweep.Sweep) holds what studies share: the log,
               the progress line, the scenes loaded
 
-A run times each study (`timed`) and ends with one line a study: where its time went.
+A run times each study (`timed`) and ends with one line a study: where its time went, by
+phase (app.pipeline.phases) within it.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 import time
 from typing import ClassVar
+
+from ..pipeline import phases
 
 STUDIES: dict[str, type["Study"]] = {}
 
@@ -72,22 +75,41 @@ class CountSeries:
     repeat: int
 
 
-def timed(studies, out, sweep) -> tuple[list[dict], dict[str, float]]:
-    """Run each study in order: (their rows in that order, {study: wall seconds})."""
+def timed(studies, out, sweep, by_phase: dict | None = None) -> tuple[list[dict], dict[str, float]]:
+    """Run each study in order: (their rows in that order, {study: wall seconds});
+    `by_phase`, when given, gets {study: {phase: seconds}} (app.pipeline.phases: compile, render,
+    timing, build, check, replay ...; "other" the rest of the study's wall time)."""
     rows, seconds = [], {}
     for study in studies:
-        t0 = time.perf_counter()
+        t0, before = time.perf_counter(), phases.snapshot()
         rows += study.run(out, sweep)
-        seconds[study.name] = seconds.get(study.name, 0.0) + time.perf_counter() - t0
+        wall = time.perf_counter() - t0
+        seconds[study.name] = seconds.get(study.name, 0.0) + wall
+        if by_phase is not None:
+            spent = by_phase.setdefault(study.name, {})
+            for k, v in phases.since(before).items():
+                spent[k] = spent.get(k, 0.0) + v
+            spent["other"] = max(seconds[study.name] - sum(v for k, v in spent.items()
+                                                           if k != "other"), 0.0)
     return rows, seconds
 
 
-def time_lines(seconds: dict[str, float]) -> list[str]:
-    """One line a study: its wall time and its share of the studies' total."""
+def time_lines(seconds: dict[str, float], by_phase: dict | None = None) -> list[str]:
+    """One line a study: its wall time and its share of the studies' total, then (by_phase)
+    its phases, the longest first."""
     total = sum(seconds.values()) or 1.0
     width = max((len(k) for k in seconds), default=0)
     return [f"bench: time: {k:{width}} {s:8.1f} s {100 * s / total:5.1f}%"
+            + phase_text((by_phase or {}).get(k, {}), " (", ")")
             for k, s in seconds.items()]
 
 
-__all__ = ["Study", "STUDIES", "Shared", "CountSeries", "timed", "time_lines"]
+def phase_text(spent: dict[str, float], before: str = "", after: str = "") -> str:
+    """'compile 1.2 s, render 3.4 s, ...' the longest first ('' for none)."""
+    items = sorted(((k, v) for k, v in spent.items() if v >= 0.05), key=lambda kv: -kv[1])
+    if not items:
+        return ""
+    return before + ", ".join(f"{k} {v:.1f} s" for k, v in items) + after
+
+
+__all__ = ["Study", "STUDIES", "Shared", "CountSeries", "timed", "time_lines", "phase_text"]

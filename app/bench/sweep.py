@@ -162,7 +162,7 @@ class Sweep:
         from ..model import predict        # GL: not at import (the command's parser has it)
         return measure.model_cells(predict.modelled_or_none(
             renderer, REGISTRY[job.technique], res, job.opts, unbounded=job.cutoff < 0,
-            budget=REPLAY_BUDGET))
+            budget=REPLAY_BUDGET, segments=self.rendered.replay_segments))
 
     def measure_group(self, renderer, group: list[Job], first: int, total: int) -> None:
         """Rows of a group of configurations compared with each other: each one's read-back
@@ -308,7 +308,8 @@ def run_sweep(preset: Preset, out: Path, command: str, log=None,
               motion: str | None = None) -> list[dict]:
     """Run the preset's studies, write out/results.csv, maps.npz, run.json and the report
     (`motion`: --motion, the lights' motion; None: each scene's own); end with where the
-    time went, a line a study and the report's (also run.json's study_s and report_s)."""
+    time went, a line a study and the report's (also run.json's study_s and report_s), each
+    study's by phase (run.json's phase_s: app.pipeline.phases)."""
     log = log or sys.stderr      # the stream at the call, not at import (pytest swaps it)
     from .. import report
     out = Path(out)
@@ -316,14 +317,16 @@ def run_sweep(preset: Preset, out: Path, command: str, log=None,
     t0 = time.perf_counter()
     threads = set_cpu_threads(preset.shared.threads)
     sweep = Sweep(preset, log, motion)
-    rows, seconds = timed(preset_studies(preset), out, sweep)
+    by_phase: dict = {}
+    rows, seconds = timed(preset_studies(preset), out, sweep, by_phase)
     write_csv(rows, out / "results.csv", columns())
     np.savez_compressed(out / "maps.npz", **sweep.maps)
     elapsed = time.perf_counter() - t0
     info = dict(machine_info(), command=command, preset=preset.name, elapsed_s=elapsed,
                 cpu_threads=threads, motion=motion or "the scenes' own",
                 config=preset.as_dict(),
-                study_s={k: round(v, 3) for k, v in seconds.items()})
+                study_s={k: round(v, 3) for k, v in seconds.items()},
+                phase_s={k: {p: round(v, 3) for p, v in ph.items()} for k, ph in by_phase.items()})
     (out / "run.json").write_text(json.dumps(info, indent=1, default=list) + "\n")
     t1 = time.perf_counter()
     report.write_report(out, read_csv(out / "results.csv"), dict(np.load(out / "maps.npz")), info)
@@ -332,7 +335,7 @@ def run_sweep(preset: Preset, out: Path, command: str, log=None,
     (out / "run.json").write_text(json.dumps(info, indent=1, default=list) + "\n")
     log.write(f"bench: wrote {out / 'results.csv'} ({len(rows)} rows) and {out / 'report.md'} "
               f"in {time.perf_counter() - t0:.0f} s\n")
-    log.write("".join(line + "\n" for line in time_lines(seconds)))
+    log.write("".join(line + "\n" for line in time_lines(seconds, by_phase)))
     return rows
 
 

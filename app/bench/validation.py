@@ -113,6 +113,8 @@ class PapersConfig:
     sample: int = 8               # the shading replay over every k-th 8x8 group (scaled)
     path_sample: int = 0          # ... figure 7's rows (0: sample)
     raster: bool = True           # raster's rows of Drobot's tables (zbin table, cluster table)
+    replay_segments: int = 0      # the replay's limit on a program's segments (0: none; as
+                                  # app.bench.rendered's: predict.frame_figures)
 
 
 def paper_jobs(c: PapersConfig) -> list[PaperJob]:
@@ -187,7 +189,8 @@ class PapersStudy(Study):
                 res = renderer.render(tech, job.frame, job.opts, frames=pj.frames, lights=lights,
                                       defines={"CELLS_ONLY": 1})
                 figures, implied = predict.modelled_frame(renderer, tech, res, job.opts,
-                                                          sample=pj.sample or c.sample)
+                                                          sample=pj.sample or c.sample,
+                                                          segments=c.replay_segments)
                 r = {"study": job.study, "scene": job.scene, "lights": len(lights),
                      "visible": int(res.meta["stats"].get("visible_lights", 0)), "width": w,
                      "height": h, "frame": job.frame, "frames": pj.frames,

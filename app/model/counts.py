@@ -40,6 +40,7 @@ import re
 
 from scenes.model import LIGHT_TYPES
 
+from ..pipeline import phases
 from ..pipeline import features as feat
 from ..pipeline.gl import WAVE_KHR
 from ..pipeline.shaders import ProgramKey, Source, stage_texts
@@ -230,6 +231,7 @@ def merged(keys) -> dict[str, list[float]]:
     return out
 
 
+@phases.timed("counts")           # app.pipeline.phases: where a run's time goes
 def attach(passes: dict, programs: dict) -> None:
     """Each figure of a frame (pass name -> Figures) gets the counts of the programs its pass
     ran (`programs`: pass name -> [ProgramKey], the renderer's record).  A figure that stands

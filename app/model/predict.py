@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..pipeline import phases
 from ..techniques import parts
 from . import cost, counts, waves
 
@@ -16,19 +17,21 @@ SHADE = "shade"        # the shading pass's name in the figures (its timed passe
 
 
 def frame_figures(renderer, technique, result, opts=None, unbounded: bool = False,
-                  widths=waves.WIDTHS, sample: int = 1, budget: int | None = None
-                  ) -> dict[int, dict[str, waves.Figures]]:
+                  widths=waves.WIDTHS, sample: int = 1, budget: int | None = None,
+                  segments: int = 0) -> dict[int, dict[str, waves.Figures]]:
     """Every timed pass's figures at each wave width, for the frame the renderer just
     rendered with read-back (its buffers are still there).  `sample` > 1 replays the
     shading pass over every sample-th 8x8 group only and scales (waves.sampled); `budget`
     chooses that sample from the frame's own counters: about `budget` lane iterations (the
-    lights and nodes its pixels visited) a width."""
+    lights and nodes its pixels visited) a width.  `segments` (0: no limit): a shading
+    program of more segments than that (a sampler's CDF searches are segments the counters
+    do not show) is replayed over a sample that many times sparser again, for every width."""
     if budget and getattr(result, "evaluated", None) is not None:
         work = int(result.evaluated.sum(dtype=np.int64))
         if getattr(result, "nodes", None) is not None:
             work += int(result.nodes.sum(dtype=np.int64))
         sample = max(sample, -(-work // budget))
-    return _figures(renderer, technique, result, opts, unbounded, widths, sample)[0]
+    return _figures(renderer, technique, result, opts, unbounded, widths, sample, segments)[0]
 
 
 def modelled_or_none(renderer, technique, result, opts=None, **kw):
@@ -40,18 +43,21 @@ def modelled_or_none(renderer, technique, result, opts=None, **kw):
         return None
 
 
-def modelled_frame(renderer, technique, result, opts=None, sample: int = 1):
+def modelled_frame(renderer, technique, result, opts=None, sample: int = 1, segments: int = 0):
     """(figures, per-pixel means the 64-lane replay implies over the shading pixels it
     replayed: evaluated_pp, exact_pp, nodes_pp, waste) of a frame rendered with the shading
-    passes' CELLS_ONLY switch (their light loops skipped: the replay stands for them)."""
-    figures, rp, shading = _figures(renderer, technique, result, opts, False, waves.WIDTHS, sample)
+    passes' CELLS_ONLY switch (their light loops skipped: the replay stands for them);
+    `segments` as frame_figures'."""
+    figures, rp, shading = _figures(renderer, technique, result, opts, False, waves.WIDTHS, sample,
+                                    segments)
     ev, ex, nd = (a[shading].astype(np.float64) for a in (rp.evaluated, rp.contrib, rp.nodes))
     mean = lambda a: float(a.mean()) if len(a) else 0.0
     return figures, {"evaluated_pp": mean(ev), "exact_pp": mean(ex), "nodes_pp": mean(nd),
                      "waste": float(ev.sum() / ex.sum()) if ex.sum() else float("nan")}
 
 
-def _figures(renderer, technique, result, opts, unbounded, widths, sample):
+@phases.timed("replay")           # app.pipeline.phases: where a run's time goes
+def _figures(renderer, technique, result, opts, unbounded, widths, sample, segments=0):
     opts = technique.resolve_options(opts)
     fr = waves.frame_data(renderer, result, opts, unbounded)
     part, share = waves.sampled(fr, sample)
@@ -59,6 +65,10 @@ def _figures(renderer, technique, result, opts, unbounded, widths, sample):
     for width in widths:
         passes = dict(parts.cull_figures(technique, fr, width))
         prog = parts.wave_program(technique, part, width)
+        if segments and not out and prog.segment_count() > segments:   # the first width decides
+            sample *= -(-prog.segment_count() // segments)
+            part, share = waves.sampled(fr, sample)
+            prog = parts.wave_program(technique, part, width)
         last = waves.replay(prog)
         shade = last.figures
         passes[SHADE] = shade if share >= 1.0 else shade.scaled(1.0 / max(share, 1e-9), prog.buffers)

@@ -39,6 +39,7 @@ from cpu_prep.arena import Arena
 from cpu_prep.camera import frame_camera
 from cpu_prep.limits import WINDOW_ALL, LimitError
 from . import features as feat, fog as fogmod, gl, rawgl
+from . import phases
 from ..errors import FrameTimeout, UserError
 from .gbuffer import GBuffer, TEXTURE_UNITS
 from .passes import (DEPTH_FUNCS, DRAW_MODES, FRAME_OUTPUTS, OUT_CELL, OUT_STATS, Buffer, Build,
@@ -214,6 +215,12 @@ class Renderer:
         that only count figures for meta['stats'] and the technique's maps (passes.py).
         `deadline` (a time.perf_counter() value): FrameTimeout between two steps once it
         has passed, counting only the technique's passes (the module's docstring)."""
+        with phases.phase("render" if readback else "timing"):    # app.pipeline.phases: where time goes
+            return self._render(technique, frame, opts, frames, lights, readback, camera,
+                                defines, samples, debug_pixel, figures, deadline)
+
+    def _render(self, technique, frame, opts, frames, lights, readback, camera, defines,
+                samples, debug_pixel, figures, deadline) -> FrameResult:
         begun = time.perf_counter()
         opts = technique.resolve_options(opts)
         if self.scene.fog is not None:            # a technique that cannot serve froxels: one line
@@ -280,7 +287,8 @@ class Renderer:
             self._run_pass(p, virtual, {}, {}, record=False)
         self.gbuffer.bind_textures()
         try:
-            build = technique.build(fin, opts)
+            with phases.phase("build"):
+                build = technique.build(fin, opts)
         except LimitError as exc:
             raise UserError(str(exc)) from None
         t0 = time.perf_counter()
@@ -395,7 +403,7 @@ class Renderer:
             optional["DEBUG_PIXEL"] = 1
             uniforms = dict(uniforms, u_debug_pixel=f.debug_pixel)
         virtual = p.files(virtual)
-        begun, programs = time.perf_counter(), len(self.programs.sources)
+        begun, programs, built = time.perf_counter(), len(self.programs.sources), self.programs.built
         if p.kind == "compute":
             prog = self.programs.compute(p.shader, dict(p.defines), virtual, (), bindings, optional, where)
             work = (lambda: prog.run(*p.groups)) if p.indirect is None else \
@@ -417,8 +425,10 @@ class Renderer:
             self.ctx.finish()
             f.setup_ms[p.name] = f.setup_ms.get(p.name, 0.0) + (time.perf_counter() - t0) * 1e3
         self.ctx.memory_barrier()   # the next pass reads what this one wrote
+        if self.programs.built != built:     # it compiled its program (app.pipeline.phases)
+            phases.move("compile", time.perf_counter() - begun)
         if record and len(self.programs.sources) != programs:
-            self._hold(begun)       # it built its program: a compile (a software GL's at its first dispatch)
+            self._hold(begun)       # its program's first use here: a compile (a software GL's at its first dispatch)
 
     @staticmethod
     def _set_uniforms(prog, uniforms) -> None:

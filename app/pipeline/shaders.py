@@ -15,7 +15,11 @@
   program text, so a shader that uses that buffer fails to compile, and the error is one
   line naming the buffer and the file:line of the use.
 - Programs are cached by (source name, defines, bindings, generated files): changing a
-  define recompiles, changing a uniform or a buffer's contents does not.
+  define recompiles, changing a uniform or a buffer's contents does not.  The compiled
+  programs live for the process, per GL context: a new cache (a new renderer: a scene
+  switch, another study of the benchmark) compiles only what the process has not compiled
+  yet; a cache's `sources` and programs are those it returned itself, `built` the ones it
+  compiled, and releasing it forgets them without deleting them.
 """
 from __future__ import annotations
 
@@ -220,12 +224,20 @@ def _define_value(v) -> str:
     return str(v)
 
 
+# every program compiled in the process, by context: ProgramKey -> (program, final text).
+# A program's uniforms are set before each use (the renderer sets every one a pass declares),
+# so a program carries nothing of one renderer's frame into another's.
+_COMPILED: dict = {}
+
+
 class ProgramCache:
     def __init__(self, ctx: moderngl.Context):
         self.ctx = ctx
         self._programs: dict = {}
         self.sources: dict = {}   # ProgramKey -> final text, for inspection and tests
         self.last_key: ProgramKey | None = None
+        self.built = 0            # programs this cache compiled (the others were compiled)
+        self._compiled = _COMPILED.setdefault(ctx, {})
 
     def compute(self, name: str, defines: dict | None = None, virtual: dict | None = None,
                 extensions: tuple[str, ...] = (), bindings: dict | None = None,
@@ -246,18 +258,19 @@ class ProgramCache:
                          None if bindings is None else tuple(sorted(bindings.items())),
                          tuple(sorted((optional or {}).items())))
         if key not in self._programs:
-            sources, texts = stage_texts(key, context)
-            try:
-                self._programs[key] = build(texts)
-            except Exception as exc:
-                raise ShaderError(_first_error(sources, str(exc), context)) from None
-            self.sources[key] = "\n".join(texts)
+            if key not in self._compiled:
+                sources, texts = stage_texts(key, context)
+                try:
+                    self._compiled[key] = build(texts), "\n".join(texts)
+                except Exception as exc:
+                    raise ShaderError(_first_error(sources, str(exc), context)) from None
+                self.built += 1
+            self._programs[key], self.sources[key] = self._compiled[key]
         self.last_key = key        # the key of the program just returned (the frame's record)
         return self._programs[key]
 
     def release(self) -> None:
-        for prog in self._programs.values():
-            prog.release()
+        """Forget this cache's programs; they stay compiled for the process's next cache."""
         self._programs.clear()
         self.sources.clear()
 

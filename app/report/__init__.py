@@ -49,6 +49,7 @@ from .stereo import CSV as STEREO_CSV, stereo_section
 from .transparent import CSV as TRANSPARENT_CSV, transparent_section
 from .fog import CSV as FOG_CSV, fog_section
 from .model import model_section
+from .runtime import time_lines as run_time_lines
 from .validation import validation
 
 
@@ -137,6 +138,7 @@ def _head(rows, info, roles) -> list[str]:
         f"- CPU stage: {info.get('cpu_threads', '?')} numba thread(s) (the paper's figure 4 is "
         f"single threaded)",
         f"- run time: {info.get('elapsed_s', 0):.0f} s; {len(rows)} rows in results.csv",
+        *run_time_lines(info),
         "",
     ]
     head += believe_text(rows, info, roles)

@@ -9,6 +9,21 @@ from cpu_prep import layouts, sampling
 from .blocks import cell_ranges
 
 
+_DRAWS: list = []        # [frame, {key: value}]: the last frame's width-independent draws
+
+
+def per_frame(frame, key, make):
+    """make() once per frame and key: the draws a sampler's GPU made (its PCG streams, a
+    descent, a CDF search) do not depend on the wave width, and the model replays each frame
+    at every width (app.model.predict).  Only the last frame's are kept (by identity)."""
+    if not _DRAWS or _DRAWS[0] is not frame:
+        _DRAWS[:] = [frame, {}]
+    memo = _DRAWS[1]
+    if key not in memo:
+        memo[key] = make()
+    return memo[key]
+
+
 def add_all_lights(prog, lanes, step=0, branch=0) -> None:
     """evaluate_all_lights (pixel.glsl): every visible light in order, a wave-uniform loop of
     affects tests, then per run of 32 each lane's affecting lights (LightList.runs)."""
@@ -43,14 +58,20 @@ def entry_list(prog, entries, duplicated: bool = False, entry_buf: str = "entrie
     return prog.add_list(entries, entry_off=4 * k, entry_buf=entry_buf)
 
 
-def add_cdf_draws(prog, lanes, first, count, masses, lid: int, step0: int = 0) -> int:
+def add_cdf_draws(prog, lanes, first, count, masses, lid: int, step0: int = 0,
+                  key=None) -> int:
     """Draws by a cell's CDF words (glsl/sample_cdf.glsl draw_entry), `masses` (D, lanes) the
-    GPU's u of each draw in order: per draw its search probes (kind word, a lane whose search
-    ended earlier masked: the d-th draw's j-th probe of every lane together), then the drawn
-    light (kind light, one position of list `lid`, the entries' positions), from step0 on;
-    returns the step after the last."""
+    GPU's u of each draw in order (or a function giving them): per draw its search probes
+    (kind word, a lane whose search ended earlier masked: the d-th draw's j-th probe of every
+    lane together), then the drawn light (kind light, one position of list `lid`, the
+    entries' positions), from step0 on; returns the step after the last.  `key`: the draws
+    are made once per frame under it (per_frame), for every wave width."""
     cdf = prog.frame.build.buffers["sample_cdf"]
-    searched = [sampling.draw_entries(cdf, first, count, u) for u in masses]
+
+    def search():
+        return [sampling.draw_entries(cdf, first, count, u)
+                for u in (masses() if callable(masses) else masses)]
+    searched = search() if key is None else per_frame(prog.frame, ("cdf draws", key), search)
     depth = max((len(p) for _, p in searched), default=0)     # the frame's longest search
     for d, (entry, probes) in enumerate(searched):
         base = step0 + d * (depth + 1)

@@ -9,6 +9,7 @@ import numpy as np
 
 from cpu_prep import layouts
 
+from .kernels import _gather_rows
 from .kinds import GROUP, KINDS, LIGHT_BYTES, SHARED
 
 
@@ -177,22 +178,33 @@ class Program:
                           words=int(words), masked=bool(masked), scalarized=bool(scalarized),
                           printed=bool(printed))
 
+    def segment_count(self) -> int:
+        """The segments added so far (what the replay sorts and walks)."""
+        return sum(len(s[0]) for s in self._segs)
+
     def segments(self) -> tuple[dict[str, np.ndarray], np.ndarray]:
         """Every segment (lane, step, hoff, first, count, call), sorted by (wave, branch,
         step, lane), and the call table ((C, 8) int64: branch, kind, hbuf, hbytes, hscalar,
         list, lscalar, tree)."""
         calls = np.array(self.calls, np.int64).reshape(-1, 8)
-        names = ("lane", "step", "hoff", "first", "count")
+        names = ("lane", "step", "hoff", "first", "count", "call")
         if not self._segs:
-            return {k: np.zeros(0, np.int64) for k in names + ("call",)}, calls
-        seg = {k: np.concatenate([s[i] for s in self._segs]) for i, k in enumerate(names)}
-        seg["call"] = np.concatenate([np.full(len(s[0]), s[5], np.int64) for s in self._segs])
+            return {k: np.zeros(0, np.int64) for k in names}, calls
+        cols = np.empty((len(names), sum(len(s[0]) for s in self._segs)), np.int64)
+        at = 0
+        for s in self._segs:              # the columns in the order the segments were added
+            n = len(s[0])
+            for i in range(5):
+                cols[i, at:at + n] = s[i]
+            cols[5, at:at + n] = s[5]
+            at += n
+        seg = dict(zip(names, cols))
         if seg["step"].max() >= 1 << 24 or seg["step"].min() < 0:
             raise ValueError("a segment's step is out of 0..2^24")
         key = ((self.wave[seg["lane"]] * 4 + calls[seg["call"], 0]) << 24 | seg["step"]) << 6 \
             | self.lane[seg["lane"]]
         order = np.argsort(key, kind="stable")
-        return {k: v[order] for k, v in seg.items()}, calls
+        return dict(zip(names, _gather_rows(order, cols))), calls
 
 
 def sampled(frame: FrameData, every: int) -> tuple[FrameData, float]:

@@ -21,12 +21,14 @@ def wave_program(technique, frame, width):
     prog = waves.Program(frame, width)
     opts = frame.opts
     lanes, first, count = listed_lanes(prog, frame)
-    state = sampling.pixel_streams(lanes, opts.sample_seed, opts.sample_frame)
-    masses = []
-    for _ in range(opts.light_samples):
-        state, u = sampling.next_mass(state)
-        masses.append(u)
+
+    def masses():
+        state, out = sampling.pixel_streams(lanes, opts.sample_seed, opts.sample_frame), []
+        for _ in range(opts.light_samples):
+            state, u = sampling.next_mass(state)
+            out.append(u)
+        return out
     add_cdf_draws(prog, lanes, first, count, masses, entry_list(prog, frame.build.buffers["entries"]),
-                  step0=1)
+                  step0=1, key="sample-list")
     return prog
 

@@ -47,5 +47,6 @@ def wave_program(technique, frame, width):
     step = 0
     for k in range(opts.light_samples):        # a round a dispatch: its cell record, M draws
         lanes, first, count = listed_lanes(prog, frame, step)
-        step = add_cdf_draws(prog, lanes, first, count, round_masses(lanes, opts, k), lid, step + 1)
+        step = add_cdf_draws(prog, lanes, first, count, lambda: round_masses(lanes, opts, k), lid,
+                             step + 1, key=("sample-ris", k))
     return prog

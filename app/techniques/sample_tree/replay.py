@@ -19,7 +19,7 @@ from cpu_prep import layouts, sample_tree as st, sampling
 
 from ..blocks import cell_ranges
 from ..options import sample_uniforms
-from ..replay_walks import cell_head, entry_list
+from ..replay_walks import cell_head, entry_list, per_frame
 
 NODE, SAMPLE_NODE = layouts.TREE_NODE.itemsize, st.SAMPLE_NODE.itemsize
 
@@ -44,11 +44,14 @@ def wave_program(technique, frame, width):
         return prog
     entries = b.buffers["entries"].astype(np.int64)
     lid = entry_list(prog, entries, opts.duplicated)
-    state = sampling.pixel_streams(lanes, opts.sample_seed, opts.sample_frame)
-    draws = []
-    for _ in range(sample_uniforms(opts)["u_samples"]):
-        leaf, levels = st.descend(nodes, sample, pieces, base, P, depth, state)
-        draws.append((levels, st.draw_leaf(nodes, entries, b.lights.gpu, leaf, P, state)))
+
+    def descents():          # the GPU's draws: the same at every wave width (per_frame)
+        state, out = sampling.pixel_streams(lanes, opts.sample_seed, opts.sample_frame), []
+        for _ in range(sample_uniforms(opts)["u_samples"]):
+            leaf, levels = st.descend(nodes, sample, pieces, base, P, depth, state)
+            out.append((levels, st.draw_leaf(nodes, entries, b.lights.gpu, leaf, P, state)))
+        return out
+    draws = per_frame(frame, "sample-tree", descents)
     deepest = max(len(levels) for levels, _ in draws)
     step = 2
     for levels, entry in draws:

@@ -54,6 +54,13 @@ def test_the_run_says_where_its_time_went(sweep):
     spent = info["study_s"]
     assert list(spent) == list(STUDY_ORDER) and all(v >= 0 for v in spent.values())
     assert info["report_s"] > 0
+    # and by phase within each study (app.pipeline.phases), adding up to its wall time
+    by_phase = info["phase_s"]
+    assert list(by_phase) == list(STUDY_ORDER)
+    assert {"render", "compile", "check"} <= set(by_phase["rendered"])
+    for name, s in spent.items():
+        assert sum(by_phase[name].values()) == pytest.approx(s, rel=0.01, abs=0.01), name
+    assert "where the time went" in (out / "report.md").read_text()
     names = {p.name for p in out.iterdir()}
     assert not names & {"temporal.csv", "gpu_build.csv", "growth.csv", "path.csv"}
 
