@@ -35,9 +35,9 @@ import sys
 
 import numpy as np
 
-from ..results import stats, write_csv
+from ..results import stats
 from . import measure
-from .study import Study
+from .study import FileStudy, write_series
 
 CSV = "fog.csv"                # read by app.report.fog (not imported from there: GL)
 BANDING = "fog_banding.npz"    # the banding case's images (app.report.fog)
@@ -210,23 +210,19 @@ def fog_series(c: FogConfig, out: Path, log=None) -> list[dict]:
             row.update(study="fog", scene=name, lights=len(scene.lights), width=c.size[0],
                        height=c.size[1], frame=0)
         rows += got + more
-    write_csv(rows, path, COLUMNS)
     np.savez_compressed(npz, **images)
-    log.write(f"bench: wrote {path} ({len(rows)} rows) and {npz}\n")
+    write_series(rows, path, COLUMNS, log, also=str(npz))
     return rows
 
 
-class FogStudy(Study):
+class FogStudy(FileStudy):
     """out/fog.csv and out/fog_banding.npz (the report's fog section reads them), none of
     results.csv's rows."""
     name = "fog"
     files = (CSV, BANDING)
     sections = ("fog",)
     Config = FogConfig
-
-    def run(self, out, sweep) -> list[dict]:
-        fog_series(self.config, Path(out), sweep.log)
-        return []
+    series = staticmethod(fog_series)
 
 
 __all__ = ["FogConfig", "FogStudy", "fog_series", "run_scene", "banding_rows", "banding_technique",

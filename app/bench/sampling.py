@@ -70,9 +70,8 @@ import time
 
 import numpy as np
 
-from ..results import write_csv
 from . import measure
-from .study import Study
+from .study import FileStudy, write_series
 
 CSV = "sampling.csv"           # read by app.report.sampling (not imported from there: GL)
 
@@ -320,21 +319,17 @@ def sampling_series(c: SamplingConfig, out: Path, log=None) -> list[dict]:
         for row in got:
             row.update(scene=name, lights=len(scene.lights))
         rows += got
-    write_csv(rows, path, COLUMNS)
-    log.write(f"bench: wrote {path} ({len(rows)} rows)\n")
+    write_series(rows, path, COLUMNS, log)
     return rows
 
 
-class SamplingStudy(Study):
+class SamplingStudy(FileStudy):
     """out/sampling.csv (the report's sampling section reads it), none of results.csv's rows."""
     name = "sampling"
     files = (CSV,)
     sections = ("sampling",)
     Config = SamplingConfig
-
-    def run(self, out, sweep) -> list[dict]:
-        sampling_series(self.config, Path(out), sweep.log)
-        return []
+    series = staticmethod(sampling_series)
 
 
 __all__ = ["SamplingConfig", "SamplingStudy", "sampling_series", "run_frame", "configurations",

@@ -28,9 +28,8 @@ from dataclasses import dataclass
 from pathlib import Path
 import sys
 
-from ..results import write_csv
 from . import measure
-from .study import Study
+from .study import FileStudy, write_series
 
 CSV = "stereo.csv"             # read by app.report.stereo (not imported from there: GL)
 
@@ -107,21 +106,17 @@ def stereo_series(c: StereoConfig, out: Path, log=None) -> list[dict]:
         for row in got:
             row.update(scene=name, lights=len(scene.lights))
         rows += got
-    write_csv(rows, path, COLUMNS)
-    log.write(f"bench: wrote {path} ({len(rows)} rows)\n")
+    write_series(rows, path, COLUMNS, log)
     return rows
 
 
-class StereoStudy(Study):
+class StereoStudy(FileStudy):
     """out/stereo.csv (the report's stereo section reads it), none of results.csv's rows."""
     name = "stereo"
     files = (CSV,)
     sections = ("stereo",)
     Config = StereoConfig
-
-    def run(self, out, sweep) -> list[dict]:
-        stereo_series(self.config, Path(out), sweep.log)
-        return []
+    series = staticmethod(stereo_series)
 
 
 __all__ = ["StereoConfig", "StereoStudy", "stereo_series", "run_scene", "COLUMNS", "CSV"]

@@ -18,10 +18,12 @@ phase (app.pipeline.phases) within it.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 import time
-from typing import ClassVar
+from typing import Callable, ClassVar
 
 from ..pipeline import phases
+from ..results import write_csv
 
 STUDIES: dict[str, type["Study"]] = {}
 
@@ -45,6 +47,22 @@ class Study:
 
     def run(self, out, sweep) -> list[dict]:
         raise NotImplementedError
+
+
+class FileStudy(Study):
+    """A study whose rows go to its own files (files), none to results.csv: run() calls its
+    module's series(config, out, log)."""
+    series: ClassVar[Callable]
+
+    def run(self, out, sweep) -> list[dict]:
+        type(self).series(self.config, Path(out), sweep.log)
+        return []
+
+
+def write_series(rows: list[dict], path: Path, columns, log, also: str = "") -> None:
+    """A file study's CSV, and its line in the log (`also`: the other files it wrote)."""
+    write_csv(rows, path, columns)
+    log.write(f"bench: wrote {path} ({len(rows)} rows){' and ' + also if also else ''}\n")
 
 
 @dataclass(frozen=True)

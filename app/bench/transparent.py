@@ -42,9 +42,9 @@ import sys
 
 import numpy as np
 
-from ..results import FRAME_PASS, stats, write_csv
+from ..results import FRAME_PASS, stats
 from . import measure
-from .study import Study
+from .study import FileStudy, write_series
 
 CSV = "transparent.csv"        # read by app.report.transparent (not imported from there: GL)
 LOOKED_UP, REBUILT = "looked up", "rebuilt per layer"
@@ -244,21 +244,17 @@ def transparent_series(c: TransparentConfig, out: Path, log=None) -> list[dict]:
         for row in got:
             row.update(scene=name, lights=len(scene.lights))
         rows += got
-    write_csv(rows, path, COLUMNS)
-    log.write(f"bench: wrote {path} ({len(rows)} rows)\n")
+    write_series(rows, path, COLUMNS, log)
     return rows
 
 
-class TransparentStudy(Study):
+class TransparentStudy(FileStudy):
     """out/transparent.csv (the report's transparent section reads it), none of results.csv's rows."""
     name = "transparent"
     files = (CSV,)
     sections = ("transparent",)
     Config = TransparentConfig
-
-    def run(self, out, sweep) -> list[dict]:
-        transparent_series(self.config, Path(out), sweep.log)
-        return []
+    series = staticmethod(transparent_series)
 
 
 __all__ = ["TransparentConfig", "TransparentStudy", "transparent_series", "run_scene", "serves",
