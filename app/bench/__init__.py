@@ -64,6 +64,8 @@ USAGE = """commands:
                                                                   (python -m app.bench cpu --help)
        python -m app.bench gpu-build [...]                       CPU and GPU builds as a ratio
                                                                   (python -m app.bench gpu-build --help)
+       python -m app.bench --views stereo --out DIR [...]        the two-eye study alone: both
+                                                                  ways, DIR/stereo.csv and .md
        python -m app.bench --path PATH.json --out DIR [...]      every technique along a recorded
                                                                   camera path, per-frame CSV
                                                                   (python -m app.bench --path --help)
@@ -75,10 +77,11 @@ def parser():
     """The command's one parser: the sweep's flags (the default), and a subcommand each for
     cpu, gpu-build and the path run (written `--path PATH.json`, as it always was)."""
     from .. import cli
-    from . import cpu, gpu_build, path, sweep
+    from . import cpu, gpu_build, path, stereo, sweep
     p = cli.Parser(prog="python -m app.bench", description=USAGE + "\nthe benchmark sweep and "
                    "its report:", formatter_class=argparse.RawDescriptionHelpFormatter)
     sweep.add_args(p)
+    stereo.add_view_args(p)
     sub = p.add_subparsers(dest="command", parser_class=cli.Parser, metavar="{cpu,gpu-build}")
     cpu.add_args(sub.add_parser("cpu", description=cpu.DESCRIPTION, help=cpu.DESCRIPTION))
     gpu_build.add_args(sub.add_parser("gpu-build", description=gpu_build.DESCRIPTION,
@@ -95,7 +98,15 @@ def main(argv=None) -> None:
     argv = list(sys.argv[1:] if argv is None else argv)
     p = parser()
     args = p.parse_args([PATH, *argv] if wants_path(argv) else argv)
-    if args.command == "cpu":
+    if (args.command is None and args.views == "stereo") or args.eye_separation is not None:
+        if args.views != "stereo":
+            p.error("--eye-separation needs --views stereo")
+        if not args.out:
+            p.error("the following arguments are required: --out")
+        from .presets import preset_from_args
+        from .stereo import run_views
+        run_views(args, preset_from_args(args))
+    elif args.command == "cpu":
         from .cpu import run                # imports no OpenGL
         run(args)
     elif args.command == "gpu-build":

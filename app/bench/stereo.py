@@ -110,6 +110,40 @@ def stereo_series(c: StereoConfig, out: Path, log=None) -> list[dict]:
     return rows
 
 
+def add_view_args(p) -> None:
+    """The sweep command's two-eye flags: `--views stereo` runs this study alone."""
+    from ..stereo import VIEWS
+    p.add_argument("--views", choices=VIEWS, default="mono",
+                   help="stereo: the two-eye study alone (every culling technique, a structure "
+                        "per eye and one over both frusta) at the preset's stereo settings, "
+                        "which --size (an eye), --scenes, --lights (the smallest) and --repeat "
+                        "override: DIR/stereo.csv and DIR/stereo.md")
+    p.add_argument("--eye-separation", type=float, default=None, metavar="M",
+                   help="with --views stereo: metres between the eyes (default the preset's)")
+
+
+def run_views(args, preset) -> None:
+    """`bench --views stereo --out DIR`: the preset's stereo study alone, DIR/stereo.csv and
+    DIR/stereo.md (the report's section), the table printed."""
+    from dataclasses import replace
+    from ..errors import UserError
+    from ..report.stereo import stereo_section
+    from ..results import read_csv
+    from ..stereo import check_separation
+    c = preset.config("stereo")
+    if args.eye_separation is not None:
+        c = replace(c, separation=check_separation(args.eye_separation))
+    if not c.scenes:
+        raise UserError(f"--views stereo: the {preset.name} preset has no stereo study")
+    out = Path(args.out)
+    stereo_series(replace(c, repeat=max(1, c.repeat)), out)
+    _, text, tables = stereo_section(read_csv(out / CSV))
+    md = "# Two eyes\n\n" + "\n\n".join(text) + "\n\n" + tables + "\n"
+    (out / "stereo.md").write_text(md)
+    print(tables)
+    print(f"bench: wrote {out / 'stereo.md'}", file=sys.stderr)
+
+
 class StereoStudy(FileStudy):
     """out/stereo.csv (the report's stereo section reads it), none of results.csv's rows."""
     name = "stereo"
@@ -119,4 +153,4 @@ class StereoStudy(FileStudy):
     series = staticmethod(stereo_series)
 
 
-__all__ = ["StereoConfig", "StereoStudy", "stereo_series", "run_scene", "COLUMNS", "CSV"]
+__all__ = ["add_view_args", "run_views", "StereoConfig", "StereoStudy", "stereo_series", "run_scene", "COLUMNS", "CSV"]

@@ -52,3 +52,28 @@ def test_the_presets_carry_the_study_and_the_overrides_reach_it():
                            repeat=2, cpu_lights=None, cpu_size=None, threads=None)
     got = presets.preset_from_args(args).config("stereo")
     assert (got.size, got.scenes, got.lights, got.repeat) == ((32, 18), ("city",), 128, 2)
+
+
+def test_views_stereo_runs_the_study_alone(gl, tmp_path, capsys):
+    from app.bench import main
+    main(["--views", "stereo", "--out", str(tmp_path), "--scenes", "arena", "--size", "32x18",
+          "--lights", "128", "--repeat", "1", "--eye-separation", "0.5"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["stereo.csv", "stereo.md"]
+    rows = read_csv(tmp_path / CSV)
+    assert {r["separation"] for r in rows} == {0.5} and {r["width"] for r in rows} == {32}
+    md = (tmp_path / "stereo.md").read_text()
+    assert md.startswith("# Two eyes") and "| clustered | structure | union |" in md
+    assert "| technique |" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["--views", "both"], "--views"),
+    (["--eye-separation", "0.1"], "--eye-separation needs --views stereo"),
+    (["--views", "stereo", "--eye-separation", "-1"], "--eye-separation"),
+])
+def test_views_bad_input_is_one_line_exit_2(tmp_path, argv, says):
+    import subprocess
+    import sys
+    r = subprocess.run([sys.executable, "-m", "app.bench", *argv, "--out", str(tmp_path)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and says in r.stderr, r.stderr
