@@ -18,7 +18,7 @@ from cpu_prep import froxels as fx
 from .errors import UserError
 from .pipeline.fog import FROXEL_SOURCES, LOOKUPS, SAMPLES, FogOptions, source_of
 
-FLAGS = ("froxels", "froxel_samples", "froxel_lookup")
+FLAGS = ("froxels", "froxel_samples", "froxel_depth", "froxel_lookup")
 
 
 def parse_froxels(text: str):
@@ -42,6 +42,10 @@ def add_fog_args(p) -> None:
                         f"grid); at most {fx.MAX_FROXELS:,} froxels")
     g.add_argument("--froxel-samples", type=int, choices=SAMPLES, default=None,
                    help="points a froxel is lit at: 1 its centre (default), 8 its octants' centres")
+    g.add_argument("--froxel-depth", choices=fx.DEPTHS, default=None,
+                   help="the slices' depth distribution from near to fog.far: exponential "
+                        "(default; each slice the same ratio deep) or linear (not with "
+                        "--froxels matched, whose slices are the technique's)")
     g.add_argument("--froxel-lookup", choices=LOOKUPS, default=None,
                    help="exact: each froxel's exact light set (default); centre: the list of "
                         "the cell its centre falls in, unchecked (not exact: the banding case)")
@@ -65,7 +69,11 @@ def fog_options(args, scene) -> FogOptions | None:
             fx.check_dims(froxels, w, h)
         except fx.FroxelError as exc:
             raise UserError(str(exc)) from None
-    return FogOptions(froxels, args.froxel_samples or 1, args.froxel_lookup or "exact")
+    depth = getattr(args, "froxel_depth", None)
+    if depth is not None and froxels == "matched":
+        raise UserError("--froxel-depth: --froxels matched takes the technique's own slices")
+    return FogOptions(froxels, args.froxel_samples or 1, args.froxel_lookup or "exact",
+                      depth or "exponential")
 
 
 def reference_options(result, options: FogOptions | None) -> FogOptions | None:

@@ -127,14 +127,22 @@ def _tangents(cam) -> tuple[float, float]:
     return 1.0 / p[0, 0], 1.0 / p[1, 1]
 
 
-def make_froxel_grid(cam, dims, far: float) -> FroxelGrid:
-    """The default layout: even columns and rows, depth exponential from near to `far`."""
+DEPTHS = ("exponential", "linear")     # the slices' depth distributions (make_froxel_grid)
+
+
+def make_froxel_grid(cam, dims, far: float, depth: str = "exponential") -> FroxelGrid:
+    """Even columns and rows; slices from near to `far`, exponential (each slice the same
+    ratio deep: froxels about as deep as they are wide, as engines lay out fog) or linear
+    (the same depth each: fine far away, coarse near the eye)."""
     check_dims(dims, cam.width, cam.height)
     w, h, d = dims
     near = float(cam.near)
     if not far > near:
         raise FroxelError(f"fog.far ({far:g}) must be beyond the camera's near plane ({near:g})")
-    zs = near * (far / near) ** (np.arange(d + 1) / d)
+    if depth not in DEPTHS:
+        raise FroxelError(f"froxel depth {depth!r}: one of {', '.join(DEPTHS)}")
+    t = np.arange(d + 1) / d
+    zs = near * (far / near) ** t if depth == "exponential" else near + (far - near) * t
     zs[0], zs[-1] = near, far
     tx, ty = _tangents(cam)
     return FroxelGrid(np.linspace(0.0, cam.width, w + 1), np.linspace(0.0, cam.height, h + 1),

@@ -61,12 +61,13 @@ class FogOptions:
     froxels: tuple[int, int, int] | str | fx.FroxelGrid | None = None   # None: the default
     samples: int = 1
     lookup: str = "exact"
+    depth: str = "exponential"      # the slices' depth distribution (cpu_prep.froxels.DEPTHS)
 
     def as_dict(self) -> dict:
         dims = self.froxels.dims if isinstance(self.froxels, fx.FroxelGrid) else \
             (self.froxels or "default")
         f = dims if isinstance(dims, str) else "x".join(map(str, dims))
-        return {"froxels": f, "samples": self.samples, "lookup": self.lookup}
+        return {"froxels": f, "samples": self.samples, "lookup": self.lookup, "depth": self.depth}
 
 
 def source_of(technique) -> str | None:
@@ -111,7 +112,7 @@ def froxel_grid(build, fog, fo: FogOptions) -> fx.FroxelGrid:
         if fo.froxels == "matched":
             return fx.matched_grid(cam, build.grid, fog.far)
         return fx.make_froxel_grid(cam, fo.froxels or fx.default_dims(cam.width, cam.height),
-                                   fog.far)
+                                   fog.far, fo.depth)
     except fx.FroxelError as exc:
         raise UserError(str(exc)) from None
 

@@ -72,7 +72,7 @@ def window_options(given: FogOptions | None, size) -> FogOptions:
     if isinstance(dims, tuple):
         w, h = size
         dims = (min(dims[0], w), min(dims[1], h), dims[2])
-    return FogOptions(dims, fo.samples, fo.lookup)
+    return FogOptions(dims, fo.samples, fo.lookup, fo.depth)
 
 
 def grid_text(given: FogOptions | None) -> str:

@@ -69,6 +69,18 @@ def hard_scene(fog):
 
 
 @pytest.mark.parametrize("technique", SERVING)
+def test_a_linear_depth_grid_is_served_exactly_too(gl, technique):
+    scene = load_scene("hangar-fog", 200)
+    _, c = render(scene, technique, FogOptions((24, 12, 16), depth="linear"))
+    zs = c.froxel_grid.zs
+    np.testing.assert_allclose(np.diff(zs), (zs[-1] - zs[0]) / 16)     # even slices
+    _, e = render(scene, technique, FogOptions((24, 12, 16)))
+    assert not np.allclose(e.froxel_grid.zs, zs) and c.meta["fog"]["depth"] == "linear"
+    _, b = render(scene, "brute", FogOptions(c.froxel_grid))
+    assert same_froxels(c, b) and c.froxel_count.sum() > c.froxel_count.size
+
+
+@pytest.mark.parametrize("technique", SERVING)
 def test_cell_techniques_serve_brute_froxel_sets_on_the_hard_cases(gl, technique):
     scene = hard_scene(Fog(0.04, (0.9, 0.8, 0.7), 30.0, -0.3))
     _, c = render(scene, technique, FogOptions((13, 7, 11), 8))
@@ -164,7 +176,9 @@ def test_capture_fog_flags_dump_and_check(gl, tmp_path, capsys):
                         (["--technique", "brute", "--froxels", "65x9x9"], "W and H"),
                         (["--technique", "brute", "--froxels", "matched"], "grid of cells"),
                         (["--technique", "tree", "--froxel-lookup", "centre"], "cell lists"),
-                        (["--technique", "clustered", "--build", "gpu"], "--build")):
+                        (["--technique", "clustered", "--build", "gpu"], "--build"),
+                        (["--technique", "brute", "--froxels", "matched", "--froxel-depth",
+                          "linear"], "technique's own slices")):
         with pytest.raises(UserError, match=words):
             capture.main(base + argv)
     with pytest.raises(UserError, match="no fog"):
