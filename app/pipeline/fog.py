@@ -284,9 +284,9 @@ def render_fog(renderer, technique, opts, build, result, fo: FogOptions | None, 
              "froxel_lights_mean": mean(kept, fg.count),
              "froxel_candidates_mean": mean(sets.candidates, fg.count),
              "froxel_unneeded_mean": mean(sets.candidates - kept, fg.count)}
-    line = (f"froxels {w}x{h}x{d} ({fo.lookup}): {stats['froxel_lights_mean']} lights meet a "
-            f"froxel on average; its candidates {stats['froxel_candidates_mean']}, "
-            f"{stats['froxel_unneeded_mean']} of them not needed")
+    line = (f"froxels {w}x{h}x{d} ({fo.lookup}): {stats['froxel_lights_mean']:.3g} lights meet "
+            f"a froxel on average; its candidates {stats['froxel_candidates_mean']:.3g}, "
+            f"{stats['froxel_unneeded_mean']:.3g} of them not needed")
     if source_of(technique) in CELL_SOURCES and fo.lookup == "exact":
         mg = fx.matched_grid(build.frame.camera, build.grid, fog.far)
         ms, _ = cached_sets(cache, technique, build, mg, lb)
@@ -294,7 +294,7 @@ def render_fog(renderer, technique, opts, build, result, fo: FogOptions | None, 
         stats["froxels_matched"] = f"{mw}x{mh}x{md}"
         stats["froxel_unneeded_mean_matched"] = mean(ms.candidates - len(ms.entries), mg.count)
         line += (f"; on the matched grid ({mw}x{mh}x{md}, a froxel per cell) "
-                 f"{stats['froxel_unneeded_mean_matched']}")
+                 f"{stats['froxel_unneeded_mean_matched']:.3g}")
     if fo.lookup != "exact":
         stats["froxel_sets"] = "centre cell, not exact"
         line += "; the sets are each froxel's centre cell's list, unchecked (not exact)"

@@ -94,7 +94,7 @@ def feature_lines(f: dict) -> list[str]:
                    f"surface's (view layers: with the layers)")
     g = f.get("fog")
     if g:
-        out.append(f"fog {g['froxels']} froxels ({g['grid']}): {g['lights_mean']:g} lights a "
+        out.append(f"fog {g['froxels']} froxels ({g['grid']}): {g['lights_mean']:.3g} lights a "
                    f"froxel, sets built in {g['sets_ms']:.0f} ms"
                    + (f"; frame held since frame {g['held']} (nothing moved: no rebuild)"
                       if g.get("held") is not None else ""))
