@@ -187,7 +187,8 @@ def fig_measured(rows, out, colors, info) -> tuple[str | None, list[str], str]:
             f"In {same} of {frames} frames the modelled order of the techniques equals the "
             f"measured one, up to ties within {tie}; of the technique pairs a frame's "
             f"measurement sets more than {tie} apart, the model orders {alike} of {pairs} "
-            f"alike (or within {tie}).",
+            f"alike (or within {tie}); the model's ratio of two techniques' times misses the "
+            f"measured one by a median factor of {gpu_record.pair_error(rendered, g):.2g}.",
             f"Measured / modelled, per technique: {low:.3g}x to {high:.3g}x (geometric mean "
             f"{gmean(np.array(list(ratios.values()))):.3g}x): the model's absolute times are " +
             ("within 2x of this GPU's." if 0.5 <= low and high <= 2 else

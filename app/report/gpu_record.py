@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +44,20 @@ def rank_agreement(rows, g) -> tuple[int, int, int, int]:
     return same, len(frames), alike, pairs
 
 
+def pair_error(rows, g) -> float:
+    """The median factor by which the model's ratio of two techniques' lighting times misses
+    the measured ratio, over every pair of techniques in a frame (1: the ratios agree)."""
+    frames: dict[tuple, list] = {}
+    for r in rows:
+        frames.setdefault((r["scene"], r["lights"], r["frame"]), []).append(r)
+    logs = [abs(math.log(num(a["gpu_lighting_ms"]) / num(b["gpu_lighting_ms"]))
+                - math.log(lighting(a, g) / lighting(b, g)))
+            for group in frames.values() for i, a in enumerate(group) for b in group[i + 1:]
+            if min(num(a["gpu_lighting_ms"]), num(b["gpu_lighting_ms"]),
+                   lighting(a, g), lighting(b, g)) > 0]
+    return math.exp(float(np.median(logs))) if logs else math.nan
+
+
 def measured_rows(rows) -> list[dict]:
     return [r for r in sel(rows, study="path") if np.isfinite(num(r.get("gpu_lighting_ms")))]
 
@@ -76,6 +91,7 @@ class Record:
     high: float
     alike: int                 # technique pairs the model orders as measured
     pairs: int
+    pair_factor: float         # the median factor the model's ratio of two techniques misses by
 
     def sentence(self) -> str:
         stale = ("" if self.model_version == str(cost.MODEL_VERSION) else
@@ -84,7 +100,8 @@ class Record:
                 f"{self.lights} lights){stale}, measured {self.low:.3g}x to {self.high:.3g}x "
                 f"the modelled lighting time per technique, and the model ordered {self.alike} "
                 f"of the {self.pairs} technique pairs measured more than {TIE:.0%} apart as "
-                f"measured")
+                f"measured, its ratio of two techniques' times off by a median factor of "
+                f"{self.pair_factor:.2g}")
 
 
 def record(folder: Path = RECORD) -> Record | None:
@@ -104,8 +121,9 @@ def record(folder: Path = RECORD) -> Record | None:
     lights = ", ".join(f"{n:,}" for n in shared.get("lights", ())) or "?"
     version = str(rows[0].get("model_version", "?")).split(".")[0]
     return Record(str(info.get("gl_renderer")), size, lights, version, min(r.values()),
-                  max(r.values()), alike, pairs)
+                  max(r.values()), alike, pairs, pair_error(rows, g))
 
 
-__all__ = ["RECORD", "TIE", "Record", "lighting", "measured_rows", "model_of", "rank_agreement",
+__all__ = ["RECORD", "TIE", "Record", "lighting", "measured_rows", "model_of", "pair_error",
+           "rank_agreement",
            "ratios", "record"]

@@ -1,6 +1,6 @@
 """The GPU cost model beside the papers' published measurements, in their own settings
 (app.bench.validation's paper_* rows, 1920x1080).  Each claim of a paper is judged by one
-rule (verdict(), stated in RULE): agrees, close or disagrees; a disagreement is reported as
+rule (verdict(), stated in rule()): agrees, close or disagrees; a disagreement is reported as
 found, never tuned away.
 
 The claims are data (Claim: id, text, verdict), made by claims(rows, ms) from one accessor
@@ -10,6 +10,7 @@ markdown is rendered from them."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 import json
 import math
 from typing import Callable
@@ -21,27 +22,40 @@ from ..results import PAPER_PREFIX
 from . import gpu_record
 from .common import DPI, gmean, num, panel_style, plt, save, sel, side_legend
 
-NEAR = 0.10          # the model's resolution: gaps within it are not told apart
+NEAR = 0.10          # the resolution the model claims: gaps within it are not told apart
 AGREES, CLOSE, DISAGREES = "agrees", "close", "disagrees"
-RULE = (f"**The verdict rule** (every claim below): a paper's claim that A costs less than B "
-        f"is judged on the model's gap g = (B - A) / max(A, B).  It **agrees** where g has the "
-        f"paper's sign and exceeds the model's resolution, {NEAR:.0%}; it is **close** where g "
-        f"and the paper's own gap both lie within {NEAR:.0%} (a paper that gives only an "
-        f"ordering is not known to exceed it); otherwise it **disagrees**.  The rule is "
-        f"symmetric: the same {NEAR:.0%} either side.  {NEAR:.0%} is the resolution the model "
-        f"claims, not a measured error: it ignores occupancy and latency (which make it "
-        f"read low) and charges every pixel's G-buffer read and colour write at full DRAM "
-        f"bandwidth (a floor that reads high where the paper's GPU cached or compressed "
-        f"them: EpicCitadel below).")
+
+
+@lru_cache(maxsize=1)
+def resolution() -> float:
+    """The model's resolution r in the rule: its measured error where a real GPU has held it
+    to measured times (the committed record: a ratio of two techniques' times off by a median
+    factor f moves a gap g = (B - A) / max(A, B) by up to 1 - 1/f), else NEAR, its claim."""
+    rec = gpu_record.record()
+    return NEAR if rec is None or not rec.pair_factor > 1 else 1.0 - 1.0 / rec.pair_factor
 
 
 def rule() -> str:
-    """RULE, with what the committed real-GPU record says of the model, where there is one."""
+    """The verdict rule, stated once, at the resolution in force (resolution())."""
+    r = resolution()
     rec = gpu_record.record()
-    if rec is None:
-        return RULE + "  No GPU has measured this model yet (scripts/gpu_check.sh would)."
-    return (RULE + f"  Measured: {rec.sentence()}; the verdicts below are the model's, at a "
-            f"resolution that record does not bear out (docs/gpu_check.md).")
+    text = (f"**The verdict rule** (every claim below): a paper's claim that A costs less than "
+            f"B is judged on the model's gap g = (B - A) / max(A, B).  It **agrees** where g has "
+            f"the paper's sign and exceeds the model's resolution, {r:.0%}; it is **close** "
+            f"where g and the paper's own gap both lie within {r:.0%} (a paper that gives only "
+            f"an ordering is not known to exceed it); otherwise it **disagrees**.  The rule is "
+            f"symmetric: the same {r:.0%} either side.  ")
+    if rec is None or not rec.pair_factor > 1:
+        return text + (f"{NEAR:.0%} is the resolution the model claims, not a measured error: "
+                       f"it ignores occupancy and latency (which make it read low) and charges "
+                       f"every pixel's G-buffer read and colour write at full DRAM bandwidth (a "
+                       f"floor that reads high where the paper's GPU cached or compressed them: "
+                       f"EpicCitadel below).  No GPU has measured it yet (scripts/gpu_check.sh "
+                       f"would).")
+    return text + (f"{r:.0%} is the model's measured error: in {rec.sentence()}, and a ratio "
+                   f"off by a factor {rec.pair_factor:.2g} moves a gap by up to {r:.0%} "
+                   f"(docs/gpu_check.md).  That record is one GPU; the resolution the model "
+                   f"claims from its own construction is {NEAR:.0%}, which it does not bear out.")
 
 Ms = Callable[[dict, str, str], float]
 
@@ -60,15 +74,17 @@ def gap(first: float, second: float) -> float:
     return (second - first) / top if top > 0 else 0.0
 
 
-def verdict(model_gap: float, paper_gap: float | None = None) -> str:
-    """The one rule (RULE).  paper_gap None: the paper gives an ordering (first below
-    second) and no size; 0: the paper calls the two close."""
+def verdict(model_gap: float, paper_gap: float | None = None, near: float | None = None) -> str:
+    """The one rule (rule()) at resolution `near` (None: resolution()).  paper_gap None: the
+    paper gives an ordering (first below second) and no size; 0: the paper calls the two
+    close."""
+    near = resolution() if near is None else near
     if math.isnan(model_gap):
         return DISAGREES
     sign = 1.0 if paper_gap is None else float(np.sign(paper_gap))
-    if sign and model_gap * sign > NEAR:
+    if sign and model_gap * sign > near:
         return AGREES
-    if abs(model_gap) <= NEAR and (paper_gap is None or abs(paper_gap) <= NEAR):
+    if abs(model_gap) <= near and (paper_gap is None or abs(paper_gap) <= near):
         return CLOSE
     return DISAGREES
 

@@ -45,3 +45,10 @@ def test_no_record_where_the_folder_lacks_one_or_holds_a_software_run(tmp_path):
     info = json.loads((tmp_path / "run.json").read_text())
     (tmp_path / "run.json").write_text(json.dumps(dict(info, software=True)))
     assert gpu_record.record(tmp_path) is None
+
+
+def test_pair_error_is_the_median_miss_of_the_ratios():
+    rows = [_row("a", 1.0, 1.0), _row("b", 2.0, 2.0), _row("c", 4.0, 1.0)]
+    # ratios measured / modelled: (a, b) 0.5 / 0.5, (a, c) 0.25 / 1, (b, c) 0.5 / 2
+    assert np.isclose(gpu_record.pair_error(rows, H200), 4.0)
+    assert np.isclose(gpu_record.pair_error(rows[:2], H200), 1.0)

@@ -1,9 +1,20 @@
 """The validation section's one verdict rule (app/report/validation.py) at its edges, and the
 claims re-judged through another accessor of modelled milliseconds."""
+import importlib
+
 import pytest
 
+from app.report import gpu_record
 from app.report.validation import AGREES, CLOSE, DISAGREES, NEAR, claims, gap, modelled_ms, verdict
 from app.results import PAPER_PREFIX
+
+validation = importlib.import_module("app.report.validation")   # the package's name is a function
+
+
+@pytest.fixture
+def claimed(monkeypatch):
+    """The rule at the resolution the model claims (NEAR), not the record's measured one."""
+    monkeypatch.setattr(validation, "resolution", lambda: NEAR)
 
 
 @pytest.mark.parametrize("model, paper, want", [
@@ -16,7 +27,7 @@ from app.results import PAPER_PREFIX
     (-0.20, -0.20, AGREES), (0.20, -0.20, DISAGREES),
     (float("nan"), None, DISAGREES)])
 def test_the_rule_at_its_edges(model, paper, want):
-    assert verdict(model, paper) == want
+    assert verdict(model, paper, near=NEAR) == want
 
 
 @pytest.mark.parametrize("a, b, paper", [(1.0, 1.3, 0.2), (1.0, 1.05, None), (2.0, 1.0, 0.0),
@@ -35,7 +46,7 @@ def table_rows(shade_ms):
             for k, ms in enumerate(shade_ms)]
 
 
-def test_claims_are_judged_through_the_accessor():
+def test_claims_are_judged_through_the_accessor(claimed):
     rows = table_rows([2.0, 1.74, 2.0, 1.74])          # z-binning saves 13%: the slides 15%
     got = {c.id: c for c in claims(rows)}
     assert got["hangar/zbin"].verdict == AGREES
@@ -49,3 +60,13 @@ def test_claims_are_judged_through_the_accessor():
     assert set(again) == set(got)
     assert all(c.text and c.verdict in (AGREES, CLOSE, DISAGREES) for c in again.values())
     assert got["hangar/zbin"].markdown().endswith("**agrees**")
+
+
+def test_the_rule_takes_the_records_measured_error_where_there_is_one():
+    rec = gpu_record.record()
+    assert rec is not None and rec.pair_factor > 1
+    r = validation.resolution()
+    assert r == pytest.approx(1 - 1 / rec.pair_factor) and r > NEAR
+    assert verdict((r + NEAR) / 2) == CLOSE and verdict((r + NEAR) / 2, near=NEAR) == AGREES
+    text = validation.rule()
+    assert f"{r:.0%}" in text and "measured error" in text and rec.renderer in text
