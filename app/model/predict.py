@@ -61,20 +61,38 @@ def _figures(renderer, technique, result, opts, unbounded, widths, sample, segme
     opts = technique.resolve_options(opts)
     fr = waves.frame_data(renderer, result, opts, unbounded)
     part, share = waves.sampled(fr, sample)
-    out, last = {}, None
-    for width in widths:
+    built = []                      # (width, its culling passes, its program, its replay)
+    for k, width in enumerate(widths):
         passes = dict(parts.cull_figures(technique, fr, width))
         prog = parts.wave_program(technique, part, width)
-        if segments and not out and prog.segment_count() > segments:   # the first width decides
+        if segments and not built and prog.segment_count() > segments:   # the first width decides
             sample *= -(-prog.segment_count() // segments)
             part, share = waves.sampled(fr, sample)
             prog = parts.wave_program(technique, part, width)
-        last = waves.replay(prog)
+        # every width but the last replays on the worker thread (its kernels release the
+        # GIL) while this one builds the next width's program (reading the frame's buffers:
+        # the GL context is this thread's) and replays the last; each replay reads its own
+        # program alone, so the figures are the same as one after the other
+        run = _replayer().submit(waves.replay, prog) if k < len(widths) - 1 else waves.replay(prog)
+        built.append((width, passes, prog, run))
+    out, last = {}, None
+    for width, passes, prog, run in built:
+        last = run if isinstance(run, waves.Replay) else run.result()
         shade = last.figures
         passes[SHADE] = shade if share >= 1.0 else shade.scaled(1.0 / max(share, 1e-9), prog.buffers)
         counts.attach(passes, fr.programs)
         out[width] = passes
     return out, last, part.shading
+
+
+_REPLAYER: list = []     # the worker thread of _figures' replays (made on first use)
+
+
+def _replayer():
+    if not _REPLAYER:
+        from concurrent.futures import ThreadPoolExecutor
+        _REPLAYER.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="replay"))
+    return _REPLAYER[0]
 
 
 def from_json(text: str) -> dict[int, dict[str, waves.Figures]]:

@@ -2,7 +2,9 @@
 of a bit-array word loop (_replay_words) and of a tree traversal (_tree_visits), counting
 per issued iteration its lanes, loads and distinct lines.
 
-numba's cache (cache=True) re-checks this file alone; the cache folder is keyed by the source
+The kernels release the GIL (nogil): app.model.predict replays one wave width in a worker
+thread while it builds and replays the next on the caller's.  numba's cache (cache=True)
+re-checks this file alone; the cache folder is keyed by the source
 of this whole package too (cpu_prep._cache_dir), so an edit of lights.py or kinds.py, whose
 functions and constants are compiled in, recompiles."""
 from __future__ import annotations
@@ -46,7 +48,7 @@ def _lines(keys, stamps, stamp, seen, base, off, nbytes) -> int:
     return new
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _issue_lists(n, e_lane, e_list, e_first, e_count, e_scalar, list_start, list_lbuf, list_ebuf,
                  list_runs, flat_light, flat_slot, flat_eoff, P, spec, L, types, bound,
                  unbounded, keys, stamps, stamp, lo, hi, shapes, shaded, line_base, seen, loops,
@@ -104,7 +106,7 @@ def _gather_lanes(n, e_lane, e_count, P, lo, hi, per_pixel, wx, wy, wz, wacc):
                 hi[k] = max(hi[k], P[px, k])
 
 
-@numba.njit(cache=True)   # not inlined: numba inlines no call of over 30 arguments
+@numba.njit(cache=True, nogil=True)   # not inlined: numba inlines no call of over 30 arguments
 def _walk_shared_list(n, longest, e_lane, lid, f0, scalar, list_start, list_lbuf, list_ebuf,
                       list_runs, flat_light, flat_slot, flat_eoff, spec, L, types, bound,
                       unbounded, keys, stamps, stamp, lo, hi, shaded, line_base, seen, loops,
@@ -155,7 +157,7 @@ def _walk_shared_list(n, longest, e_lane, lid, f0, scalar, list_start, list_lbuf
     return stamp
 
 
-@numba.njit(cache=True)   # not inlined: numba inlines no call of over 30 arguments
+@numba.njit(cache=True, nogil=True)   # not inlined: numba inlines no call of over 30 arguments
 def _walk_lane_lists(n, longest, e_lane, e_list, e_first, e_count, e_scalar, list_start,
                      list_lbuf, list_ebuf, flat_light, flat_slot, flat_eoff, spec, L, types,
                      bound, unbounded, keys, stamps, stamp, lo, hi, shapes, shaded, line_base,
@@ -295,7 +297,7 @@ def _issue_lights(active, loads, lines, scalar, shapes, shaded, any_spec, loops,
     types_acc[2, 0] += any_spec
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _replay_segments(wave, lane, step, hoff, first, count, call, calls,
                      list_start, list_lbuf, list_ebuf, list_runs, flat_light, flat_slot,
                      flat_eoff, nmin, nmax, nfirst, nbits, depth,
@@ -437,7 +439,7 @@ def _zbin_mask(lo, hi, w, printed):
     return np.uint32(zb.zbin_word_mask(lo, hi, w) if printed else zb.range_mask(lo, hi, w))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _replay_words(order, wave, shading, live, address, zlo, zhi, bits, words, masked, scalarized,
                   printed, bits_buf, P, spec, L, types, bound, unbounded,
                   line_base, seen, loops, types_acc, per_pixel):
@@ -575,7 +577,7 @@ def _word_lights(i, j, wd, order, own, spec, L, types, bound, lo, hi, unbounded,
         _issue_lights(active, 1, lines, scalar, shapes, shaded, any_spec, loops, types_acc)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _tree_visits(depth, base, count, nmin, nmax, nfirst, nbits, count_bits, out):
     """Tree paper listing 3 for each lane (glsl/tree.glsl traverse_tree): its node visits in
     order.  out=None counts them; else fills out[k] = (lane, visit, node, leaf first, leaf
@@ -609,7 +611,7 @@ def _tree_visits(depth, base, count, nmin, nmax, nfirst, nbits, count_bits, out)
     return k
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _gather_rows(order, columns):
     """columns[:, order] in one pass (Program.segments: the segments' columns in replay
     order; numpy's fancy indexing, a column at a time, took twice as long)."""
