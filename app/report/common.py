@@ -78,10 +78,13 @@ class Roles:
 class Colors:
     def __init__(self, techniques, roles: Roles):
         import matplotlib
-        cmap = matplotlib.colormaps["tab10"]
+        # tab20's dark half is tab10; past ten techniques its light half (tab10 repeated
+        # would give the eleventh the first one's colour)
+        cmap = matplotlib.colormaps["tab20"]
+        shades = [2 * i for i in range(10)] + [2 * i + 1 for i in range(10)]
         self.roles = roles
         others = [t for t in techniques if t != roles.floor]
-        self.c = {t: cmap(i % 10) for i, t in enumerate(others)}
+        self.c = {t: cmap(shades[i % 20]) for i, t in enumerate(others)}
         self.c[roles.floor] = (0, 0, 0, 1)
 
     def __call__(self, t):
