@@ -10,8 +10,9 @@
 #
 # Set-up: scripts/setup.sh's (.venv and the project), or, on a machine that cannot reach
 # PyPI, wheels carried in .whl/ (README "A real GPU" lists them) and the EGL loader's Debian
-# packages in .gl/, unpacked first; or LAB_PYTHON, a Python that already imports the
-# project's packages (e.g. the machine's own, with a site unpacked on its PYTHONPATH).  On a software rasterizer it stops with one line: its
+# packages in .gl/, unpacked first; or scripts/gpu_pack.sh's .labpkg/ (the packages the
+# machine's own Python lacks, and the SPIR-V tools), unpacked here; or LAB_PYTHON, a Python
+# that already imports the project's packages.  On a software rasterizer it stops with one line: its
 # times would say nothing about a GPU (LAB_GPU_CHECK_SOFTWARE=1 runs it anyway, for a try).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -25,7 +26,13 @@ nv_egl=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
 if [ -z "${__EGL_VENDOR_LIBRARY_FILENAMES:-}" ] && [ -f "$nv_egl" ]; then
     export __EGL_VENDOR_LIBRARY_FILENAMES="$nv_egl"
 fi
-if [ -n "${LAB_PYTHON:-}" ]; then
+if [ -f .labpkg/site.tar.xz ]; then       # scripts/gpu_pack.sh's: the machine's own Python
+    mkdir -p /tmp/lab-site
+    [ -d /tmp/lab-site/numba ] || tar -xJf .labpkg/site.tar.xz -C /tmp/lab-site
+    [ -f .labpkg/spirv-bins.tar.xz ] && tar -xJf .labpkg/spirv-bins.tar.xz -C /
+    export PYTHONPATH="/tmp/lab-site:$PWD${PYTHONPATH:+:$PYTHONPATH}"
+    py="${LAB_PYTHON:-python3}"
+elif [ -n "${LAB_PYTHON:-}" ]; then
     export PYTHONPATH="$PWD${PYTHONPATH:+:$PYTHONPATH}"
     py="$LAB_PYTHON"
 elif compgen -G ".whl/*.whl" > /dev/null; then
