@@ -26,7 +26,8 @@ nv_egl=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
 if [ -z "${__EGL_VENDOR_LIBRARY_FILENAMES:-}" ] && [ -f "$nv_egl" ]; then
     export __EGL_VENDOR_LIBRARY_FILENAMES="$nv_egl"
 fi
-if [ -f .labpkg/site.tar.xz ]; then       # scripts/gpu_pack.sh's: the machine's own Python
+if [ -f .labpkg/site.tar.xz ] && [ ! -x .venv/bin/python ]; then   # gpu_pack.sh's, for the
+    # machine's own Python (a checkout with its .venv uses that instead)
     mkdir -p /tmp/lab-site
     [ -d /tmp/lab-site/numba ] || tar -xJf .labpkg/site.tar.xz -C /tmp/lab-site
     [ -f .labpkg/spirv-bins.tar.xz ] && tar -xJf .labpkg/spirv-bins.tar.xz -C /
