@@ -37,7 +37,7 @@ import numpy as np
 
 from ..results import stats
 from . import measure
-from .study import FileStudy, write_series
+from .study import FileStudy, series_files, study_scene, write_series
 
 CSV = "fog.csv"                # read by app.report.fog (not imported from there: GL)
 BANDING = "fog_banding.npz"    # the banding case's images (app.report.fog)
@@ -181,21 +181,16 @@ def fog_series(c: FogConfig, out: Path, log=None) -> list[dict]:
     """The study of `c` into out/fog.csv and out/fog_banding.npz; none without scenes (stale
     files removed)."""
     log = log or sys.stderr      # the stream at the call, not at import (pytest swaps it)
-    from scenes import BUILTIN_SCENES, BUILTIN_VARIANTS, load_scene
     from ..errors import UserError
     from ..pipeline.renderer import Renderer
-    out = Path(out)
-    path, npz = out / CSV, out / BANDING
-    if not c.scenes or c.repeat < 1:
-        path.unlink(missing_ok=True)
-        npz.unlink(missing_ok=True)
+    files = series_files(out, (CSV, BANDING), bool(c.scenes) and c.repeat >= 1)
+    if files is None:
         return []
-    out.mkdir(parents=True, exist_ok=True)
+    path, npz = files
     rows: list[dict] = []
     images: dict[str, np.ndarray] = {}
     for name in c.scenes:
-        builtin = name in BUILTIN_SCENES or name in BUILTIN_VARIANTS   # a file: its own lights, no seed
-        scene = load_scene(name, lights=c.lights if builtin else None, seed=c.seed if builtin else 0)
+        scene = study_scene(name, c.lights, c.seed)
         if scene.fog is None:
             raise UserError(f"fog study: scene {name} has no fog")
         with Renderer(scene, tuple(c.size)) as r:

@@ -71,7 +71,7 @@ import time
 import numpy as np
 
 from . import measure
-from .study import FileStudy, write_series
+from .study import FileStudy, series_files, study_scene, write_series
 
 CSV = "sampling.csv"           # read by app.report.sampling (not imported from there: GL)
 
@@ -296,22 +296,17 @@ def sampling_series(c: SamplingConfig, out: Path, log=None) -> list[dict]:
     """The study of `c` into out/sampling.csv; none without scenes, samplers or seeds (a stale
     file is removed, so no report shows it)."""
     log = log or sys.stderr      # the stream at the call, not at import (pytest swaps it)
-    from scenes import BUILTIN_SCENES, load_scene
     from ..pipeline.renderer import Renderer
     from ..techniques import REGISTRY
     from .caps import dropped_lights
-    out = Path(out)
-    path = out / CSV
-    if not c.scenes or not c.samples or c.seeds < 2 or \
-            not any(t.role == "sampler" for t in REGISTRY.values()):
-        path.unlink(missing_ok=True)
+    files = series_files(out, (CSV,), bool(c.scenes) and bool(c.samples) and c.seeds >= 2 and
+                         any(t.role == "sampler" for t in REGISTRY.values()))
+    if files is None:
         return []
-    out.mkdir(parents=True, exist_ok=True)
+    path, = files
     rows: list[dict] = []
     for name in c.scenes:
-        builtin = name in BUILTIN_SCENES          # a scene file: its own lights, no seed
-        scene = load_scene(name, lights=(c.stress_lights if name == "stress" else c.lights)
-                           if builtin else None, seed=c.seed if builtin else 0)
+        scene = study_scene(name, c.stress_lights if name == "stress" else c.lights, c.seed)
         lights = scene.lights_at(0, 64)
         configs = configurations(c.samples, dropped_lights(scene, c.size, 0, 64))
         with Renderer(scene, tuple(c.size)) as r:

@@ -29,7 +29,7 @@ from pathlib import Path
 import sys
 
 from . import measure
-from .study import FileStudy, write_series
+from .study import FileStudy, series_files, study_scene, write_series
 
 CSV = "stereo.csv"             # read by app.report.stereo (not imported from there: GL)
 
@@ -89,18 +89,14 @@ def run_scene(renderer, c: StereoConfig, log=None) -> list[dict]:
 def stereo_series(c: StereoConfig, out: Path, log=None) -> list[dict]:
     """The study of `c` into out/stereo.csv; none without scenes (a stale file removed)."""
     log = log or sys.stderr      # the stream at the call, not at import (pytest swaps it)
-    from scenes import BUILTIN_SCENES, load_scene
     from ..pipeline.renderer import Renderer
-    out = Path(out)
-    path = out / CSV
-    if not c.scenes or c.repeat < 1:
-        path.unlink(missing_ok=True)
+    files = series_files(out, (CSV,), bool(c.scenes) and c.repeat >= 1)
+    if files is None:
         return []
-    out.mkdir(parents=True, exist_ok=True)
+    path, = files
     rows: list[dict] = []
     for name in c.scenes:
-        builtin = name in BUILTIN_SCENES          # a scene file: its own lights, no seed
-        scene = load_scene(name, lights=c.lights if builtin else None, seed=c.seed if builtin else 0)
+        scene = study_scene(name, c.lights, c.seed)
         with Renderer(scene, tuple(c.size)) as r:
             got = run_scene(r, c, log)
         for row in got:

@@ -59,6 +59,26 @@ class FileStudy(Study):
         return []
 
 
+def series_files(out, names: tuple[str, ...], runs: bool) -> tuple[Path, ...] | None:
+    """A file study's paths in `out` (the folder made), or None where it has nothing to run:
+    its stale files removed, so a report never reads an earlier run's."""
+    paths = tuple(Path(out) / n for n in names)
+    if not runs:
+        for p in paths:
+            p.unlink(missing_ok=True)
+        return None
+    Path(out).mkdir(parents=True, exist_ok=True)
+    return paths
+
+
+def study_scene(name: str, lights: int, seed: int):
+    """A study's scene: a builtin scene or variant at `lights` lights drawn with `seed`; a
+    scene file with its own lights."""
+    from scenes import BUILTIN_SCENES, BUILTIN_VARIANTS, load_scene
+    builtin = name in BUILTIN_SCENES or name in BUILTIN_VARIANTS
+    return load_scene(name, lights=lights if builtin else None, seed=seed if builtin else 0)
+
+
 def write_series(rows: list[dict], path: Path, columns, log, also: str = "") -> None:
     """A file study's CSV, and its line in the log (`also`: the other files it wrote)."""
     write_csv(rows, path, columns)

@@ -44,7 +44,7 @@ import numpy as np
 
 from ..results import FRAME_PASS, stats
 from . import measure
-from .study import FileStudy, write_series
+from .study import FileStudy, series_files, study_scene, write_series
 
 CSV = "transparent.csv"        # read by app.report.transparent (not imported from there: GL)
 LOOKED_UP, REBUILT = "looked up", "rebuilt per layer"
@@ -223,19 +223,15 @@ def run_scene(glass, opaque, c: TransparentConfig, log=None) -> list[dict]:
 def transparent_series(c: TransparentConfig, out: Path, log=None) -> list[dict]:
     """The study of `c` into out/transparent.csv; none without scenes (a stale file removed)."""
     log = log or sys.stderr      # the stream at the call, not at import (pytest swaps it)
-    from scenes import BUILTIN_SCENES, BUILTIN_VARIANTS, load_scene
     from ..errors import UserError
     from ..pipeline.renderer import Renderer
-    out = Path(out)
-    path = out / CSV
-    if not c.scenes or c.repeat < 1:
-        path.unlink(missing_ok=True)
+    files = series_files(out, (CSV,), bool(c.scenes) and c.repeat >= 1)
+    if files is None:
         return []
-    out.mkdir(parents=True, exist_ok=True)
+    path, = files
     rows: list[dict] = []
     for name in c.scenes:
-        builtin = name in BUILTIN_SCENES or name in BUILTIN_VARIANTS   # a file: its own lights, no seed
-        scene = load_scene(name, lights=c.lights if builtin else None, seed=c.seed if builtin else 0)
+        scene = study_scene(name, c.lights, c.seed)
         if not scene.transparent_meshes():
             raise UserError(f"transparent study: scene {name} has no transparent surface")
         with Renderer(scene, tuple(c.size), transparent_layers=c.layers) as glass, \
