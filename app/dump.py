@@ -7,6 +7,8 @@ import json
 
 import numpy as np
 
+from cpu_prep.layouts import mix     # the contract's hash of a light id (this module's name too)
+
 FIELDS = ("image", "depth", "evaluated", "contrib_count", "contrib_hash")
 # a scene with transparent surfaces adds, per layer (L, H, W): contrib_count_t, contrib_hash_t,
 # evaluated_t uint32 (0 where the layer has no fragment), depth_t float32 (app/pipeline/transparent.py)
@@ -40,15 +42,6 @@ def read_dump(path) -> dict:
     return out
 
 
-def mix(x: np.ndarray) -> np.ndarray:
-    """The contract's hash of a light id (uint32 arithmetic, wrapping)."""
-    x = np.asarray(x, np.uint32).copy()
-    x ^= x >> np.uint32(16)
-    x *= np.uint32(0x7FEB352D)
-    x ^= x >> np.uint32(15)
-    x *= np.uint32(0x846CA68B)
-    x ^= x >> np.uint32(16)
-    return x
 
 
 def exactness(result, reference) -> tuple[int, int]:

@@ -55,7 +55,7 @@ import math
 import numba
 import numpy as np
 
-from . import parallel, threads
+from . import layouts, parallel, threads
 from .grid import Grid, slice_table
 
 # The froxel budget: a grid of more froxels is refused (its per-froxel buffers, 48 bytes a
@@ -702,7 +702,7 @@ def set_figures(sets: FroxelSets, ids: np.ndarray, dims) -> tuple[np.ndarray, np
     froxel_hash (XOR of the contract's mix(id)) of these sets, computed on the CPU."""
     w, h, d = dims
     counts = sets.counts().astype(np.uint32)
-    mixed = _mix(np.asarray(ids, np.uint32)[sets.entries.astype(np.int64)])
+    mixed = layouts.mix(np.asarray(ids, np.uint32)[sets.entries.astype(np.int64)])
     hashes = np.zeros(len(counts), np.uint32)
     nonempty = counts > 0
     if nonempty.any():
@@ -712,11 +712,3 @@ def set_figures(sets: FroxelSets, ids: np.ndarray, dims) -> tuple[np.ndarray, np
     return shape(counts), shape(hashes)
 
 
-def _mix(x: np.ndarray) -> np.ndarray:
-    x = np.asarray(x, np.uint32).copy()
-    x ^= x >> np.uint32(16)
-    x *= np.uint32(0x7FEB352D)
-    x ^= x >> np.uint32(15)
-    x *= np.uint32(0x846CA68B)
-    x ^= x >> np.uint32(16)
-    return x

@@ -23,6 +23,18 @@ from scenes.model import LIGHT_TYPES
 
 from . import limits
 
+
+def mix(x: np.ndarray) -> np.ndarray:
+    """The contract's hash of a light id (uint32 arithmetic, wrapping; pixel.glsl's mix_hash): a
+    pixel's or froxel's contrib_hash is the XOR of its lights' mix(id)."""
+    x = np.asarray(x, np.uint32).copy()
+    x ^= x >> np.uint32(16)
+    x *= np.uint32(0x7FEB352D)
+    x ^= x >> np.uint32(15)
+    x *= np.uint32(0x846CA68B)
+    x ^= x >> np.uint32(16)
+    return x
+
 # numpy field type -> (GLSL type, std430 base alignment, size)
 _GLSL_TYPES = {
     (np.dtype(np.float32), ()): ("float", 4, 4),

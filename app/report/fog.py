@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from .common import DPI, num, order, plt, save, sel
-from .spread import Spread, lowest_phrase
+from .spread import Spread, spread_cell, lowest_phrase
 
 CSV = "fog.csv"               # the study's files in the run's folder (app.bench.fog writes them)
 BANDING = "fog_banding.npz"
@@ -35,9 +35,7 @@ EXPLANATION = (
     "differ from brute's frame (both must be 0). Medians with [min-max] over the timing samples.")
 
 
-def _cell(row, base: str, digits: int = 2) -> str:
-    s = Spread.of(row, base)
-    return "" if math.isnan(s.med) else f"{s.med:.{digits}f} [{s.lo:.{digits}f}-{s.hi:.{digits}f}]"
+_cell = spread_cell
 
 
 def _fig(v) -> str:

@@ -48,6 +48,12 @@ class Spread:
                       min(self.n, other.n))
 
 
+def spread_cell(row, base: str, digits: int = 2) -> str:
+    """A table cell of a row's median with its [min-max] ("" where there is none)."""
+    s = Spread.of(row, base)
+    return "" if math.isnan(s.med) else f"{s.med:.{digits}f} [{s.lo:.{digits}f}-{s.hi:.{digits}f}]"
+
+
 def below(a: Spread, b: Spread) -> bool:
     """a is lower than b beyond the measured spread (both measured more than once)."""
     return a.n > 1 and b.n > 1 and a.hi < b.lo

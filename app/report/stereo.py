@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 from .common import num, order, sel
-from .spread import Spread, below
+from .spread import Spread, spread_cell, below
 
 CSV = "stereo.csv"            # the study's file in the run's folder (app.bench.stereo writes it)
 
@@ -28,9 +28,7 @@ EXPLANATION = (
     "brute rendered in that eye (must be 0).")
 
 
-def _cell(row, base: str) -> str:
-    s = Spread.of(row, base)
-    return "" if math.isnan(s.med) else f"{s.med:.2f} [{s.lo:.2f}-{s.hi:.2f}]"
+_cell = spread_cell
 
 
 def _count(v) -> str:

@@ -10,7 +10,7 @@ import json
 import math
 
 from .common import DPI, log_axes, num, order, panel_style, plt, save, sel, side_legend
-from .spread import Spread, below, lowest_phrase
+from .spread import Spread, spread_cell, below, lowest_phrase
 
 CSV = "transparent.csv"       # the study's file in the run's folder (app.bench.transparent writes it)
 PNG = "transparent.png"
@@ -40,9 +40,7 @@ EXPLANATION = (
     "brute's frame with layers (must be 0). Medians with [min-max] over the timing samples.")
 
 
-def _cell(row, base: str) -> str:
-    s = Spread.of(row, base)
-    return "" if math.isnan(s.med) else f"{s.med:.2f} [{s.lo:.2f}-{s.hi:.2f}]"
+_cell = spread_cell
 
 
 def _text(v) -> str:
