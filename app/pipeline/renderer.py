@@ -16,6 +16,15 @@ timed pass run N times; untimed passes and host steps (set-up outside the measur
 as the perfect culler's list building) run once, and a timed pass may not write what an
 untimed one wrote.
 
+`render(..., keep_setup=True)` is for a frame rendered again later (the benchmark's interleaved
+timing samples, app/bench/sweep.py): a frame whose steps all ran records its untimed set-up
+(the buffers its untimed passes and host steps wrote, its timed passes); a later render of
+the same frame (the same technique, options, switches, camera, size and CPU-stage uploads,
+byte for byte) whose set-up buffers no step has written since runs the G-buffer, the CPU
+stage, the upload and the timed passes alone, as render(samples=N)'s later samples do.  The
+set-up's outputs are a function of those inputs, so the timed passes read what they would
+have read; a set-up that another frame overwrote meanwhile runs again.
+
 `render(..., deadline=T)` (a time.perf_counter() value) stops the frame between two of its
 steps (a pass, a dispatch window, a host step; never inside a dispatch) once T has passed,
 raising FrameTimeout; the next render starts a new frame record, so the renderer is usable as
@@ -97,6 +106,18 @@ class _Frame:
     programs: dict = field(default_factory=dict)   # pass name -> [ProgramKey] it ran (the cost model's counts)
 
 
+@dataclass
+class _SetUp:
+    """A frame's untimed set-up, kept for a later render of the same frame (keep_setup):
+    the write serial and provided entry of every buffer its untimed steps wrote that its
+    timed passes bind, its timed passes in order, and the frame's record beside them."""
+    written: dict          # buffer name -> (serial of the write, provided entry)
+    timed: list
+    setup_ms: dict
+    stats: dict
+    programs: dict
+
+
 class Renderer:
     def __init__(self, scene, size: tuple[int, int] | None = None,
                  transparent_layers: int | None = None):
@@ -115,6 +136,9 @@ class Renderer:
         self._blank = None       # colour target of passes that draw to no target
         self._targets: dict = {}  # Target.name -> ((Target, size), rawgl.DepthTarget)
         self._frame = _Frame()
+        self._serial = 0          # write serial: every buffer write (upload, pass) takes the next
+        self._written: dict[str, int] = {}     # buffer name -> serial of its last write
+        self._setups: dict[bytes, _SetUp] = {}  # what a set-up was made from -> the kept set-up
         from . import transparent      # the scene's transparent layers (None: it has none)
         self.transparent = transparent.for_scene(
             self.ctx, scene, transparent.DEFAULT_LAYERS if transparent_layers is None
@@ -154,12 +178,19 @@ class Renderer:
             # frame (a light count's arrays) allocate nothing new
             buf = self.ctx.buffer(reserve=max(4096, 1 << (nbytes - 1).bit_length()))
             self.buffers[name] = buf
+            self._wrote(name)         # a new buffer holds nothing of the old one
         return buf
+
+    def _wrote(self, name: str) -> None:
+        """Record a write of buffer `name` (the set-up a later frame may reuse checks it)."""
+        self._serial += 1
+        self._written[name] = self._serial
 
     def upload(self, name: str, array: np.ndarray) -> None:
         buf = self.buffer(name, array.nbytes)
         if array.nbytes:
             buf.write(np.ascontiguousarray(array))     # its memory as it is: no copy
+        self._wrote(name)
         self._frame.provided[name] = (int(array.nbytes), array.dtype)
 
     def output(self, name: str) -> moderngl.Buffer:
@@ -204,7 +235,7 @@ class Renderer:
                lights: np.ndarray | None = None, readback: bool = True, camera=None,
                defines: dict | None = None, samples: int = 1,
                debug_pixel: tuple[int, int] | None = None, figures: bool | None = None,
-               deadline: float | None = None) -> FrameResult:
+               deadline: float | None = None, keep_setup: bool = False) -> FrameResult:
         """Render one frame of `technique` (anything with resolve_options, build and
         passes).  `defines` are frame-wide switches that reach every program declaring them
         (e.g. UNBOUNDED_FALLOFF=1).  meta['samples'] holds each sample's CPU and GPU ms;
@@ -214,13 +245,16 @@ class Renderer:
         (FrameResult.debug_lights, sorted).  `figures` (default: `readback`) runs the steps
         that only count figures for meta['stats'] and the technique's maps (passes.py).
         `deadline` (a time.perf_counter() value): FrameTimeout between two steps once it
-        has passed, counting only the technique's passes (the module's docstring)."""
+        has passed, counting only the technique's passes (the module's docstring).
+        `keep_setup`: keep the frame's untimed set-up for a later render of the same frame,
+        and reuse one kept while it is intact (the module's docstring; not with transparent
+        layers, fog or a debug pixel, whose frames run whole)."""
         with phases.phase("render" if readback else "timing"):    # app.pipeline.phases: where time goes
             return self._render(technique, frame, opts, frames, lights, readback, camera,
-                                defines, samples, debug_pixel, figures, deadline)
+                                defines, samples, debug_pixel, figures, deadline, keep_setup)
 
     def _render(self, technique, frame, opts, frames, lights, readback, camera, defines,
-                samples, debug_pixel, figures, deadline) -> FrameResult:
+                samples, debug_pixel, figures, deadline, keep_setup=False) -> FrameResult:
         begun = time.perf_counter()
         opts = technique.resolve_options(opts)
         if self.scene.fog is not None:            # a technique that cannot serve froxels: one line
@@ -229,10 +263,13 @@ class Renderer:
         self._begin_frame(debug_pixel, readback if figures is None else figures)
         f = self._frame
         f.deadline, f.technique, f.begun_s = deadline, technique.name, begun
+        keep = keep_setup and self.transparent is None and self.scene.fog is None and \
+            debug_pixel is None
         records, stats, ran = [], None, None
         try:
             for k in range(max(int(samples), 1)):
-                build, features, record = self._sample(technique, fin, opts, defines, first=k == 0)
+                build, features, record = self._sample(technique, fin, opts, defines, first=k == 0,
+                                                       keep=keep)
                 if stats is None:
                     stats = dict(build.stats)       # host steps of the first sample add to them
                     ran = build, features           # the build whose steps (host steps) all ran
@@ -276,10 +313,11 @@ class Renderer:
             self._frame.debug_pixel = (int(x), self.size[1] - 1 - int(row))
             self.buffer(DEBUG_SLOT, 4 + 4 * DEBUG_MAX_IDS).clear()
 
-    def _sample(self, technique, fin, opts, defines, first: bool):
+    def _sample(self, technique, fin, opts, defines, first: bool, keep: bool = False):
         """One sample of the frame: G-buffer, CPU stage, upload, then every step of the
-        technique (the first sample: compiles, host steps included) or its timed passes
-        again.  -> (build, feature set, {"cpu_ms", "gpu_ms"})."""
+        technique (the first sample: compiles, host steps included; `keep`: its set-up kept,
+        or a kept one reused while intact) or its timed passes again.
+        -> (build, feature set, {"cpu_ms", "gpu_ms"})."""
         self.timer.take()
         begun = self._frame.begun_s if first else time.perf_counter()   # the first: the frame input too
         virtual = {"generated.glsl": feat.generated_glsl()}
@@ -301,7 +339,13 @@ class Renderer:
         virtual = dict(feat.virtual_files(features), **getattr(technique, "glsl", {}))
         env = (virtual, dict(defines or {}), frame_uniforms)
         self._frame.counting_from = begun   # the first step's check holds back what came before
-        if first:
+        key = self._setup_key(technique, opts, defines, fin, build) if first and keep else None
+        kept = self._intact_setup(key)
+        if kept is not None:
+            self._restore_setup(kept, build)
+            for p in kept.timed:
+                self._run_pass(p, *env, technique.name)
+        elif first:
             # a build made on the GPU (app/gpu_build) brings its passes, ending in the technique's
             steps = build.steps or technique.passes(build, opts)
             if self.transparent is not None:      # the layers first (app/pipeline/transparent.py)
@@ -309,6 +353,8 @@ class Renderer:
             self.run(steps, *env, technique=technique.name)
             # a GPU build knows its visible lights' shapes once its steps ran (app/gpu_build)
             features = feat.feature_set(build.lights.type, self.gbuffer.specular)
+            if key is not None:
+                self._keep_setup(key, build)
         else:
             for p in self._frame.timed:
                 self._check_deadline(p.name)
@@ -316,6 +362,60 @@ class Renderer:
         if self.transparent is not None:
             self.transparent.composite(self)
         return build, features, {"cpu_ms": cpu_ms, "gpu_ms": self.timer.take()}
+
+    # ---- a kept set-up (keep_setup) -------------------------------------------------
+
+    def _setup_key(self, technique, opts, defines, fin, build) -> bytes:
+        """What a frame's set-up is made from: the technique, its options and switches, the
+        camera and size (the G-buffer), and every upload of the CPU stage, byte for byte."""
+        import hashlib
+        h = hashlib.blake2b(digest_size=20)
+        cam = fin.camera
+        h.update(repr((technique.name, opts, sorted((defines or {}).items()), self.size,
+                       cam.width, cam.height, cam.near, cam.far, cam.tan_half_y)).encode())
+        h.update(np.ascontiguousarray(cam.view_from_world).data)
+        h.update(np.ascontiguousarray(cam.clip_from_view).data)
+        for name, array in build.buffers.items():
+            h.update(name.encode())
+            h.update(str(array.dtype).encode())
+            h.update(np.ascontiguousarray(array).data)
+        return h.digest()
+
+    KEPT_SETUPS = 64      # set-ups kept at once (a benchmark group's configurations)
+
+    def _keep_setup(self, key: bytes, build) -> None:
+        """Keep the frame just run whole as the set-up made from `key`."""
+        f = self._frame
+        self._setups.pop(key, None)
+        while len(self._setups) >= self.KEPT_SETUPS:
+            self._setups.pop(next(iter(self._setups)))         # the oldest
+        bound = {p.buffer_of(slot) for p in f.timed for slot in p.slots()}
+        self._setups[key] = _SetUp(
+            {n: (self._written[n], f.provided[n]) for n in f.untimed_writes & bound
+             if n in f.provided}, [p for p in f.timed if not p.figures],   # figures feed nothing
+            dict(f.setup_ms), dict(build.stats),
+            {k: list(v) for k, v in f.programs.items()})
+
+    def _intact_setup(self, key: bytes | None) -> _SetUp | None:
+        """The set-up kept for `key` when no step has written its buffers since; else None
+        (the frame runs whole)."""
+        kept = self._setups.get(key) if key is not None else None
+        if kept is None or any(self._written.get(n) != serial
+                               for n, (serial, _) in kept.written.items()):
+            return None
+        return kept
+
+    def _restore_setup(self, kept: _SetUp, build) -> None:
+        """This frame's record as if its set-up had run: its buffers provided, its set-up
+        times, the figures its host steps added."""
+        f = self._frame
+        for name, (_, entry) in kept.written.items():
+            f.provided[name] = entry
+            f.untimed_writes.add(name)
+        f.setup_ms.update(kept.setup_ms)
+        f.programs.update({k: list(v) for k, v in kept.programs.items()})
+        for k, v in kept.stats.items():
+            build.stats.setdefault(k, v)
 
     # ---- executing steps -----------------------------------------------------------
 
@@ -385,6 +485,7 @@ class Renderer:
             buf = self.buffer(name, spec.nbytes)
             if spec.cleared:
                 buf.clear()
+            self._wrote(name)
             f.provided[name] = (int(spec.nbytes), spec.struct)
             if not p.timed:
                 f.untimed_writes.add(name)
@@ -587,6 +688,7 @@ class Renderer:
         self._targets.clear()
         if self.transparent is not None:
             self.transparent.release()
+        self._setups.clear()
         self.programs.release()
         self.gbuffer.release()
 
