@@ -209,16 +209,24 @@ def importance(sample: np.ndarray, node: np.ndarray, P: np.ndarray) -> np.ndarra
     return np.where(_within(d2, b["box_hi"][:, 3]), b["box_lo_power"][:, 3] / (d2 + _F(1)), _F(0))
 
 
-def light_bounds(gpu_lights: np.ndarray, slot: np.ndarray, P: np.ndarray) -> np.ndarray:
-    """light_bound() of the lights `slot` at the lanes' positions P (float32)."""
-    L = gpu_lights[slot]
-    d2 = _dot(P - L["pos_radius"][:, :3])
-    c = L["color_cos_inner"]
-    box = L["id_type"][:, 1] == LIGHT_TYPES.index("box")
-    ext = L["extent_length"]
-    reach = np.where(box, np.sqrt(_dot(ext[:, :3])), L["pos_radius"][:, 3] + _F(0.5) * ext[:, 3])
+def light_columns(gpu_lights: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(centre xyz, reach, power) of every light as light_bound() reads them (float32): the
+    reach and power are per light, so they are made once, not once a lane."""
+    pr = gpu_lights["pos_radius"]
+    c = gpu_lights["color_cos_inner"]
+    box = gpu_lights["id_type"][:, 1] == LIGHT_TYPES.index("box")
+    ext = gpu_lights["extent_length"]
+    reach = np.where(box, np.sqrt(_dot(ext[:, :3])), pr[:, 3] + _F(0.5) * ext[:, 3])
     power = np.maximum(np.maximum(c[:, 0], c[:, 1]), np.maximum(c[:, 2], _F(0)))
-    return np.where(_within(d2, reach), power / (d2 + _F(1)), _F(0))
+    return np.ascontiguousarray(pr[:, :3]), reach, power
+
+
+def light_bounds(columns, slot: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """light_bound() of the lights `slot` at the lanes' positions P (float32); `columns`:
+    light_columns() of the lights."""
+    pos, reach, power = columns
+    d2 = _dot(P - pos[slot])
+    return np.where(_within(d2, reach[slot]), power[slot] / (d2 + _F(1)), _F(0))
 
 
 def descend(nodes, sample, pieces, base, P, depth, state):
@@ -255,9 +263,15 @@ def draw_leaf(nodes, entries, gpu_lights, leaf, P, state):
     u = next_unit(state, draw)
     scan = draw & (count <= LEAF_SCAN)
     longest = int(count[scan].max(initial=0))
-    # each position's bound, once: the sum and the search read the same values
-    bounds = [light_bounds(gpu_lights, entries[np.minimum(first + k, len(entries) - 1)], P)
-              for k in range(longest)]
+    # each position's bound, once, at the lanes whose leaf has it (the sum and the search
+    # read no other): the same float32 operations on the same values as the shader's
+    columns = light_columns(gpu_lights)
+    bounds = []
+    for k in range(longest):
+        at = np.nonzero(scan & (k < count))[0]
+        b = np.zeros(len(leaf), _F)
+        b[at] = light_bounds(columns, entries[first[at] + k], P[at])
+        bounds.append(b)
     total = np.zeros(len(leaf), _F)
     for k in range(longest):                     # the sum in the shader's order
         m = scan & (k < count)
