@@ -246,3 +246,19 @@ def test_a_sampled_replay_stands_for_the_whole_frame(gl):
                 a, b = whole.loops[k, 0], part.loops[k, 0]
                 assert abs(a - b) <= 0.25 * max(a, 1) + 2, (name, waves.KINDS[k], a, b)
             assert part.busy_waves == pytest.approx(whole.busy_waves, rel=0.25)
+
+
+def test_a_sampled_replay_keeps_a_lattice_of_groups_not_columns():
+    """sampled(every): one group in every `every` of each row of groups, and of each column
+    where `every` divides the rows; every k-th group in dispatch order would keep whole
+    columns where `every` divides a row's groups (stripes)."""
+    w, h, every = 40 * 8, 32 * 8, 8                  # 40 groups a row: 8 divides it
+    pos = np.ones((w * h, 4), np.float32)
+    frame = waves.FrameData(build=None, opts=None, read=None, size=(w, h), position=pos,
+                            specular=np.zeros(w * h, bool), cell=np.zeros(w * h, np.uint32))
+    part, share = waves.sampled(frame, every)
+    kept = part.live.reshape(h, w)[::8, ::8]          # a group's first pixel stands for it
+    assert (kept.sum(1) == 40 // every).all() and (kept.sum(0) == 32 // every).all()
+    assert share == pytest.approx(1 / every)
+    assert (part.position[~part.live, 3] == 0).all() and (part.position[part.live, 3] > 0).all()
+    assert waves.sampled(frame, 1) == (frame, 1.0)
