@@ -8,6 +8,8 @@ from dataclasses import dataclass
 
 from .study import Shared, Study
 
+REPLAY_BUDGET = 4_000_000     # lane iterations a width (replay_budget's default)
+
 
 @dataclass(frozen=True)
 class RenderedConfig:
@@ -28,9 +30,12 @@ class RenderedConfig:
     # report's lead figure holds both); () none
     caps_scenes: tuple[str, ...] = ()
     caps_lights: int = 2048
-    # the wave replay's limit on a shading program's segments (app.model.predict.frame_figures;
-    # 0: none): a program past it (sample-ris's CDF searches) is replayed over a sparser
-    # sample of 8x8 groups, scaled, as one past the sweep's REPLAY_BUDGET of lane iterations
+    # the wave replay of a row walks about this many lane iterations (the lights and nodes
+    # its pixels visited) a width: a heavier frame is replayed over a lattice of its 8x8
+    # groups, scaled (app.model.predict.frame_figures)
+    replay_budget: int = REPLAY_BUDGET
+    # the wave replay's limit on a shading program's segments (0: none): a program past it
+    # (sample-ris's CDF searches) is replayed over a sparser sample of 8x8 groups, scaled
     replay_segments: int = 0
 
 

@@ -103,8 +103,8 @@ class SamplingConfig:
     # the rendered study's heavy_eval_pp / heavy_repeat: brute on the stress scene)
     heavy_eval_pp: float = 4096.0
     heavy_repeat: int = 2
-    # lane iterations a width the wave replay walks, as the rendered study's
-    # (app.bench.sweep.REPLAY_BUDGET, held equal by the tests: sweep imports the presets)
+    # lane iterations a width the wave replay walks, as the rendered study's replay_budget
+    # (a preset gives both the same: tests)
     replay_budget: int = 4_000_000
     replay_segments: int = 0       # the replay's limit on a program's segments (0: none; as
                                    # app.bench.rendered's: predict.frame_figures)

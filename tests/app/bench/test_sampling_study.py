@@ -110,8 +110,8 @@ def test_the_presets_size_the_study():
     assert "stress" in full.scenes and full.seeds == 8 and max(full.samples) == 64
     assert full.samples == (1, 2, 4, 8, 16, 32, 64)
     assert GPU_CHECK.config("sampling").scenes == ()
-    from app.bench.sweep import REPLAY_BUDGET
-    assert quick.replay_budget == full.replay_budget == REPLAY_BUDGET
+    for preset in (QUICK, FULL):
+        assert preset.config("sampling").replay_budget == preset.config("rendered").replay_budget
 
 
 def test_a_count_falls_in_its_power_of_two_bin():
