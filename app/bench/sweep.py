@@ -6,7 +6,9 @@ DIR/results.csv (app.results), DIR/maps.npz, DIR/run.json and the report.
 
 Timing: every configuration is rendered once with read-back (counters, image, and, while
 its buffers are there, the wave replay and the GPU cost model: app.model); then its timing
-samples are taken.  The first render of a configuration's programs in the process is
+samples are taken.  A configuration whose frame an earlier study of the scene read back (an
+option study's default value is the path's frame 0) takes that render's cells and its own
+timing samples.  The first render of a configuration's programs in the process is
 a warm-up (shader and numba compilation) whose timing is discarded; later ones count as a
 sample.  A configuration whose loop evaluates more than `heavy_eval_pp` lights a pixel gets
 `heavy_repeat` samples, one of an option study (a single frame) `study_repeat`.  The sample
@@ -49,10 +51,6 @@ from .plan import Job, plan, study_scene
 from .presets import Preset, preset_from_args
 from .study import STUDIES, Study, time_lines, timed
 
-# The wave replay of a rendered row walks about this many lane iterations a width: every
-# k-th 8x8 group of a heavier frame (app.model.predict.frame_figures), scaled
-REPLAY_BUDGET = 4_000_000
-
 
 class Sweep:
     """What the studies share (the preset's Shared config, the log, the progress line, the
@@ -70,6 +68,7 @@ class Sweep:
         self.warm: set = set()
         # (scene, lights, frame, cutoff, stochastic draw) -> the reference's FrameResult
         self.refs: dict = {}
+        self.read_back: dict = {}     # frame_key -> (row cells of its read-back render, heavy)
         self.light_sets: dict = {}    # (scene, lights, cutoff) -> light array
         self.scenes: dict = {}
         self.reference = with_role("reference").name
@@ -119,9 +118,12 @@ class Sweep:
 
     def render(self, renderer, job: Job, readback: bool, samples: int = 1):
         defines = {"UNBOUNDED_FALLOFF": 1} if job.cutoff < 0 else None
+        # keep_setup: a timing sample reruns the untimed set-up (the floor's exact lists, the
+        # rasterized proxies, ...) only where a configuration between overwrote it
         return renderer.render(REGISTRY[job.technique], job.frame, job.opts,
                                frames=self.shared.frames, lights=self.lights_for(job),
-                               readback=readback, defines=defines, samples=samples)
+                               readback=readback, defines=defines, samples=samples,
+                               keep_setup=True)
 
     def reference_frame(self, renderer, job: Job, cutoff: int):
         """The reference's frame for the job's scene, lights, frame and `cutoff` (and the
@@ -139,7 +141,13 @@ class Sweep:
         """(row without its timing cells, timing samples it already holds, samples it
         wants): the configuration's read-back render, which counts as a sample when its
         programs were compiled before (module docstring), and its maps (kept while the
-        renderer still holds its frame)."""
+        renderer still holds its frame).  A configuration read back before in this scene
+        (an option study's default is the path's frame 0) takes that render's cells: the same
+        frame gives the same figures, checks and model; its timing samples are its own."""
+        same = self.read_back.get(self.frame_key(job))
+        if same is not None:
+            row, heavy = same
+            return dict(row, study=job.study), [], self.wanted(job, heavy)
         res = self.render(renderer, job, True)
         self.keep_maps(job, res, renderer)
         model = self.model_cells(renderer, job, res)
@@ -151,25 +159,39 @@ class Sweep:
         if job.technique == self.reference:
             ref_key = (job.scene, job.lights, job.frame, job.cutoff, stochastic_draw(job.opts))
             self.refs[ref_key] = res
-        want = self.rendered.heavy_repeat if heavy else \
-            self.shared.repeat if job.study in ("path", "cutoff") else self.rendered.study_repeat
         row = self.row(job, res, renderer)
         row.update(model)
-        return row, samples, want
+        if self.frame_key(job) is not None:
+            self.read_back[self.frame_key(job)] = (dict(row), heavy)
+        return row, samples, self.wanted(job, heavy)
+
+    def wanted(self, job: Job, heavy: bool) -> int:
+        """The timing samples a configuration takes (module docstring)."""
+        return self.rendered.heavy_repeat if heavy else \
+            self.shared.repeat if job.study in ("path", "cutoff") else self.rendered.study_repeat
+
+    def frame_key(self, job: Job):
+        """What makes a configuration's frame and row cells (but its study and timings) on
+        the renderer in use: None for the cutoff and caps studies, whose errors and losses
+        are their own."""
+        if job.study in ("cutoff", CAPS):
+            return None
+        return self.serial, job.scene, job.lights, job.frame, job.technique, job.opts, job.cutoff
 
     def model_cells(self, renderer, job: Job, res) -> dict:
         """The modelled GPU columns of a frame the renderer still holds (app.model)."""
         from ..model import predict        # GL: not at import (the command's parser has it)
         return measure.model_cells(predict.modelled_or_none(
             renderer, REGISTRY[job.technique], res, job.opts, unbounded=job.cutoff < 0,
-            budget=REPLAY_BUDGET, segments=self.rendered.replay_segments))
+            budget=self.rendered.replay_budget, segments=self.rendered.replay_segments))
 
     def measure_group(self, renderer, group: list[Job], first: int, total: int) -> None:
         """Rows of a group of configurations compared with each other: each one's read-back
         render (and its maps), then the timing samples in interleaved rounds."""
         pending = []
         for k, job in enumerate(group):
-            self.progress(first + k, total, job.describe())
+            again = " (its frame read back before)" if self.frame_key(job) in self.read_back else ""
+            self.progress(first + k, total, job.describe() + again)
             renderer.scene = self.scene(job.scene, job.lights)   # same geometry, these lights
             pending.append((job, *self.first_render(renderer, job)))
         rounds = max((want - len(samples) for _, _, samples, want in pending), default=0)
@@ -263,6 +285,7 @@ class Sweep:
                     if renderer is not None:
                         renderer.release()
                     self.refs.clear()
+                    self.read_back.clear()
                     self.light_sets.clear()
                     renderer = Renderer(self.scene(job.scene, job.lights), self.shared.size)
                     self.serial += 1

@@ -66,12 +66,13 @@ class FirstRenders(Sweep):
 
     def __init__(self, evaluated):
         super().__init__(PRESETS["quick"], log=SimpleNamespace(write=lambda s: None, flush=lambda: None))
-        self.evaluated = evaluated
+        self.evaluated, self.renders = evaluated, []
 
     def lights_for(self, job):
         return np.zeros(4, [("type", np.uint8)])
 
     def render(self, renderer, job, readback, samples=1):
+        self.renders.append(job)
         return SimpleNamespace(meta={"cpu_ms": {"cull": 1.0}, "gpu_ms": {"gbuffer": 1.0, "shade": 2.0}},
                                depth=np.ones((2, 2)), evaluated=np.full((2, 2), self.evaluated))
 
@@ -82,7 +83,7 @@ class FirstRenders(Sweep):
         return {}
 
     def row(self, job, res, renderer):
-        return {}
+        return {"study": job.study, "mismatch_count": 0, "figure": len(self.renders)}
 
 
 def test_the_first_render_of_a_configurations_programs_is_no_sample():
@@ -99,3 +100,24 @@ def test_the_first_render_of_a_configurations_programs_is_no_sample():
     assert heavy.first_render(None, job)[2] == p.heavy_repeat
     study = Job("tile", "arena", 64, 0, "tiled", REGISTRY["tiled"].Options())
     assert sweep.first_render(None, study)[2] == p.study_repeat > repeat
+
+
+def test_a_frame_read_back_before_is_not_rendered_again_but_timed_again():
+    """An option study's default value is the path's frame 0: its row takes that read-back
+    render's cells (figures, checks, model) under its own study, and all its timing samples
+    are its own; the cutoff and caps studies, whose errors are their own, render anew."""
+    p = PRESETS["quick"].config("rendered")
+    sweep = FirstRenders(evaluated=1.0)
+    opts = REGISTRY["tiled"].Options()
+    path = Job("path", "arena", 64, 0, "tiled", opts)
+    row, _, _ = sweep.first_render(None, path)
+    again, samples, want = sweep.first_render(None, Job("tile", "arena", 64, 0, "tiled", opts))
+    assert len(sweep.renders) == 1 and again == dict(row, study="tile")
+    assert samples == [] and want == p.study_repeat
+    other = opts.with_(tile=opts.tile * 2)                          # another configuration
+    sweep.first_render(None, Job("tile", "arena", 64, 0, "tiled", other))
+    sweep.first_render(None, Job("cutoff", "arena", 64, 0, "tiled", opts))
+    assert len(sweep.renders) == 3
+    sweep.serial += 1                                               # another renderer
+    sweep.first_render(None, Job("tile", "arena", 64, 0, "tiled", opts))
+    assert len(sweep.renders) == 4
