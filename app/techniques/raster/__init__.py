@@ -250,7 +250,7 @@ class Raster(Technique, register_at=80):
                         draw=Draw(vertices=rp.MESHES_CORNERS[shape], format="4f 4f 4f",
                                   attributes=("in_vertex", "in_vertex1", "in_vertex2"),
                                   instances=count, target=target, cull=cull),
-                        timed=not stats, native_wave=compact,
+                        timed=not stats, native_wave=compact or stats,
                         defines={"RASTER_MSAA": int(msaa), "RASTER_COMPACT": int(compact),
                                  "RASTER_STATS": int(stats), "RASTER_TRI_BOUNDS": 1,
                                  "RASTER_DEPTH_BOUND": int(bounded)},
@@ -301,7 +301,7 @@ class Raster(Technique, register_at=80):
                     ("raster_proxy.vert", "raster_mark.frag"),
                     reads=("lights", "raster_proxies", "raster_order"),
                     writes=self._written(writes, not drawn),
-                    draw=draw, timed=not stats, native_wave=compact,
+                    draw=draw, timed=not stats, native_wave=compact or stats,
                     defines={"RASTER_MSAA": int(msaa), "RASTER_COMPACT": int(compact),
                              "RASTER_STATS": int(stats), "RASTER_TRI_BOUNDS": 0},
                     uniforms=dict(uniforms, u_shape=shape, u_first=first, u_mode=mode)))

@@ -86,7 +86,7 @@ void column(ivec2 pixel, float lo, float hi) {
         if (s0 > s1) return;
     }
 #if RASTER_STATS
-    atomicAdd(counters[2], 1u);
+    count_lanes(2u);
 #endif
     // a column's pixels mark the same clusters over and over: read before the atomic (the
     // bits only ever get set, so a stale read costs one redundant atomic at most)
@@ -108,7 +108,7 @@ void main() {
     // the real lanes' atomic (a helper's atomics have no effect)
     if (gl_HelperInvocation) return;
 #if RASTER_STATS
-    atomicAdd(counters[0], 1u);
+    count_lanes(0u);
 #endif
 #if RASTER_MSAA
     ivec2 base = ivec2(gl_FragCoord.xy) * 2;

@@ -18,6 +18,20 @@ layout(std430, binding = B_RASTER_STATS_BITS) buffer StatsBits { uint stats_bits
 layout(std430, binding = B_RASTER_COUNTERS) buffer Counters { uint counters[4]; };
 layout(std430, binding = B_RASTER_LIGHT_TILES) buffer LightTiles { uint light_tiles[]; };
 #define BITS stats_bits
+// Add one a lane to counter k: on the native path one atomic a subgroup, the lowest active
+// lane adding the active lanes (its ballot), else one a lane; the same sums either way (helper
+// lanes have left before any count).  Atomics on three words from every fragment are most of
+// the twin's cost on a CPU rasterizer.
+void count_lanes(uint k) {
+#if WAVE_NATIVE
+    uvec4 lanes = waveBallot(true);
+    if (waveCountBelow(lanes) == 0u)
+        atomicAdd(counters[k], uint(bitCount(lanes.x) + bitCount(lanes.y) + bitCount(lanes.z) +
+                                    bitCount(lanes.w)));
+#else
+    atomicAdd(counters[k], 1u);
+#endif
+}
 #else
 #define BITS bits
 #endif
@@ -41,7 +55,7 @@ void mark(uint word) {
 #endif
     uint before = atomicOr(BITS[word], bit);
 #if RASTER_STATS
-    atomicAdd(counters[1], 1u);
+    count_lanes(1u);
     if ((before & bit) == 0u) atomicAdd(light_tiles[v_light], 1u);
 #endif
 }

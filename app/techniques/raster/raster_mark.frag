@@ -55,7 +55,7 @@ uint sample_word(int k, float inv_d, vec2 grad, RasterProxy pr, bool back) {
     float depth = 1.0 / (inv_d + dot(grad, u_sample_pos[k] - 0.5));
     if (!passes(pixel, depth, pr, back)) return NO_WORD;
 #if RASTER_STATS
-    atomicAdd(counters[2], 1u);
+    count_lanes(2u);
 #endif
     return word_of(pixel);
 }
@@ -76,7 +76,7 @@ void main() {
     bool back = u_mode != RASTER_MODE_FRONT;
     RasterProxy pr = proxies[v_light];
 #if RASTER_STATS
-    atomicAdd(counters[0], 1u);
+    count_lanes(0u);
 #endif
 #if RASTER_MSAA
     // the four samples unrolled, their words de-duplicated in registers (a local array costs
@@ -93,7 +93,7 @@ void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy);
     if (!passes(pixel, 1.0 / inv_d, pr, back)) return;
 #if RASTER_STATS
-    atomicAdd(counters[2], 1u);
+    count_lanes(2u);
 #endif
     mark(word_of(pixel));
 #endif
