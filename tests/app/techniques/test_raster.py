@@ -297,6 +297,27 @@ def test_variant_counters(gl):
     assert stencil["raster_marks"] <= st[0]["raster_marks"]
 
 
+@pytest.mark.parametrize("cluster", [0, 1])
+def test_the_stats_twin_counts_alike_with_and_without_native_waves(gl, monkeypatch, cluster):
+    """The twin's counters take one atomic a subgroup on the native path (its ballot's
+    lanes) and one a lane on the emulated one: the same counts in the variants without
+    compaction (which needs the native path: without it its atomics are one a mark)."""
+    rng = np.random.default_rng(9)
+    L = random_shapes(rng, 200, (-14, -1, -34), (14, 7, 6), radius=(1.0, 6.0))
+    keys = ("raster_fragments", "raster_atomics", "raster_pixel_marks", "raster_marks")
+
+    def counts():
+        with Renderer(make_scene(L, size=(96, 64))) as r:
+            return [{k: r.render(RASTER, 0, RASTER.resolve_options(
+                dict(raster_variant=v, cluster=cluster))).meta["stats"][k] for k in keys}
+                for v in (0, 1)]
+    native = counts()
+    from app.pipeline import gl as glmod
+    monkeypatch.setattr(glmod.Limits, "wave_define", property(lambda self: 0))
+    emulated = counts()
+    assert native == emulated and native[0]["raster_atomics"] > 0
+
+
 def test_capture_heatmap_and_meta(gl, tmp_path):
     import json
     from app import capture
