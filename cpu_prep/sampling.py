@@ -22,6 +22,7 @@ as clustered's) keeps a nonzero probability, and no weight exceeds n / DEFENSIVE
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from .camera import FrameCamera
@@ -63,12 +64,28 @@ def entry_bounds(offsets: np.ndarray, entries: np.ndarray, gpu_lights: np.ndarra
                  box_lo: np.ndarray, box_hi: np.ndarray) -> np.ndarray:
     """(entries,) float64: each entry's bound, I / (d^2 + 1), with I its light's brightest
     channel of colour x intensity and d the distance from its centre to its cell's box."""
-    counts = np.diff(offsets)
-    cell = np.repeat(np.arange(len(counts)), counts)
-    centre = gpu_lights["pos_radius"][entries, :3].astype(np.float64)
-    gap = np.maximum(box_lo[cell] - centre, 0.0) + np.maximum(centre - box_hi[cell], 0.0)
-    power = gpu_lights["color_cos_inner"][entries, :3].max(1).astype(np.float64)
-    return np.maximum(power, 0.0) / ((gap * gap).sum(1) + 1.0)
+    centre = np.ascontiguousarray(gpu_lights["pos_radius"][:, :3], np.float64)   # a light's, once
+    power = np.maximum(gpu_lights["color_cos_inner"][:, :3].max(1).astype(np.float64), 0.0)
+    out = np.empty(len(entries), np.float64)
+    _entry_bounds(np.asarray(offsets, np.int64), np.asarray(entries, np.int64), centre, power,
+                  np.ascontiguousarray(box_lo, np.float64), np.ascontiguousarray(box_hi, np.float64),
+                  out)
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _entry_bounds(offsets, entries, centre, power, box_lo, box_hi, out):
+    """entry_bounds' loop, cell by cell: the float64 operations of the array form it replaced
+    (each axis's gap max(lo - c, 0) + max(c - hi, 0), their squares summed x, y, z), so the
+    same bounds bit for bit."""
+    for c in range(len(offsets) - 1):
+        for e in range(offsets[c], offsets[c + 1]):
+            i = entries[e]
+            d2 = 0.0
+            for k in range(3):
+                g = max(box_lo[c, k] - centre[i, k], 0.0) + max(centre[i, k] - box_hi[c, k], 0.0)
+                d2 += g * g
+            out[e] = power[i] / (d2 + 1.0)
 
 
 def cell_cdf(offsets: np.ndarray, weights: np.ndarray) -> np.ndarray:
