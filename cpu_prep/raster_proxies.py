@@ -282,13 +282,17 @@ def _fit_cones(shape, R, cos_o, M) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     gamma = np.arctan2(np.sin(alpha), np.cos(alpha) * math.cos(math.pi / SIDES))
     rho = R1.copy()
     theta_r = np.zeros(len(shape))
+    # a spot's cap depends on its own rho alone: each round refits the spots the last one
+    # grew (a spot's need is the same while its rho is), the others keep theirs
+    need, refit = np.zeros(len(shape)), np.nonzero(spot)[0]
     for _ in range(8):
         theta_r = gamma + np.arcsin(np.clip(np.sin(gamma) * b / rho, -1.0, 1.0))
-        need = R1 / cap_plane_distance(theta_r)
+        need[refit] = R1[refit] / cap_plane_distance(theta_r[refit])
         short = spot & (rho < need)
         if not short.any():
             break
         rho = np.where(short, need * (1.0 + 1e-12), rho)
+        refit = np.nonzero(short)[0]
     else:
         shape[spot & (rho < need)] = PROXY_SPHERE          # (never seen) fall back: sphere
     return b, rho, theta_r
