@@ -34,6 +34,10 @@ class RenderedConfig:
     # its pixels visited) a width: a heavier frame is replayed over a lattice of its 8x8
     # groups, scaled (app.model.predict.frame_figures)
     replay_budget: int = REPLAY_BUDGET
+    # the path frames whose rows the wave replay models, the first of each path (0: every
+    # frame): a section reads a path row's modelled columns on a real GPU alone (measured
+    # against modelled), every row's counted steps on any (the first row of each program)
+    model_frames: int = 0
     # the wave replay's limit on a shading program's segments (0: none): a program past it
     # (sample-ris's CDF searches) is replayed over a sparser sample of 8x8 groups, scaled
     replay_segments: int = 0

@@ -150,7 +150,7 @@ class Sweep:
             return dict(row, study=job.study), [], self.wanted(job, heavy)
         res = self.render(renderer, job, True)
         self.keep_maps(job, res, renderer)
-        model = self.model_cells(renderer, job, res)
+        model = self.model_cells(renderer, job, res) if self.modelled(job) else {}
         types = tuple(np.unique(self.lights_for(job)["type"]).tolist())   # shader features
         key = (self.serial, job.technique, job.opts, job.cutoff < 0, types)
         samples = measure.samples_of(res.meta) if key in self.warm else []
@@ -164,6 +164,12 @@ class Sweep:
         if self.frame_key(job) is not None:
             self.read_back[self.frame_key(job)] = (dict(row), heavy)
         return row, samples, self.wanted(job, heavy)
+
+    def modelled(self, job: Job) -> bool:
+        """Whether the configuration's row gets the modelled columns (its wave replay): every
+        row but the path frames past the rendered config's model_frames."""
+        n = self.rendered.model_frames
+        return job.study != "path" or not n or job.frame < n
 
     def wanted(self, job: Job, heavy: bool) -> int:
         """The timing samples a configuration takes (module docstring)."""

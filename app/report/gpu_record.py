@@ -59,7 +59,10 @@ def pair_error(rows, g) -> float:
 
 
 def measured_rows(rows) -> list[dict]:
-    return [r for r in sel(rows, study="path") if np.isfinite(num(r.get("gpu_lighting_ms")))]
+    """The path rows with both a measured and a modelled lighting time (a preset may model
+    only the first frame of each path: app.bench.rendered's model_frames)."""
+    return [r for r in sel(rows, study="path") if np.isfinite(num(r.get("gpu_lighting_ms")))
+            and np.isfinite(num(r.get("model_version")))]
 
 
 def model_of(renderer: str):

@@ -121,3 +121,17 @@ def test_a_frame_read_back_before_is_not_rendered_again_but_timed_again():
     sweep.serial += 1                                               # another renderer
     sweep.first_render(None, Job("tile", "arena", 64, 0, "tiled", opts))
     assert len(sweep.renders) == 4
+
+
+def test_a_preset_may_model_the_first_frame_of_each_path_alone():
+    """model_frames: the path rows past it get no wave replay (no section reads them on a
+    software rasterizer); every other study's rows do."""
+    from dataclasses import replace
+    sweep = FirstRenders(evaluated=1.0)
+    opts = REGISTRY["tiled"].Options()
+    sweep.rendered = replace(sweep.rendered, model_frames=1)
+    assert sweep.modelled(Job("path", "arena", 64, 0, "tiled", opts))
+    assert not sweep.modelled(Job("path", "arena", 64, 2, "tiled", opts))
+    assert sweep.modelled(Job("cutoff", "arena", 64, 0, "tiled", opts, cutoff=256))
+    sweep.rendered = replace(sweep.rendered, model_frames=0)
+    assert sweep.modelled(Job("path", "arena", 64, 2, "tiled", opts))

@@ -30,6 +30,16 @@ def test_ratios_are_geometric_means_per_technique():
     assert np.isclose(r["a"], 4.0) and np.isclose(r["b"], 0.5)
 
 
+def test_rows_without_a_model_are_not_measured_against_it():
+    """A preset that models the first frame of each path alone (model_frames) leaves the
+    later frames' modelled cells blank: those rows are no pair and no ratio."""
+    rows = [_row("a", 1.0, 1.0), _row("b", 2.0, 2.0), _row("a", 1.0, 1.0, frame="1"),
+            {**_row("b", 9.0, 1.0, frame="1"), "model_h200_lighting_ms": "", "model_version": ""}]
+    kept = gpu_record.measured_rows(rows)
+    assert [r["frame"] for r in kept] == ["0", "0", "1"]
+    assert gpu_record.ratios(kept, H200) == {"a": 1.0, "b": 1.0}
+
+
 def test_the_committed_record_is_a_real_gpu_run_and_reads_back():
     rec = gpu_record.record()
     assert rec is not None and "NVIDIA" in rec.renderer
