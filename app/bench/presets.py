@@ -74,41 +74,50 @@ class Preset:
 
 
 def _quick() -> Preset:
-    s = Shared(size=(320, 180), scenes=SCENES, lights=(1024, 4096), frames=6, repeat=3,
+    # About 6 minutes on 2 idle cores (the run's last lines say where the time went).  3
+    # frames along each path (0, 1/3 and 2/3 of the loop): at 320x180 with 3 samples the
+    # other 3 of 6 frames changed no finding of the path study in one run (each scene and
+    # count's fastest over the path and those within its spread, and 1,068 of 1,100 pairwise
+    # verdicts, the same) for ~210 s of the run
+    s = Shared(size=(320, 180), scenes=SCENES, lights=(1024, 4096), frames=3, repeat=3,
                study_scene="arena", study_lights=4096)
     return Preset("quick", (
-        # 6 frames x 19 configurations at 128x72: ~15 s on 2 cores (shaders warm)
+        # 6 frames x 19 configurations at 128x72: ~3 s on 2 cores (numba's cache warm; cold,
+        # its compiles add ~12 s)
         ("temporal", TemporalConfig(frames=6, seed=s.seed)),
         # caps: 6 list techniques x 7 policies (1,530 of 2,048 lights visible: every policy
-        # drops some); replay_segments: the wave replay walks at most ~4M segments a width
-        # (drops: sample-ris's modelled columns from every 8x8 group where its CDF searches
-        # pass that, 6-18M segments at 4,096 lights; replayed over every 2nd-5th, scaled)
+        # drops some).  model_frames: the wave replay models the first frame of each path
+        # (the others' modelled columns are blank: no section reads them on a software
+        # rasterizer; --full models every frame), every row of the other studies.
+        # replay_segments: a program of more segments than ~1M (sample-ris's CDF searches,
+        # 6-18M at 4,096 lights) is replayed over a lattice of its 8x8 groups, scaled:
+        # sample-ris's modelled lighting within 1.7% of its whole replay (hangar, gallery,
+        # city at 4,096 lights)
         ("rendered", RenderedConfig(s, study_repeat=5, heavy_repeat=2, heavy_eval_pp=256.0,
                                     cutoffs=(256, 1024, 4096, 16384, 65536),
                                     cutoff_scenes=("arena", "city"), cutoff_lights=2048,
                                     heat_scene="city", caps_scenes=("arena",), caps_lights=2048,
-                                    replay_segments=4_000_000)),
+                                    model_frames=1, replay_segments=1_000_000)),
         # samplers against culling on one frame: 2 scenes x (16 culling configurations x 3
         # samples + S in 1, 4, 16, 64 x 4 seeds) at 160x90 and the caps' 2,048 lights:
-        # ~45 s on 2 loaded cores, most of it brute's and tiled's 300-1,900 lights a pixel;
-        # replay_segments as the rendered study's (drops: sample-ris's whole-frame replay at
-        # S 16-64, its modelled lighting and shadow tests a pixel within 2% and 3%)
+        # ~11 s on 2 idle cores, most of it brute's and tiled's 300-1,900 lights a pixel;
+        # replay_segments as the rendered study's
         ("sampling", SamplingConfig(("arena", "city"), 2048, (160, 90), (1, 4, 16, 64), seeds=4,
-                                    repeat=3, seed=s.seed, replay_segments=4_000_000)),
-        # figure 7 along 16 frames of each path at 65,536 lights only (96 rows, ~1.7 s each
-        # on 2 loaded cores, ~170 s; at two counts ~330 s), every 32nd 8x8 group replayed;
-        # raster's rows of Drobot's tables only in --full (the cluster rasterizer's MARK /
-        # WALK draws at 1080p: ~25 s a row on llvmpipe, ~140 s the 8 rows); replay_segments as
-        # the rendered study's (drops: the samplers' paper_scenes replay over every 8th 8x8
-        # group where its program passes ~4M segments: sample-ris 28-80M, ~75 s a row, then
-        # ~22 s; its modelled lighting ms move by up to 6%, sample-list's and -tree's by 1%)
-        ("papers", PapersConfig(s, lights=(65536,), path_sample=32, raster=False,
-                                replay_segments=4_000_000)),
+                                    repeat=3, seed=s.seed, replay_segments=1_000_000)),
+        # figure 7 along 8 frames of each path at 65,536 lights only (48 rows, ~17 s; every
+        # verdict of its claims the same as along 16 frames, or 4, in one run), every 32nd
+        # 8x8 group replayed; the other papers' rows every 64th (a lattice: the modelled
+        # lighting within 1.1% of every 8th group's, hangar and gallery, every technique but
+        # the floor); raster's rows of Drobot's tables only in --full (the cluster
+        # rasterizer's MARK / WALK draws at 1080p: ~25 s a row on llvmpipe, ~140 s the 8
+        # rows); replay_segments ~4M (sample-ris 28-80M at 1080p before the sample)
+        ("papers", PapersConfig(s, lights=(65536,), frames=8, sample=64, path_sample=32,
+                                raster=False, replay_segments=4_000_000)),
         # the CPU series runs at the paper's resolution even in --quick
         ("cpu", CpuConfig(s, scene="arena", lights=(1024, 4096, 16384, 65536),
                           size=(1920, 1080), repeat=5)),
-        # 8,192 doubling to 1,048,576, one build after a warm-up each; ~25 s on 2 idle
-        # cores, raster's numpy proxies (~0.5 s at 128k) stopped by the cap
+        # 8,192 doubling to 1,048,576, one build after a warm-up each; ~18 s on 2 idle
+        # cores, a technique whose build passes 500 ms stopped there
         ("growth", GrowthConfig("arena", GROWTH_LIGHTS, (1920, 1080), 1, threads=(1, 2),
                                 cap_ms=500.0, seed=s.seed, frames=s.frames)),
         # 2 counts x the --build techniques, both builds, at the rendered size
