@@ -10,6 +10,9 @@
 layout(std430, binding = B_SAMPLE_CDF) readonly buffer SampleCdf { uint sample_cdf[]; };
 
 void main() {
+#if defined(CELLS_ONLY) && CELLS_ONLY
+    return;                       // a modelled frame: no light loop runs, no support to count
+#endif
     PixelState s = load_pixel();
     if (s.shading) {
         uvec2 r = ranges[cell_of(s)].offset_count;

@@ -10,6 +10,9 @@
 #include "sampling.glsl"
 
 void main() {
+#if defined(CELLS_ONLY) && CELLS_ONLY
+    return;                       // a modelled frame: no light loop runs, no support to count
+#endif
     PixelState s = load_pixel();
     if (s.shading) {
         uvec2 r = ranges[cell_of(s)].offset_count;
