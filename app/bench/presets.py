@@ -104,13 +104,14 @@ def _quick() -> Preset:
         # replay_segments as the rendered study's
         ("sampling", SamplingConfig(("arena", "city"), 2048, (160, 90), (1, 4, 16, 64), seeds=4,
                                     repeat=3, seed=s.seed, replay_segments=1_000_000)),
-        # figure 7 along 8 frames of each path at 65,536 lights only (48 rows, ~17 s; every
-        # verdict of its claims the same as along 16 frames, or 4, in one run), every 32nd
-        # 8x8 group replayed; the other papers' rows every 64th (a lattice: the modelled
-        # lighting within 1.1% of every 8th group's, hangar and gallery, every technique but
-        # the floor); raster's rows of Drobot's tables only in --full (the cluster
-        # rasterizer's MARK / WALK draws at 1080p: ~25 s a row on llvmpipe, ~140 s the 8
-        # rows); replay_segments ~4M (sample-ris 28-80M at 1080p before the sample)
+        # figure 7 along 8 frames of each path at 65,536 lights only (48 rows, ~16 s; every
+        # verdict of its claims the same as along 16 frames, or 4, in one run), replayed over
+        # every 32nd 8x8 group of a lattice (within 5% of every 8th group's; every 64th: 23%
+        # on city's sparse frames); the other rows every 64th (within 2.1% of every 8th
+        # group's, every scene and technique but the floor); raster's rows of Drobot's tables
+        # only in --full (the cluster rasterizer's MARK / WALK draws at 1080p: ~25 s a row on
+        # llvmpipe, ~140 s the 8 rows); replay_segments ~4M (sample-ris 28-80M at 1080p
+        # before the sample)
         ("papers", PapersConfig(s, lights=(65536,), frames=8, sample=64, path_sample=32,
                                 raster=False, replay_segments=4_000_000)),
         # the CPU series runs at the paper's resolution even in --quick
