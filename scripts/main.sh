@@ -43,7 +43,7 @@ $py -m app.summary "$out/capture" --out "$out/summary" || exact=1
 echo "first look ($(( $(date +%s) - start )) s): open $out/summary.md or $out/summary.png; captures in $out/capture/" >&2
 
 if $py -c 'import app.bench' 2>/dev/null; then
-    echo "now the quick benchmark report (about half an hour on 2 cores) in $out/bench/" >&2
+    echo "now the quick benchmark report (about six minutes on 2 cores) in $out/bench/" >&2
     $py -m app.bench --quick --out "$out/bench"
 fi
 echo "done: images and numbers in $out/ (first look: $out/summary.md)" >&2

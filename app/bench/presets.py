@@ -16,6 +16,7 @@ from dataclasses import asdict, dataclass, fields, replace
 from ..errors import UserError
 from .args import int_list
 from .c_reference.compare import CReferenceConfig
+from .caps import CAPS
 from .cpu import GROWTH_LIGHTS, GrowthConfig
 from .cpu_series import CpuConfig
 from .fog import FogConfig
@@ -86,9 +87,10 @@ def _quick() -> Preset:
         # its compiles add ~12 s)
         ("temporal", TemporalConfig(frames=6, seed=s.seed)),
         # caps: 6 list techniques x 7 policies (1,530 of 2,048 lights visible: every policy
-        # drops some).  model_frames: the wave replay models the first frame of each path
-        # (the others' modelled columns are blank: no section reads them on a software
-        # rasterizer; --full models every frame), every row of the other studies.
+        # drops some).  model_frames, unmodelled: the wave replay models the first frame of
+        # each path and the option studies' rows (the path's other frames and the cutoff and
+        # caps rows have blank modelled columns: no section reads them on a software
+        # rasterizer; --full models every row).
         # replay_segments: a program of more segments than ~1M (sample-ris's CDF searches,
         # 6-18M at 4,096 lights) is replayed over a lattice of its 8x8 groups, scaled:
         # sample-ris's modelled lighting within 1.7% of its whole replay (hangar, gallery,
@@ -97,7 +99,8 @@ def _quick() -> Preset:
                                     cutoffs=(256, 1024, 4096, 16384, 65536),
                                     cutoff_scenes=("arena", "city"), cutoff_lights=2048,
                                     heat_scene="city", caps_scenes=("arena",), caps_lights=2048,
-                                    model_frames=1, replay_segments=1_000_000)),
+                                    model_frames=1, unmodelled=("cutoff", CAPS),
+                                    replay_segments=1_000_000)),
         # samplers against culling on one frame: 2 scenes x (16 culling configurations x 3
         # samples + S in 1, 4, 16, 64 x 4 seeds) at 160x90 and the caps' 2,048 lights:
         # ~11 s on 2 idle cores, most of it brute's and tiled's 300-1,900 lights a pixel;

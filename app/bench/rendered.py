@@ -38,6 +38,9 @@ class RenderedConfig:
     # frame): a section reads a path row's modelled columns on a real GPU alone (measured
     # against modelled), every row's counted steps on any (the first row of each program)
     model_frames: int = 0
+    # studies whose rows the wave replay leaves out ("cutoff", "caps": their sections read
+    # measured costs and errors, and their programs are the path's)
+    unmodelled: tuple[str, ...] = ()
     # the wave replay's limit on a shading program's segments (0: none): a program past it
     # (sample-ris's CDF searches) is replayed over a sparser sample of 8x8 groups, scaled
     replay_segments: int = 0

@@ -167,8 +167,11 @@ class Sweep:
 
     def modelled(self, job: Job) -> bool:
         """Whether the configuration's row gets the modelled columns (its wave replay): every
-        row but the path frames past the rendered config's model_frames."""
+        row but the path frames past the rendered config's model_frames and the rows of its
+        unmodelled studies."""
         n = self.rendered.model_frames
+        if job.study in self.rendered.unmodelled:
+            return False
         return job.study != "path" or not n or job.frame < n
 
     def wanted(self, job: Job, heavy: bool) -> int:

@@ -172,7 +172,24 @@ def _head(rows, info, roles) -> list[str]:
                  f"pack, upload) + every timed GPU pass but the G-buffer (culling passes + "
                  f"shading); the floor ({roles.floor}) builds its exact lists in untimed set-up "
                  f"passes, so its cost is its CPU steps + shading.", ""]
+    head += _modelled_rows(rendered)
     return head
+
+
+def _modelled_rows(rendered) -> list[str]:
+    """Which rendered rows have modelled GPU columns, where a preset leaves some out."""
+    modelled = [r for r in rendered if not math.isnan(num(r.get("model_version")))]
+    if len(modelled) == len(rendered):
+        return []
+    frames = sorted({int(num(r["frame"])) for r in modelled if r["study"] == "path"})
+    left = sorted({r["study"] for r in rendered if r["study"] != "path"}
+                  - {r["study"] for r in modelled})
+    return [f"Modelled GPU columns (the wave replay): {len(modelled)} of the {len(rendered)} "
+            f"rendered rows, those of path frame{'s' if len(frames) != 1 else ''} "
+            f"{', '.join(map(str, frames)) or '(none)'} and of every other study"
+            + (f" but {' and '.join(left)}" if left else "") +
+            " (the preset's model_frames and unmodelled: no section here reads the others' on "
+            "a software rasterizer).", ""]
 
 
 def main(argv=None) -> None:

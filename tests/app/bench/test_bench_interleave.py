@@ -125,13 +125,15 @@ def test_a_frame_read_back_before_is_not_rendered_again_but_timed_again():
 
 def test_a_preset_may_model_the_first_frame_of_each_path_alone():
     """model_frames: the path rows past it get no wave replay (no section reads them on a
-    software rasterizer); every other study's rows do."""
+    software rasterizer), nor the rows of the unmodelled studies; every other row does."""
     from dataclasses import replace
     sweep = FirstRenders(evaluated=1.0)
     opts = REGISTRY["tiled"].Options()
-    sweep.rendered = replace(sweep.rendered, model_frames=1)
+    sweep.rendered = replace(sweep.rendered, model_frames=1, unmodelled=())
     assert sweep.modelled(Job("path", "arena", 64, 0, "tiled", opts))
     assert not sweep.modelled(Job("path", "arena", 64, 2, "tiled", opts))
     assert sweep.modelled(Job("cutoff", "arena", 64, 0, "tiled", opts, cutoff=256))
-    sweep.rendered = replace(sweep.rendered, model_frames=0)
+    sweep.rendered = replace(sweep.rendered, model_frames=0, unmodelled=("cutoff",))
     assert sweep.modelled(Job("path", "arena", 64, 2, "tiled", opts))
+    assert not sweep.modelled(Job("cutoff", "arena", 64, 0, "tiled", opts, cutoff=256))
+    assert sweep.modelled(Job("tile", "arena", 64, 0, "tiled", opts))
