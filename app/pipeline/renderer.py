@@ -496,7 +496,7 @@ class Renderer:
             if p.timed and name not in FRAME_OUTPUTS:   # the measured technique's data
                 f.bytes[name] = f.provided[name][0]
         wave = self.limits.wave_define if p.native_wave else 0   # the loader writes its #extension lines
-        f.native |= bool(wave)
+        f.native |= bool(wave) and not p.figures   # the frame's path: not a counting twin's
         optional = dict(defines, WAVE_NATIVE=wave)
         if f.debug_pixel is not None and OUT_STATS in p.writes:   # shading passes only
             bindings[DEBUG_SLOT] = len(bindings)
