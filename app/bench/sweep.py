@@ -181,11 +181,12 @@ class Sweep:
 
     def frame_key(self, job: Job):
         """What makes a configuration's frame and row cells (but its study and timings) on
-        the renderer in use: None for the cutoff and caps studies, whose errors and losses
-        are their own."""
+        the renderer in use, whether the row is modelled included: None for the cutoff and
+        caps studies, whose errors and losses are their own."""
         if job.study in ("cutoff", CAPS):
             return None
-        return self.serial, job.scene, job.lights, job.frame, job.technique, job.opts, job.cutoff
+        return (self.serial, job.scene, job.lights, job.frame, job.technique, job.opts,
+                job.cutoff, self.modelled(job))
 
     def model_cells(self, renderer, job: Job, res) -> dict:
         """The modelled GPU columns of a frame the renderer still holds (app.model)."""
