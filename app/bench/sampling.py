@@ -71,6 +71,7 @@ import time
 import numpy as np
 
 from . import measure
+from .rendered import REPLAY_BUDGET
 from .study import FileStudy, series_files, study_scene, write_series
 
 CSV = "sampling.csv"           # read by app.report.sampling (not imported from there: GL)
@@ -105,7 +106,7 @@ class SamplingConfig:
     heavy_repeat: int = 2
     # lane iterations a width the wave replay walks, as the rendered study's replay_budget
     # (a preset gives both the same: tests)
-    replay_budget: int = 4_000_000
+    replay_budget: int = REPLAY_BUDGET
     replay_segments: int = 0       # the replay's limit on a program's segments (0: none; as
                                    # app.bench.rendered's: predict.frame_figures)
 

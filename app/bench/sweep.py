@@ -144,7 +144,8 @@ class Sweep:
         renderer still holds its frame).  A configuration read back before in this scene
         (an option study's default is the path's frame 0) takes that render's cells: the same
         frame gives the same figures, checks and model; its timing samples are its own."""
-        same = self.read_back.get(self.frame_key(job))
+        frame = self.frame_key(job)
+        same = self.read_back.get(frame)
         if same is not None:
             row, heavy = same
             return dict(row, study=job.study), [], self.wanted(job, heavy)
@@ -161,8 +162,8 @@ class Sweep:
             self.refs[ref_key] = res
         row = self.row(job, res, renderer)
         row.update(model)
-        if self.frame_key(job) is not None:
-            self.read_back[self.frame_key(job)] = (dict(row), heavy)
+        if frame is not None:
+            self.read_back[frame] = (dict(row), heavy)
         return row, samples, self.wanted(job, heavy)
 
     def modelled(self, job: Job) -> bool:
